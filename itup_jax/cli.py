@@ -1,0 +1,206 @@
+"""The `itup` command line.
+
+  itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--json OUT]
+  itup bench costs [--n 100000] [--t 64] [--json]
+  itup tools
+
+Bad input exits with status 2 and a message that names the problem; nothing is half-written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from typing import Any
+
+import numpy as np
+
+EXAMPLES = """examples:
+  itup plan                                   # hammer task, built-in claw hammer, 1000 candidates
+  itup plan --task reach --n 2000 --json best.json
+  itup plan --task hammer --tool my.stl --tool-spec my.toml
+  itup bench costs --n 100000 --t 64 --json
+  itup tools
+"""
+
+
+def _atomic_write_json(path: str, obj: Any) -> None:
+    """Write JSON to a temporary file in the same folder, then rename: never half-written."""
+    folder = os.path.dirname(os.path.abspath(path)) or "."
+    if not os.path.isdir(folder):
+        raise_input(f"--json {path!r}: folder {folder!r} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".json")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(obj, fh, indent=2)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def raise_input(msg: str) -> None:
+    from itup_jax.errors import InputError
+
+    raise InputError(msg)
+
+
+def _load_tool_arg(args) -> Any:
+    import itup_jax as itup
+    from itup_jax.task import DEFAULT_TOOL
+
+    if args.tool_spec and not args.tool:
+        raise_input("--tool-spec needs --tool MESH")
+    if args.tool is None:
+        return itup.load_tool(DEFAULT_TOOL[args.task])
+    return itup.load_tool(args.tool, spec=args.tool_spec)
+
+
+def cmd_plan(args) -> int:
+    import itup_jax as itup
+    from itup_jax.grasp import to_graspnet
+
+    if args.n < 1:
+        raise_input(f"--n must be >= 1, got {args.n}")
+    tool = _load_tool_arg(args)
+    task = itup.make_task(args.task, tool)
+    grasps = itup.sample_grasps(tool, args.n, seed=args.seed)
+    params = itup.CostParams(w_tau=args.w_tau, w_slip=args.w_slip, w_align=args.w_align)
+    costs = itup.wrench_costs(tool, task, grasps, params)
+    total = np.asarray(costs.total)
+    order = np.argsort(total)[: max(1, args.top)]
+    regime = itup.classify_regime(tool, task)
+    gn = to_graspnet(grasps)
+
+    def row(i: int) -> dict[str, Any]:
+        return {
+            "index": int(i),
+            "p_tool_grasp_m": np.asarray(grasps.p_tool_grasp[i], float).round(6).tolist(),
+            "q_tool_grasp_wxyz": np.asarray(grasps.q_tool_grasp[i], float).round(6).tolist(),
+            "width_m": round(float(grasps.width[i]), 6),
+            "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
+            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure")},
+        }
+
+    result = {
+        "schema": "itup.plan/1",
+        "task": args.task,
+        "tool": {"name": tool.name, "category": tool.category, "mass_kg": round(tool.mass, 6)},
+        "regime": regime.name.lower(),
+        "n_candidates": int(args.n),
+        "seed": args.seed,
+        "scorer": "analytic",
+        "weights": {"w_tau": args.w_tau, "w_slip": args.w_slip, "w_align": args.w_align},
+        "best": row(order[0]),
+        "top": [row(i) for i in order],
+        "summary": {k: {"min": float(np.min(getattr(costs, k))), "median": float(np.median(getattr(costs, k))),
+                        "max": float(np.max(getattr(costs, k)))} for k in ("tau", "slip", "align", "total")},
+    }
+    print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {result['regime']} | "
+          f"{args.n} antipodal candidates (seed {args.seed}) | analytic wrench cost")
+    print(f"{'rank':>4} {'idx':>5} {'C_tau N·m':>10} {'C_s N':>9} {'C_alpha rad':>11} {'C':>9}  grasp origin (tool frame, m)")
+    for rank, i in enumerate(order):
+        c = result["top"][rank]["costs"]
+        print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} {c['total']:>9.3f}  "
+              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
+    s = result["summary"]
+    print(f"all candidates: C_tau {s['tau']['min']:.3f}..{s['tau']['max']:.3f} N·m (median {s['tau']['median']:.3f})")
+    if args.json:
+        _atomic_write_json(args.json, result)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from itup_jax.bench import bench_costs
+
+    if args.what != "costs":
+        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs")
+    if args.n < 1 or args.t < 8:
+        raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
+    res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
+    if args.json:
+        print(json.dumps(res))
+    else:
+        print(f"costs: n={res['n']} t={res['t']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.1f} ms "
+              f"(numpy {res['numpy_ms']:.1f} ms, x{res['speedup_vs_numpy']}) on {res['machine']['cpu']}")
+    return 0
+
+
+def cmd_tools(args) -> int:
+    import itup_jax as itup
+    from itup_jax import priors
+    from itup_jax.tool import BUILTIN_TOOLS
+
+    for name in BUILTIN_TOOLS:
+        t = itup.load_tool(name)
+        p = t.params
+        lo, hi = t.mesh.bounds
+        size = np.round(np.asarray(hi - lo, float), 3).tolist()
+        com = np.round(np.asarray(p.com, float), 3).tolist()
+        print(f"{name:8s} category {t.category:8s} mass {float(p.mass):.3f} kg  size {size} m  com {com} m  "
+              f"e {float(p.restitution):.2f}  mu {float(p.mu):.2f}  dt {float(p.contact_duration) * 1e3:.0f} ms")
+        print(f"{'':8s} parts {list(t.parts)}")
+    print("category priors:")
+    for cat, pr in priors.CATEGORY_PRIORS.items():
+        for field in ("density", "restitution", "mu", "contact_duration"):
+            q = getattr(pr, field)
+            print(f"  {cat:8s} {field:16s} {q.value:<8g} {q.unit:7s} {q.source}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from itup_jax.task import TASK_KINDS
+
+    ap = argparse.ArgumentParser(prog="itup", description="inverse Tool-use Planning (iTuP) in JAX",
+                                 epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+
+    p = sub.add_parser("plan", help="best grasp for a task by the analytic wrench cost", epilog=EXAMPLES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--task", default="hammer", choices=TASK_KINDS)
+    p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
+    p.add_argument("--tool-spec", default=None, help="TOML spec of a mesh tool")
+    p.add_argument("--n", type=int, default=1000, help="grasp candidates (default 1000)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--top", type=int, default=5, help="rows to print")
+    p.add_argument("--w-tau", type=float, default=1.0, help="weight of C_tau, 1/(N m)")
+    p.add_argument("--w-slip", type=float, default=1.0, help="weight of C_s, 1/N")
+    p.add_argument("--w-align", type=float, default=1.0, help="weight of C_alpha, 1/rad")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/1)")
+    p.set_defaults(fn=cmd_plan)
+
+    b = sub.add_parser("bench", help="benchmarks: costs")
+    b.add_argument("what", help="costs")
+    b.add_argument("--n", type=int, default=100_000)
+    b.add_argument("--t", type=int, default=64)
+    b.add_argument("--task", default="hammer", choices=TASK_KINDS)
+    b.add_argument("--repeats", type=int, default=10)
+    b.add_argument("--json", action="store_true", help="print one JSON object")
+    b.set_defaults(fn=cmd_bench)
+
+    t = sub.add_parser("tools", help="list the built-in tools and the category priors")
+    t.set_defaults(fn=cmd_tools)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    from itup_jax.errors import InputError
+    from itup_jax.grasp_sampler import SamplingError
+
+    try:
+        return args.fn(args)
+    except (InputError, SamplingError) as exc:
+        print(f"itup: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,227 @@
+"""Antipodal grasp sampling for a Robotiq-2F-85-class parallel gripper on a tool mesh.
+
+Stage 4 of iTuP (grasp candidates G). Host-side NumPy + trimesh (ray casts); deterministic
+for a given PRNG key or integer seed. For each candidate:
+
+1. a point p1 on the mesh surface, area-uniform, with outward normal n1;
+2. a closure direction u inside the friction cone around -n1 (half-angle atan(mu), mu the tool's pad
+   friction), uniform on that spherical cap;
+3. a ray from p1 along u through the tool: its exit point p2 with outward normal n2;
+4. accepted when antipodal (angle(u, n2) <= atan(mu) and angle(-u, n1) <= atan(mu)), the width
+   |p2 - p1| lies in [min_width, 0.085 m - 2 clearance], p1, p2 and their midpoint lie in the grasp
+   region, and the gripper (two fingers opened to width + 2 clearance, and the palm; see
+   `grasp.gripper_boxes`) holds no point of the tool's dense surface sample;
+5. the approach axis is drawn uniformly around the closure axis.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import weakref
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import trimesh
+
+from itup_jax import units
+from itup_jax.errors import InputError
+from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
+from itup_jax.tool import Tool
+
+
+@dataclasses.dataclass(frozen=True)
+class SamplerConfig:
+    """Sampler settings (SI units).
+
+    cone_half_angle: rad; None -> atan(tool mu) (the friction cone).
+    clearance: m, extra opening per side when the open fingers approach the tool.
+    min_width: m, thinnest feature the gripper may pinch.
+    surface_spacing: m, spacing of the tool surface sample used for the collision check.
+    collision_margin: m, the gripper boxes grow by this much in the check, so that a shallow cut of the
+      tool surface between two surface samples is still caught.
+    batch: candidates drawn per round.  max_rounds: rounds before giving up.
+    """
+
+    cone_half_angle: float | None = None
+    clearance: float = 0.005
+    min_width: float = 0.004
+    surface_spacing: float = 0.0025
+    collision_margin: float = 0.001
+    batch: int = 4096
+    max_rounds: int = 100
+
+
+class SamplingError(RuntimeError):
+    """The sampler could not find enough valid grasps (the grasp region may be wrong)."""
+
+
+def _rng_from(seed: Any) -> np.random.Generator:
+    """NumPy generator from an int seed or a JAX PRNG key (typed or raw uint32)."""
+    if isinstance(seed, (int, np.integer)):
+        return np.random.default_rng(int(seed))
+    try:
+        data = jax.random.key_data(seed) if jax.dtypes.issubdtype(seed.dtype, jax.dtypes.prng_key) else seed
+        words = np.asarray(data, dtype=np.uint32).ravel()
+    except (AttributeError, TypeError, ValueError):
+        raise InputError(f"sample_grasps: seed must be an int or a JAX PRNG key, got {seed!r}") from None
+    return np.random.default_rng(words.tolist())
+
+
+_SURFACE_CACHE: "weakref.WeakKeyDictionary[Tool, tuple[float, np.ndarray]]" = weakref.WeakKeyDictionary()
+
+
+def collision_points(tool: Tool, spacing: float) -> np.ndarray:
+    """[S, 3] dense surface sample of the tool (vertices + area-uniform points), cached per tool."""
+    cached = _SURFACE_CACHE.get(tool)
+    if cached is not None and cached[0] == spacing:
+        return cached[1]
+    count = int(math.ceil(tool.mesh.area / spacing**2))
+    pts, _ = trimesh.sample.sample_surface(tool.mesh, count, seed=0)
+    pts = np.concatenate([np.asarray(tool.mesh.vertices, float), np.asarray(pts, float)])
+    _SURFACE_CACHE[tool] = (spacing, pts)
+    return pts
+
+
+def _cone_directions(rng: np.random.Generator, axis: np.ndarray, half_angle: float) -> np.ndarray:
+    """[M, 3] unit vectors uniform on the spherical caps of `half_angle` around each `axis` [M, 3]."""
+    m = axis.shape[0]
+    cos_t = 1.0 - rng.random(m) * (1.0 - math.cos(half_angle))
+    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t**2))
+    phi = rng.random(m) * 2 * math.pi
+    e1, e2 = _perpendicular_basis(axis)
+    return cos_t[:, None] * axis + sin_t[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+
+
+def _perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors [M, 3] completing each unit `axis` [M, 3] to an orthonormal basis."""
+    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    return e1, np.cross(axis, e1)
+
+
+def _exit_points(mesh: trimesh.Trimesh, origins: np.ndarray, dirs: np.ndarray, eps: float = 1e-5):
+    """First surface crossing past `eps` along each ray: (hit [M] bool, point [M, 3], normal [M, 3])."""
+    m = origins.shape[0]
+    hit = np.zeros(m, bool)
+    point, normal = np.zeros((m, 3)), np.zeros((m, 3))
+    loc, ray, tri = mesh.ray.intersects_location(origins, dirs, multiple_hits=True)
+    if len(ray) == 0:
+        return hit, point, normal
+    dist = np.einsum("ij,ij->i", loc - origins[ray], dirs[ray])
+    keep = dist > eps
+    loc, ray, tri, dist = loc[keep], ray[keep], tri[keep], dist[keep]
+    order = np.lexsort((dist, ray))
+    ray_sorted = ray[order]
+    first = order[np.r_[True, ray_sorted[1:] != ray_sorted[:-1]]] if len(order) else order
+    hit[ray[first]] = True
+    point[ray[first]] = loc[first]
+    normal[ray[first]] = mesh.face_normals[tri[first]]
+    return hit, point, normal
+
+
+def _gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array,
+                  opening: jax.Array, margin: jax.Array) -> jax.Array:
+    """[] bool for ONE grasp: does any tool point [S, 3] lie inside the gripper's boxes grown by margin?"""
+    local = (points_tool - p_tool_grasp) @ R_tool_grasp  # rows: R^T (x - p), grasp frame
+    hit = jnp.zeros((), bool)
+    shifts = {"finger_neg": -0.5, "finger_pos": 0.5, "palm": 0.0}  # gripper_boxes(o) = boxes(0) + shift*o*e_y
+    for name, lo, hi in gripper_boxes(0.0):
+        off = shifts[name] * opening * jnp.array([0.0, 1.0, 0.0])
+        hit |= jnp.any(jnp.all((local > lo + off - margin) & (local < hi + off + margin), axis=-1))
+    return hit
+
+
+#: The sampler's one jit: the collision check over a fixed-size chunk of candidates.
+_gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))
+_CHUNK = 256
+
+
+def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray,
+                     opening: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """[M] bool: does any tool point [S, 3] lie inside the gripper's boxes (grown by margin) of each grasp?
+
+    Grasps given as R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3] and jaw opening [M] (m). Runs the
+    jitted kernel on chunks of 256 (the last one padded), so it compiles once per point count S.
+    """
+    m = len(p_tool_grasp)
+    pad = (-m) % _CHUNK
+    R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
+    p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)  # far away: no hit
+    o = np.concatenate([opening, np.zeros(pad)]).astype(np.float32)
+    pts = jnp.asarray(points_tool, dtype=jnp.float32)
+    hits = [np.asarray(_gripper_hits_batch(pts, R[s:s + _CHUNK], p[s:s + _CHUNK], o[s:s + _CHUNK], np.float32(margin)))
+            for s in range(0, m + pad, _CHUNK)]
+    return np.concatenate(hits)[:m]
+
+
+def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = SamplerConfig()) -> Grasps:
+    """Sample `n` antipodal, collision-free grasps inside the tool's grasp region.
+
+    Args:
+      tool: the tool (mesh, grasp region, pad friction mu).
+      n: number of grasps (>= 1).
+      seed: int seed or JAX PRNG key; the same seed gives the same grasps.
+      config: `SamplerConfig`.
+    Returns:
+      `Grasps` with [n] leading axis (tool frame).
+    Raises:
+      InputError for a bad n or seed; SamplingError when the region yields too few grasps.
+    """
+    if not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"sample_grasps: n must be a positive integer, got {n!r}")
+    rng = _rng_from(seed)
+    mu = float(tool.params.mu)
+    cone = config.cone_half_angle if config.cone_half_angle is not None else math.atan(mu)
+    max_width = units.GRIPPER_MAX_OPENING - 2 * config.clearance
+    pts = collision_points(tool, config.surface_spacing)
+    region = tool.grasp_region
+    mesh = tool.mesh
+    cos_cone = math.cos(cone) - 1e-9
+
+    out_p, out_R, out_w = [], [], []
+    drawn = 0
+    for _ in range(config.max_rounds):
+        p1, face = trimesh.sample.sample_surface(mesh, config.batch, seed=int(rng.integers(2**31)))
+        p1 = np.asarray(p1, float)
+        n1 = np.asarray(mesh.face_normals[face], float)
+        drawn += len(p1)
+        inside = region.contains(p1)
+        p1, n1 = p1[inside], n1[inside]
+        if len(p1) == 0:
+            continue
+        u = _cone_directions(rng, -n1, cone)
+        hit, p2, n2 = _exit_points(mesh, p1, u)
+        width = np.linalg.norm(p2 - p1, axis=1)
+        ok = (
+            hit
+            & (width >= config.min_width) & (width <= max_width)
+            & (np.einsum("ij,ij->i", u, n2) >= cos_cone)
+            & (np.einsum("ij,ij->i", -u, n1) >= cos_cone)
+            & region.contains(p2) & region.contains(0.5 * (p1 + p2))
+        )
+        idx = np.nonzero(ok)[0]
+        if len(idx) == 0:
+            continue
+        y = (p2[idx] - p1[idx]) / width[idx, None]
+        e1, e2 = _perpendicular_basis(y)
+        psi = rng.random(len(idx)) * 2 * math.pi
+        z = np.cos(psi)[:, None] * e1 + np.sin(psi)[:, None] * e2
+        x = np.cross(y, z)
+        R = np.stack([x, y, z], axis=-1)  # columns: grasp axes in the tool frame
+        centre = 0.5 * (p1[idx] + p2[idx])
+        free = ~gripper_collides(pts, R, centre, width[idx] + 2 * config.clearance, config.collision_margin)
+        out_p.append(centre[free])
+        out_R.append(R[free])
+        out_w.append(width[idx][free])
+        if sum(len(a) for a in out_p) >= n:
+            return make_grasps(np.concatenate(out_p)[:n], np.concatenate(out_R)[:n], np.concatenate(out_w)[:n])
+    found = sum(len(a) for a in out_p)
+    raise SamplingError(
+        f"sample_grasps: found {found} of {n} grasps on tool {tool.name!r} after {drawn} surface "
+        f"samples; check its grasp_region {region.lo.tolist()}..{region.hi.tolist()} and that the "
+        f"graspable part is at most {max_width * 1000:.0f} mm thick"
+    )

@@ -1,0 +1,117 @@
+"""Matplotlib figures (host side, off the jit path): tools, grasp candidates, the grasp frame."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: figures are written to files
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
+
+from itup_jax.grasp import Grasps, gripper_boxes  # noqa: E402
+from itup_jax.tool import Tool  # noqa: E402
+
+AXIS_COLOURS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
+_BOX_EDGES = [(0, 1), (0, 2), (0, 4), (1, 3), (1, 5), (2, 3), (2, 6), (3, 7), (4, 5), (4, 6), (5, 7), (6, 7)]
+
+
+def _box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
+def draw_mesh(ax, mesh, colour: str = "0.75", alpha: float = 0.35) -> None:
+    """Triangles of a trimesh on a 3-D axes (metres)."""
+    poly = Poly3DCollection(mesh.triangles, facecolor=colour, edgecolor="none", alpha=alpha)
+    ax.add_collection3d(poly)
+
+
+def draw_gripper(ax, R: np.ndarray, p: np.ndarray, opening: float, colour: str = "k", lw: float = 1.0) -> None:
+    """Wireframe of the gripper's fingers and palm at pose (R, p) and jaw `opening` (m)."""
+    segs = []
+    for _, lo, hi in gripper_boxes(opening):
+        c = _box_corners(lo, hi) @ R.T + p
+        segs += [(c[i], c[j]) for i, j in _BOX_EDGES]
+    ax.add_collection3d(Line3DCollection(segs, colors=colour, linewidths=lw))
+
+
+def draw_frame(ax, R: np.ndarray, p: np.ndarray, length: float, labels: bool = True) -> None:
+    """Axes x (red), y = jaw closure (green), z = approach (blue) of a frame."""
+    for k, name in enumerate("xyz"):
+        d = R[:, k] * length
+        ax.quiver(*p, *d, color=AXIS_COLOURS[name], linewidth=2, arrow_length_ratio=0.2)
+        if labels:
+            text = {"x": "x", "y": "y (closure)", "z": "z (approach)"}[name]
+            ax.text(*(p + 1.15 * d), text, color=AXIS_COLOURS[name], fontsize=8)
+
+
+def _equal_axes(ax, points: np.ndarray) -> None:
+    centre = 0.5 * (points.max(0) + points.min(0))
+    half = 0.5 * (points.max(0) - points.min(0)).max()
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+        setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+
+
+def plot_frame_convention(ax, width: float = 0.03) -> None:
+    """The grasp frame: gripper outline in its own frame, pads at y = -/+ width/2, origin between."""
+    draw_gripper(ax, np.eye(3), np.zeros(3), width, colour="0.3")
+    pads = np.array([[0, -width / 2, 0], [0, width / 2, 0]])
+    ax.scatter(*pads.T, color=AXIS_COLOURS["y"], s=25)
+    ax.scatter(0, 0, 0, color="k", s=20)
+    draw_frame(ax, np.eye(3), np.zeros(3), 0.04)
+    corners = np.concatenate([_box_corners(lo, hi) for _, lo, hi in gripper_boxes(width)])
+    _equal_axes(ax, np.concatenate([corners, [[0, 0, 0.05]]]))
+    ax.set_title("grasp frame: origin between the pads", fontsize=9)
+    ax.view_init(elev=20, azim=-60)
+
+
+def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *, label: str = "C_tau (N m)",
+                          title: str | None = None, best: int | None = None) -> str:
+    """Three panels: the tool with grasp origins coloured by `values` [N] and the best grasp's gripper;
+    `values` against the grasp's height along the tool's z axis; the grasp-frame convention.
+
+    Writes a PNG to `path` (folders created) and returns the path.
+    """
+    values = np.asarray(values, dtype=float)
+    p = np.asarray(grasps.p_tool_grasp, dtype=float)
+    R = np.asarray(grasps.rotation, dtype=float)
+    w = np.asarray(grasps.width, dtype=float)
+    best = int(np.argmin(values)) if best is None else best
+    fig = plt.figure(figsize=(15, 5.0))
+    ax = fig.add_subplot(1, 3, 1, projection="3d")
+    draw_mesh(ax, tool.mesh)
+    sc = ax.scatter(*p.T, c=values, cmap="viridis", s=10, depthshade=False)
+    draw_gripper(ax, R[best], p[best], w[best] + 0.01, colour="tab:red", lw=1.2)
+    draw_frame(ax, R[best], p[best], 0.03, labels=False)
+    cp = tool.contact_point
+    ax.quiver(*cp, *(0.05 * tool.contact_normal), color="tab:orange", linewidth=2)
+    ax.text(*(cp + 0.06 * tool.contact_normal), "contact", color="tab:orange", fontsize=8)
+    _equal_axes(ax, np.asarray(tool.mesh.vertices))
+    ax.view_init(elev=15, azim=-50)
+    fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.12, label=label)
+    ax.set_title(title or f"{tool.name}: {len(p)} candidates, best in red", fontsize=9)
+
+    ax2 = fig.add_subplot(1, 3, 2)
+    closure_along_face = np.abs(R[:, :, 1] @ tool.contact_normal)
+    sc2 = ax2.scatter(p[:, 2], values, c=closure_along_face, cmap="coolwarm", s=8, vmin=0, vmax=1)
+    ax2.scatter(p[best, 2], values[best], marker="*", s=160, color="tab:red", label="best C")
+    ax2.axvline(cp[2], color="tab:orange", ls="--", lw=1, label="contact height")
+    ax2.set_xlabel("grasp origin height along the tool z axis (m)")
+    ax2.set_ylabel(label)
+    ax2.legend(fontsize=8, loc="upper right")
+    fig.colorbar(sc2, ax=ax2, label="|closure axis . contact normal|")
+    ax2.set_title("shorter lever arm to the contact, lower torque", fontsize=9)
+    plot_frame_convention(fig.add_subplot(1, 3, 3, projection="3d"))
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

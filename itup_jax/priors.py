@@ -1,0 +1,134 @@
+"""Physical priors: materials and the per-category prior table.
+
+Every number carries its unit and either a source or the reason it was chosen. The table is data,
+read by `itup_jax.tool` when a tool is built or loaded; domain randomisation (simulation issue) draws
+around these values.
+
+Categories are the tool kinds iTuP knows: one per task family (hammer -> hammer task, broom -> sweep,
+mallet -> knock, l_stick -> reach).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from types import MappingProxyType
+
+from itup_jax.errors import InputError
+
+
+@dataclasses.dataclass(frozen=True)
+class Quantity:
+    """A prior value with its SI unit and where it comes from."""
+
+    value: float
+    unit: str
+    source: str
+
+
+# --- Materials: density in kg/m^3 (handbook values, rounded) --------------------------------------
+# Steel: 7850 kg/m^3, the standard value for carbon steel (e.g. EN 1993-1-1, 3.2.6).
+# Woods at ~12 % moisture content: USDA Forest Products Laboratory, "Wood Handbook" (2010), ch. 5:
+#   hickory ~ 800 kg/m^3 (specific gravity ~0.72-0.75 on green volume), beech ~ 700 kg/m^3.
+# Polypropylene ~ 905 kg/m^3, nylon 6,6 ~ 1140 kg/m^3, aluminium ~ 2700 kg/m^3 (handbook values).
+# Nylon bristle pack: nylon at an assumed packing fraction of 0.3 (bristles with air between them).
+MATERIAL_DENSITY = MappingProxyType(
+    {
+        "steel": 7850.0,
+        "hickory": 800.0,
+        "beech": 700.0,
+        "polypropylene": 905.0,
+        "nylon": 1140.0,
+        "bristle_pack": 0.3 * 1140.0,
+        "aluminium": 2700.0,
+    }
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class CategoryPrior:
+    """Prior physical parameters of one tool category.
+
+    Attributes:
+      density: effective density used for a single-mesh tool of this category (kg/m^3). Built-in tools
+        are assembled from parts with their own materials instead.
+      restitution: coefficient of restitution of the tool's contact face against the task target (-).
+      mu: Coulomb friction coefficient between the gripper's pads and the tool's grasp region (-).
+      contact_duration: duration over which an impulse is delivered (s); F = J / dt.
+    """
+
+    density: Quantity
+    restitution: Quantity
+    mu: Quantity
+    contact_duration: Quantity
+
+
+_PAD_FRICTION_SOURCE = (
+    "rubber-like pad on {}: MuJoCo Menagerie's 2F-85 model uses 0.6-0.7 for its pads; "
+    "rubber on dry wood/plastic is typically quoted 0.5-0.8; value assumed within that range"
+)
+
+CATEGORY_PRIORS = MappingProxyType(
+    {
+        "hammer": CategoryPrior(
+            density=Quantity(
+                2000.0, "kg/m^3",
+                "effective density of a steel-headed, hickory-handled claw hammer: ~0.5 kg over "
+                "~2.5e-4 m^3 of closed volume (built-in hammer's parts)",
+            ),
+            restitution=Quantity(
+                0.4, "-",
+                "assumed: steel on steel bounces at 0.6-0.9 between free bodies, but a nail backed "
+                "by wood dissipates much of the energy; to be calibrated against MuJoCo",
+            ),
+            mu=Quantity(0.7, "-", _PAD_FRICTION_SOURCE.format("a varnished wood handle")),
+            contact_duration=Quantity(
+                2e-3, "s",
+                "assumed: metal-on-metal impacts last 0.1-1 ms; the nail's travel into the wood "
+                "stretches the impulse to a few milliseconds",
+            ),
+        ),
+        "broom": CategoryPrior(
+            density=Quantity(
+                450.0, "kg/m^3",
+                "effective density of a hand broom (plastic handle, wooden block, nylon bristle "
+                "pack): ~0.4 kg over ~9e-4 m^3 of closed volume (built-in broom's parts)",
+            ),
+            restitution=Quantity(
+                0.2, "-", "assumed: bristles are compliant and absorb most of an impact's energy"
+            ),
+            mu=Quantity(0.5, "-", _PAD_FRICTION_SOURCE.format("a smooth polypropylene handle")),
+            contact_duration=Quantity(
+                20e-3, "s", "assumed: bristles bend over tens of milliseconds when they meet debris"
+            ),
+        ),
+        "mallet": CategoryPrior(
+            density=Quantity(700.0, "kg/m^3", "beech, Wood Handbook (see MATERIAL_DENSITY)"),
+            restitution=Quantity(
+                0.5, "-", "assumed: wood on wood is usually quoted 0.4-0.6"
+            ),
+            mu=Quantity(0.7, "-", _PAD_FRICTION_SOURCE.format("a wooden handle")),
+            contact_duration=Quantity(
+                3e-3, "s", "assumed: wood-on-wood impacts last a few milliseconds"
+            ),
+        ),
+        "l_stick": CategoryPrior(
+            density=Quantity(2700.0, "kg/m^3", "aluminium rod, handbook value"),
+            restitution=Quantity(
+                0.3, "-", "assumed: a slow push against a block; little rebound"
+            ),
+            mu=Quantity(0.6, "-", _PAD_FRICTION_SOURCE.format("an anodised aluminium rod")),
+            contact_duration=Quantity(
+                50e-3, "s", "assumed: a gentle, quasi-static push builds up over tens of ms"
+            ),
+        ),
+    }
+)
+
+
+def category_prior(category: str, *, what: str = "category") -> CategoryPrior:
+    """The prior of `category`; raises `InputError` naming `what` and the known categories."""
+    try:
+        return CATEGORY_PRIORS[category]
+    except (KeyError, TypeError):
+        known = ", ".join(sorted(CATEGORY_PRIORS))
+        raise InputError(f"{what}: unknown tool category {category!r}; known: {known}") from None

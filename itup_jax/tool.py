@@ -1,0 +1,491 @@
+"""Tools: a closed mesh, its physical parameters and its part annotations.
+
+Tool frame
+----------
+Every tool lives in its own *tool frame* (the mesh frame, metres). Built-in tools put the origin at
+the butt of the handle with the handle along +z; the contact face sits at the far end. A user's mesh
+keeps whatever frame its file has; the TOML spec gives contact point and grasp region in that frame.
+
+Split between host and device
+-----------------------------
+`Tool` is a host-side object (it holds a `trimesh.Trimesh`); `ToolParams` is the pytree of arrays
+that JAX code takes (mass, centre of mass, inertia, restitution, pad friction, contact duration), so
+costs are differentiable with respect to the physical parameters and can be vmapped over them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import trimesh
+
+from itup_jax import priors
+from itup_jax.errors import InputError
+
+
+# ---------------------------------------------------------------------------------------------------
+# Pytree of physical parameters
+# ---------------------------------------------------------------------------------------------------
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class ToolParams:
+    """Physical parameters of one tool, as JAX arrays (all leaves; differentiable).
+
+    Attributes:
+      mass: [] kg.
+      com: [3] m, centre of mass in the tool frame.
+      inertia: [3, 3] kg m^2, inertia tensor about the centre of mass, tool-frame axes.
+      restitution: [] coefficient of restitution e of the contact face against the target (-).
+      mu: [] pad-tool Coulomb friction coefficient (-).
+      contact_duration: [] s, time over which an impulse is delivered (F = J / dt).
+    """
+
+    mass: jax.Array
+    com: jax.Array
+    inertia: jax.Array
+    restitution: jax.Array
+    mu: jax.Array
+    contact_duration: jax.Array
+
+    def replace(self, **changes: Any) -> "ToolParams":
+        return dataclasses.replace(self, **changes)
+
+
+def make_tool_params(
+    *,
+    mass: float,
+    com: Sequence[float],
+    inertia: Any,
+    restitution: float,
+    mu: float,
+    contact_duration: float,
+    what: str = "tool",
+) -> ToolParams:
+    """Validated `ToolParams` from plain numbers (host side). Raises `InputError` naming the field."""
+    com_a = _vec3(com, f"{what}.com")
+    inertia_a = np.asarray(inertia, dtype=float)
+    if inertia_a.shape != (3, 3) or not np.all(np.isfinite(inertia_a)):
+        raise InputError(f"{what}.inertia: expected a finite 3x3 matrix, got shape {inertia_a.shape}")
+    if not np.allclose(inertia_a, inertia_a.T, atol=1e-12 + 1e-9 * np.abs(inertia_a).max()):
+        raise InputError(f"{what}.inertia: not symmetric")
+    eig = np.linalg.eigvalsh(inertia_a)
+    if eig.min() <= 0:
+        raise InputError(f"{what}.inertia: not positive definite (eigenvalues {eig})")
+    _positive(mass, f"{what}.mass", "kg")
+    _positive(contact_duration, f"{what}.contact_duration", "s")
+    if not (math.isfinite(float(mu)) and float(mu) >= 0):
+        raise InputError(f"{what}.mu: friction coefficient must be >= 0, got {mu}")
+    if not (math.isfinite(float(restitution)) and 0.0 <= float(restitution) <= 1.0):
+        raise InputError(f"{what}.restitution: must lie in [0, 1], got {restitution}")
+    f = lambda x: jnp.asarray(x, dtype=float)  # noqa: E731  (dtype follows jax_enable_x64)
+    return ToolParams(
+        mass=f(mass), com=f(com_a), inertia=f(inertia_a), restitution=f(restitution),
+        mu=f(mu), contact_duration=f(contact_duration),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
+# Host-side tool
+# ---------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Box:
+    """Axis-aligned box in the tool frame: `lo` [3] and `hi` [3], metres."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def contains(self, points: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """[..., 3] points -> [...] bool, True inside the box grown by `tol` metres."""
+        p = np.asarray(points)
+        return np.all((p >= self.lo - tol) & (p <= self.hi + tol), axis=-1)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Tool:
+    """A tool: closed mesh, physical parameters and part annotations (tool frame, SI units).
+
+    Attributes:
+      name: the tool's name.
+      category: a key of `priors.CATEGORY_PRIORS`.
+      mesh: closed (watertight) triangle mesh, metres.
+      params: `ToolParams` (mass, centre of mass, inertia, e, mu, dt).
+      contact_point: [3] m, the primary contact point (hammer face, broom bristle tips, stick tip).
+      contact_normal: [3] unit, the direction in which the contact face pushes (outward normal).
+      contact_points: [K, 3] m, all contact points (K >= 1; row 0 is `contact_point`); several for
+        tools that touch the target in several places at once (broom bristles).
+      grasp_region: `Box` in which grasps are allowed (the handle).
+      parts: description of the parts, ((name, material, mass_kg), ...), for documentation.
+    """
+
+    name: str
+    category: str
+    mesh: trimesh.Trimesh
+    params: ToolParams
+    contact_point: np.ndarray
+    contact_normal: np.ndarray
+    contact_points: np.ndarray
+    grasp_region: Box
+    parts: tuple = ()
+
+    @property
+    def mass(self) -> float:
+        return float(self.params.mass)
+
+    def with_params(self, **changes: float) -> "Tool":
+        """A copy with some physical parameters replaced, validated like a spec (e.g. mu=0.5)."""
+        p = self.params
+        merged = dict(
+            mass=float(p.mass), com=np.asarray(p.com), inertia=np.asarray(p.inertia),
+            restitution=float(p.restitution), mu=float(p.mu),
+            contact_duration=float(p.contact_duration),
+        )
+        unknown = set(changes) - set(merged)
+        if unknown:
+            raise InputError(f"tool {self.name!r}: unknown parameter(s) {sorted(unknown)}")
+        if "mass" in changes and "inertia" not in changes:
+            # Same shape, new mass: the inertia scales with it.
+            _positive(changes["mass"], f"tool {self.name!r}.mass", "kg")
+            merged["inertia"] = merged["inertia"] * (float(changes["mass"]) / merged["mass"])
+        merged.update(changes)
+        return dataclasses.replace(self, params=make_tool_params(**merged, what=f"tool {self.name!r}"))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Mass properties
+# ---------------------------------------------------------------------------------------------------
+def check_mesh(mesh: Any, what: str) -> trimesh.Trimesh:
+    """Validate a closed triangle mesh; raise `InputError` naming `what` otherwise."""
+    if isinstance(mesh, trimesh.Scene):
+        geoms = list(mesh.geometry.values())
+        mesh = trimesh.util.concatenate(geoms) if geoms else trimesh.Trimesh()
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise InputError(f"{what}: not a triangle mesh (got {type(mesh).__name__})")
+    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+        raise InputError(f"{what}: mesh is empty (no faces)")
+    if not np.all(np.isfinite(mesh.vertices)):
+        raise InputError(f"{what}: mesh has non-finite vertex coordinates")
+    if not mesh.is_watertight:
+        raise InputError(
+            f"{what}: mesh is not watertight (it has open edges); mass properties and the grasp "
+            "sampler's inside/outside tests need a closed surface"
+        )
+    if mesh.volume < 0:
+        mesh = mesh.copy()
+        mesh.invert()
+    if not mesh.volume > 0:
+        raise InputError(f"{what}: mesh encloses no volume")
+    return mesh
+
+
+def mesh_mass_properties(mesh: trimesh.Trimesh, density: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass kg, com [3] m, inertia [3, 3] kg m^2 about the com) of a closed mesh of uniform density."""
+    mp = trimesh.triangles.mass_properties(mesh.triangles, density=density)
+    return float(mp.mass), np.asarray(mp.center_mass), np.asarray(mp.inertia)
+
+
+def combine_mass_properties(
+    parts: Sequence[tuple[float, np.ndarray, np.ndarray]],
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Sum rigid parts (mass, com, inertia about own com) into one body (parallel-axis theorem)."""
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * c for m, c, _ in parts) / mass
+    inertia = np.zeros((3, 3))
+    for m, c, i_c in parts:
+        d = c - com
+        inertia += i_c + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    return mass, com, inertia
+
+
+# ---------------------------------------------------------------------------------------------------
+# Built-in tools: assembled from primitive parts with their own materials
+# ---------------------------------------------------------------------------------------------------
+_SECTIONS = 48  # facets around a cylinder: mass within 0.3 % of the true cylinder
+
+
+def _cylinder(radius: float, p0: Sequence[float], p1: Sequence[float]) -> trimesh.Trimesh:
+    return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], float), sections=_SECTIONS)
+
+
+def _box(lo: Sequence[float], hi: Sequence[float]) -> trimesh.Trimesh:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    return trimesh.creation.box(extents=hi - lo, transform=trimesh.transformations.translation_matrix((lo + hi) / 2))
+
+
+def assemble_tool(
+    *,
+    name: str,
+    category: str,
+    parts: Sequence[tuple[str, str, trimesh.Trimesh]],
+    contact_points: Any,
+    contact_normal: Sequence[float],
+    grasp_region: tuple[Sequence[float], Sequence[float]],
+) -> Tool:
+    """Build a tool from parts `(part_name, material, closed_mesh)` that do not overlap.
+
+    The mass properties are the sum of the parts' (each at its material's density); the collision and
+    sampling mesh is their boolean union.
+    """
+    props, described, meshes = [], [], []
+    for part_name, material, mesh in parts:
+        mesh = check_mesh(mesh, f"tool {name!r} part {part_name!r}")
+        m, c, i = mesh_mass_properties(mesh, priors.MATERIAL_DENSITY[material])
+        props.append((m, c, i))
+        described.append((part_name, material, round(m, 4)))
+        meshes.append(mesh)
+    mass, com, inertia = combine_mass_properties(props)
+    union = meshes[0] if len(meshes) == 1 else trimesh.boolean.union(meshes, engine="manifold")
+    union = check_mesh(union, f"tool {name!r} (union of its parts)")
+    prior = priors.category_prior(category)
+    params = make_tool_params(
+        mass=mass, com=com, inertia=inertia, restitution=prior.restitution.value,
+        mu=prior.mu.value, contact_duration=prior.contact_duration.value, what=f"tool {name!r}",
+    )
+    cps = np.atleast_2d(np.asarray(contact_points, float))
+    return Tool(
+        name=name, category=category, mesh=union, params=params, contact_point=cps[0],
+        contact_normal=_unit(contact_normal, f"tool {name!r}.contact_normal"), contact_points=cps,
+        grasp_region=_box_from(grasp_region[0], grasp_region[1], f"tool {name!r}.grasp_region"),
+        parts=tuple(described),
+    )
+
+
+def _claw_hammer() -> Tool:
+    # ~0.30 m long, ~0.49 kg: hickory handle (29 mm diameter) and a steel head (22 mm diameter, 110 mm
+    # long) across the top. The face is the head's +x end; the claw end is at -x.
+    head_z, head_r = 0.290, 0.011
+    return assemble_tool(
+        name="hammer", category="hammer",
+        parts=[
+            ("handle", "hickory", _cylinder(0.0145, (0, 0, 0), (0, 0, head_z - head_r))),
+            ("head", "steel", _cylinder(head_r, (-0.050, 0, head_z), (0.060, 0, head_z))),
+        ],
+        contact_points=[(0.060, 0.0, head_z)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.25)),
+    )
+
+
+def _hand_broom() -> Tool:
+    # A small push broom: polypropylene handle (22 mm diameter) on a beech block with a nylon bristle
+    # pack below. Bristle tips at z = 0; the broom pushes along +y (the block's thin direction).
+    return assemble_tool(
+        name="broom", category="broom",
+        parts=[
+            ("bristles", "bristle_pack", _box((-0.105, -0.0175, 0.0), (0.105, 0.0175, 0.050))),
+            ("block", "beech", _box((-0.110, -0.020, 0.050), (0.110, 0.020, 0.080))),
+            ("handle", "polypropylene", _cylinder(0.011, (0, 0, 0.080), (0, 0, 0.380))),
+        ],
+        contact_points=[(0.0, 0.0175, 0.005), (-0.080, 0.0175, 0.005), (0.080, 0.0175, 0.005)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-0.02, -0.02, 0.15), (0.02, 0.02, 0.38)),
+    )
+
+
+def _mallet() -> Tool:
+    # A knocking mallet: 0.40 m beech handle (24 mm diameter) and a beech head (50 mm diameter, 90 mm
+    # long) across the top: the impact lands at the end of a long lever (the knock task).
+    head_z, head_r = 0.425, 0.025
+    return assemble_tool(
+        name="mallet", category="mallet",
+        parts=[
+            ("handle", "beech", _cylinder(0.012, (0, 0, 0), (0, 0, head_z - head_r))),
+            ("head", "beech", _cylinder(head_r, (-0.045, 0, head_z), (0.045, 0, head_z))),
+        ],
+        contact_points=[(0.045, 0.0, head_z)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.30)),
+    )
+
+
+def _l_stick() -> Tool:
+    # An L-shaped reaching stick: 12 mm aluminium rod, 0.45 m shaft along +z and a 0.10 m hook along
+    # +x at the far end. The contact is the hook's inner face (facing -z, back towards the grasp): it
+    # pulls a block towards the robot.
+    r = 0.006
+    return assemble_tool(
+        name="l_stick", category="l_stick",
+        parts=[
+            ("shaft", "aluminium", _cylinder(r, (0, 0, 0), (0, 0, 0.450))),
+            ("hook", "aluminium", _cylinder(r, (r, 0, 0.450), (0.100, 0, 0.450))),
+        ],
+        contact_points=[(0.070, 0.0, 0.450 - r)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.20)),
+    )
+
+
+BUILTIN_TOOLS = {
+    "hammer": _claw_hammer,
+    "broom": _hand_broom,
+    "mallet": _mallet,
+    "l_stick": _l_stick,
+}
+
+_BUILTIN_CACHE: dict[str, Tool] = {}
+
+
+# ---------------------------------------------------------------------------------------------------
+# User tools: mesh file + TOML spec
+# ---------------------------------------------------------------------------------------------------
+_SPEC_REQUIRED = {"name", "category", "contact_point", "grasp_region"}
+_SPEC_OPTIONAL = {"contact_normal", "contact_points", "mass", "density", "mu", "restitution", "contact_duration"}
+
+
+def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping | None = None) -> Tool:
+    """Load a built-in tool by name, or a user's tool from a mesh file plus a TOML spec.
+
+    Args:
+      name_or_path: a built-in name (`hammer`, `broom`, `mallet`, `l_stick`) or the path of a mesh
+        file (STL/OBJ/PLY, metres).
+      spec: for a mesh file, the path of its TOML spec (or an already-parsed mapping). Fields:
+        `name`, `category`, `contact_point` [3], `grasp_region = {min = [3], max = [3]}` (required);
+        `contact_normal` [3], `contact_points` [[3], ...], `mass` kg, `density` kg/m^3, `mu`,
+        `restitution`, `contact_duration` s (optional; defaults from the category's prior).
+
+    Returns:
+      A `Tool`. Built-in tools are built once per process and shared.
+
+    Raises:
+      InputError: unknown built-in, unreadable/empty/open mesh, malformed spec; the message names
+        the file or field.
+    """
+    key = os.fspath(name_or_path)
+    if spec is None:
+        if key in BUILTIN_TOOLS:
+            if key not in _BUILTIN_CACHE:
+                _BUILTIN_CACHE[key] = BUILTIN_TOOLS[key]()
+            return _BUILTIN_CACHE[key]
+        if os.path.splitext(key)[1]:
+            raise InputError(f"tool mesh {key!r}: a mesh file needs a TOML spec (spec=...)")
+        raise InputError(f"tool {key!r}: not a built-in tool; built-ins: {', '.join(BUILTIN_TOOLS)}")
+    return _load_mesh_tool(key, spec)
+
+
+def read_tool_spec(spec: str | os.PathLike | Mapping) -> tuple[dict, str]:
+    """Parse a TOML spec file (or pass a mapping through). Returns (dict, label for messages)."""
+    if isinstance(spec, Mapping):
+        return dict(spec), "tool spec"
+    path = os.fspath(spec)
+    label = f"tool spec {path!r}"
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh), label
+    except FileNotFoundError:
+        raise InputError(f"{label}: file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{label}: malformed TOML: {exc}") from None
+
+
+def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
+    data, label = read_tool_spec(spec)
+    missing = _SPEC_REQUIRED - set(data)
+    if missing:
+        raise InputError(f"{label}: missing required field(s): {', '.join(sorted(missing))}")
+    unknown = set(data) - _SPEC_REQUIRED - _SPEC_OPTIONAL
+    if unknown:
+        raise InputError(
+            f"{label}: unknown field(s): {', '.join(sorted(unknown))}; allowed: "
+            f"{', '.join(sorted(_SPEC_REQUIRED | _SPEC_OPTIONAL))}"
+        )
+    name = data["name"]
+    if not isinstance(name, str) or not name:
+        raise InputError(f"{label}: field 'name' must be a non-empty string")
+    category = data["category"]
+    prior = priors.category_prior(category, what=f"{label}: field 'category'")
+
+    if not os.path.exists(mesh_path):
+        raise InputError(f"tool mesh {mesh_path!r}: file not found")
+    try:
+        mesh = trimesh.load(mesh_path, force="mesh", process=True)
+    except Exception as exc:  # trimesh raises many types for unreadable files
+        raise InputError(f"tool mesh {mesh_path!r}: cannot read it as a mesh ({exc})") from None
+    mesh = check_mesh(mesh, f"tool mesh {mesh_path!r}")
+
+    density = data.get("density", prior.density.value)
+    _positive(density, f"{label}: field 'density'", "kg/m^3")
+    mass, com, inertia = mesh_mass_properties(mesh, float(density))
+    if "mass" in data:
+        _positive(data["mass"], f"{label}: field 'mass'", "kg")
+        scale = float(data["mass"]) / mass
+        mass, inertia = float(data["mass"]), inertia * scale
+    params = make_tool_params(
+        mass=mass, com=com, inertia=inertia,
+        restitution=data.get("restitution", prior.restitution.value),
+        mu=data.get("mu", prior.mu.value),
+        contact_duration=data.get("contact_duration", prior.contact_duration.value),
+        what=f"{label}: field",
+    )
+    cp = _vec3(data["contact_point"], f"{label}: field 'contact_point'")
+    extra = data.get("contact_points", [])
+    if not isinstance(extra, list):
+        raise InputError(f"{label}: field 'contact_points' must be a list of [x, y, z]")
+    cps = np.array([cp] + [_vec3(p, f"{label}: field 'contact_points'") for p in extra])
+    normal = _unit(data.get("contact_normal", _default_normal(mesh, cp)), f"{label}: field 'contact_normal'")
+    region = data["grasp_region"]
+    if not isinstance(region, Mapping) or set(region) != {"min", "max"}:
+        raise InputError(f"{label}: field 'grasp_region' must be a table {{ min = [x,y,z], max = [x,y,z] }}")
+    box = _box_from(region["min"], region["max"], f"{label}: field 'grasp_region'")
+    if not _box_overlaps(box, mesh.bounds):  # a region away from the mesh can hold no grasp
+        raise InputError(f"{label}: field 'grasp_region' does not overlap the mesh (bounds {mesh.bounds.tolist()})")
+    return Tool(
+        name=name, category=category, mesh=mesh, params=params, contact_point=cps[0],
+        contact_normal=normal, contact_points=cps, grasp_region=box,
+        parts=((name, f"{category} prior" if "density" not in data else "spec density", round(mass, 4)),),
+    )
+
+
+def _default_normal(mesh: trimesh.Trimesh, point: np.ndarray) -> np.ndarray:
+    """Outward surface normal of the mesh face nearest to `point` (when the spec gives none)."""
+    _, _, tri = trimesh.proximity.closest_point(mesh, point[None])
+    return np.asarray(mesh.face_normals[int(tri[0])])
+
+
+# ---------------------------------------------------------------------------------------------------
+# Small validators (host side)
+# ---------------------------------------------------------------------------------------------------
+def _vec3(x: Any, what: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: expected three numbers [x, y, z], got {x!r}") from None
+    if a.shape != (3,):
+        raise InputError(f"{what}: expected three numbers [x, y, z], got {x!r}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{what}: contains NaN or infinity: {x!r}")
+    return a
+
+
+def _unit(x: Any, what: str) -> np.ndarray:
+    a = _vec3(x, what)
+    n = np.linalg.norm(a)
+    if n < 1e-9:
+        raise InputError(f"{what}: zero-length normal {x!r}")
+    return a / n
+
+
+def _positive(x: Any, what: str, unit: str) -> None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: expected a number in {unit}, got {x!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"{what}: must be > 0 {unit}, got {x!r}")
+
+
+def _box_from(lo: Any, hi: Any, what: str) -> Box:
+    lo_a, hi_a = _vec3(lo, f"{what}.min"), _vec3(hi, f"{what}.max")
+    if np.any(lo_a >= hi_a):
+        raise InputError(f"{what}: min {lo_a.tolist()} must be below max {hi_a.tolist()} on every axis")
+    return Box(lo_a, hi_a)
+
+
+def _box_overlaps(box: Box, bounds: np.ndarray) -> bool:
+    return bool(np.all(box.lo <= bounds[1]) and np.all(box.hi >= bounds[0]))

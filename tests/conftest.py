@@ -1,0 +1,35 @@
+"""Shared fixtures. Tests run in float64 (gradient checks need it), as jax-md's CI does."""
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import itup_jax as itup  # noqa: E402
+from itup_jax.task import DEFAULT_TOOL  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def tools():
+    """The four built-in tools, built once per session."""
+    return {name: itup.load_tool(name) for name in ("hammer", "broom", "mallet", "l_stick")}
+
+
+@pytest.fixture(scope="session")
+def tasks(tools):
+    """Default task of each kind with its default tool: {kind: (tool, task)}."""
+    return {kind: (tools[DEFAULT_TOOL[kind]], itup.make_task(kind, tools[DEFAULT_TOOL[kind]]))
+            for kind in itup.TASK_KINDS}
+
+
+@pytest.fixture(scope="session")
+def hammer_grasps(tools):
+    """200 sampled grasps on the built-in hammer (seed 0)."""
+    return itup.sample_grasps(tools["hammer"], 200, seed=0)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)

@@ -1,0 +1,78 @@
+"""The `itup` CLI end to end at tiny sizes; JSON outputs checked against their documented schema."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from itup_jax.cli import main
+
+PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "seed", "scorer", "weights", "best", "top", "summary"}
+GRASP_KEYS = {"index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
+BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", "machine", "max_rel_diff_vs_numpy"}
+
+
+def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
+    out = tmp_path / "best.json"
+    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/1"
+    assert set(res["best"]) == GRASP_KEYS and len(res["top"]) == 3
+    totals = [r["costs"]["total"] for r in res["top"]]
+    assert totals == sorted(totals) and res["best"]["costs"]["total"] == pytest.approx(res["summary"]["total"]["min"])
+    assert res["regime"] == "quasi_static"
+    assert "rank" in capsys.readouterr().out
+
+
+@pytest.mark.filterwarnings("ignore:.*joint-speed limit")  # a short stick swings faster for the same tip speed
+def test_plan_with_a_user_mesh_tool(tmp_path):
+    import trimesh
+
+    trimesh.creation.box((0.03, 0.025, 0.30)).export(tmp_path / "stick.stl")
+    (tmp_path / "stick.toml").write_text(
+        'name = "stick"\ncategory = "mallet"\ncontact_point = [0.0, 0.0, 0.15]\ncontact_normal = [1.0, 0.0, 0.0]\n'
+        "grasp_region = { min = [-0.02, -0.02, -0.15], max = [0.02, 0.02, 0.0] }\n")
+    out = tmp_path / "p.json"
+    assert main(["plan", "--task", "knock", "--tool", str(tmp_path / "stick.stl"), "--tool-spec",
+                 str(tmp_path / "stick.toml"), "--n", "20", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["tool"]["name"] == "stick"
+
+
+def test_bench_costs_prints_one_json_object():
+    proc = subprocess.run([sys.executable, "-m", "itup_jax.cli", "bench", "costs", "--n", "500", "--t", "16",
+                           "--repeats", "2", "--json"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert BENCH_KEYS <= set(res) and res["n"] == 500 and res["t"] == 16
+    assert res["max_rel_diff_vs_numpy"] < 1e-3 and res["warm_ms"] > 0
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["plan", "--task", "hammer", "--n", "0"], "--n must be >= 1"),
+    (["plan", "--tool", "spoon"], "not a built-in tool"),
+    (["plan", "--tool-spec", "x.toml"], "--tool-spec needs --tool"),
+    (["plan", "--n", "5", "--json", "/no/such/folder/out.json"], "does not exist"),
+    (["bench", "rollout"], "unknown benchmark"),
+])
+def test_bad_input_exits_non_zero_with_a_message(argv, match, capsys, tmp_path):
+    assert main(argv) == 2
+    assert match in capsys.readouterr().err
+
+
+def test_unknown_task_is_refused_by_the_parser(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["plan", "--task", "drill"])
+    assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+def test_failed_json_write_leaves_nothing_behind(tmp_path, monkeypatch):
+    import itup_jax.cli as cli
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(cli.json, "dump", boom)
+    with pytest.raises(RuntimeError):
+        main(["plan", "--task", "reach", "--n", "5", "--json", str(tmp_path / "x.json")])
+    assert list(tmp_path.iterdir()) == []

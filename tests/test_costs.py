@@ -1,0 +1,266 @@
+"""Cost laws (DESIGN.md C1-C4), gradients against finite differences, batching, the NumPy oracle."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import jaxlie
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax.costs import CostParams, Regime, batched_wrench_costs, grasp_cost_trace, grasp_costs, wrench_costs_jit
+from itup_jax.grasp import Grasps, make_grasps
+from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
+from itup_jax.wrench import task_loads
+
+COST_NAMES = ("tau", "slip", "align", "total", "tau_closure")
+# Invariance and implementation-equivalence checks run in float64: only rounding separates the two
+# sides (products of ~1e3 N forces with ~0.3 m arms), so 1e-9 relative (1e-9 absolute near zero).
+INV_RTOL, INV_ATOL = 1e-9, 1e-9
+# Central differences in float64 with h = 1e-6: truncation ~h^2 f''' and rounding ~eps f / h ~ 1e-10 f.
+FD_STEP = 1e-6
+FD_RTOL, FD_ATOL = 1e-5, 1e-6
+
+VARIANTS = [
+    CostParams(),
+    CostParams(lever_arm="com"),
+    CostParams(torque_projection="full"),
+    CostParams(include_gravity=True, grip_force=15.0, w_tau=0.5, w_slip=0.1, w_align=2.0),
+]
+
+
+def _assert_costs_close(a, b, rtol=INV_RTOL, atol=INV_ATOL):
+    for k in COST_NAMES:
+        np.testing.assert_allclose(np.asarray(getattr(a, k)), np.asarray(getattr(b, k)), rtol=rtol, atol=atol, err_msg=k)
+
+
+@pytest.fixture(scope="module")
+def grasps_by_kind(tasks):
+    return {kind: itup.sample_grasps(tool, 24, seed=11) for kind, (tool, _) in tasks.items()}
+
+
+# ------------------------------------------------------------------------------------------------ C1
+def _move_world(task, Q, t):
+    """The same task seen from a world frame rotated by Q and shifted by t."""
+    tr = task.traj
+    rot = lambda x: x @ Q.T  # noqa: E731  (rows are vectors)
+    traj = dataclasses.replace(tr, p_world_tool=rot(tr.p_world_tool) + t, R_world_tool=jnp.einsum("ij,tjk->tik", Q, tr.R_world_tool),
+                               v_world=rot(tr.v_world), w_world=rot(tr.w_world), a_world=rot(tr.a_world),
+                               alpha_world=rot(tr.alpha_world))
+    return task.replace(traj=traj, c_obj_world=rot(task.c_obj_world) + t, n_world=rot(task.n_world),
+                        d_world=Q @ task.d_world, gravity_world=Q @ task.gravity_world)
+
+
+def _move_tool_frame(tool_params, task, grasps, Q, t):
+    """The same problem with the tool's mesh frame re-chosen: x_new = Q x_old + t."""
+    tp = tool_params.replace(com=Q @ tool_params.com + t, inertia=Q @ tool_params.inertia @ Q.T)
+    tr = task.traj
+    R_new = jnp.einsum("tij,kj->tik", tr.R_world_tool, Q)  # R_world_old Q^T
+    d = -jnp.einsum("tij,j->ti", R_new, t)  # new origin minus old origin, world
+    traj = dataclasses.replace(
+        tr, R_world_tool=R_new, p_world_tool=tr.p_world_tool + d,
+        v_world=tr.v_world + jnp.cross(tr.w_world, d),
+        a_world=tr.a_world + jnp.cross(tr.alpha_world, d) + jnp.cross(tr.w_world, jnp.cross(tr.w_world, d)))
+    Rg = np.asarray(grasps.rotation)
+    g = make_grasps(np.asarray(grasps.p_tool_grasp) @ Q.T + t, np.einsum("ij,njk->nik", Q, Rg), grasps.width)
+    return tp, task.replace(traj=traj, c_tool=task.c_tool @ Q.T + t), g
+
+
+@pytest.mark.parametrize("kind", itup.TASK_KINDS)
+@pytest.mark.parametrize("params", VARIANTS[:1] + VARIANTS[3:])
+def test_c1_rigid_transform_of_the_world_leaves_costs_unchanged(tasks, grasps_by_kind, rng, kind, params):
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    Q = np.asarray(jaxlie.SO3.sample_uniform(jax.random.key(int(rng.integers(1000)))).as_matrix())
+    t = rng.normal(size=3)
+    _assert_costs_close(itup.wrench_costs(tool, task, g, params), itup.wrench_costs(tool, _move_world(task, Q, t), g, params))
+
+
+@pytest.mark.parametrize("kind", itup.TASK_KINDS)
+def test_c1_choice_of_tool_frame_leaves_costs_unchanged(tasks, grasps_by_kind, rng, kind):
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    Q = np.asarray(jaxlie.SO3.sample_uniform(jax.random.key(int(rng.integers(1000)))).as_matrix())
+    t = 0.1 * rng.normal(size=3)
+    tp, task2, g2 = _move_tool_frame(tool.params, task, g, Q, t)
+    for params in VARIANTS:
+        _assert_costs_close(itup.wrench_costs(tool, task, g, params), itup.wrench_costs(tp, task2, g2, params))
+
+
+# ------------------------------------------------------------------------------------------------ C2
+@pytest.mark.parametrize("kind", ["hammer", "knock"])
+def test_c2_costs_are_continuous_in_the_contact_velocity(tools, kind):
+    from itup_jax.task import DEFAULT_TOOL
+    tool = tools[DEFAULT_TOOL[kind]]
+    g = itup.sample_grasps(tool, 16, seed=2)
+    base = itup.wrench_costs(tool, itup.make_task(kind, tool, impact_speed=0.8), g)
+    near = itup.wrench_costs(tool, itup.make_task(kind, tool, impact_speed=0.8 * (1 + 1e-7)), g)
+    for k in ("tau", "slip", "total"):
+        a, b = np.asarray(getattr(base, k)), np.asarray(getattr(near, k))
+        assert np.max(np.abs(a - b)) <= 1e-5 * np.max(np.abs(a)) + 1e-9
+
+
+def test_c2_impulse_is_continuous_where_the_contact_starts_to_separate():
+    from itup_jax.wrench import normal_impulse
+    n = jnp.array([0.0, 0.0, 1.0])
+    J = lambda vz: float(normal_impulse(2.0, jnp.eye(3), jnp.zeros(3), n, jnp.array([0.0, 0.0, vz]), 0.5, 0.0))  # noqa: E731
+    assert J(-1e-9) == pytest.approx(0.0, abs=1e-8) and J(1e-9) == 0.0
+
+
+# ------------------------------------------------------------------------------------------------ C3
+def _slowed(task, s):
+    tr = task.traj
+    return task.replace(traj=dataclasses.replace(tr, v_world=s * tr.v_world, w_world=s * tr.w_world,
+                                                 a_world=s**2 * tr.a_world, alpha_world=s**2 * tr.alpha_world))
+
+
+@pytest.mark.parametrize("kind", itup.TASK_KINDS)
+def test_c3_slow_motion_leaves_only_alignment(tasks, grasps_by_kind, kind):
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    params = CostParams(w_align=0.7)
+    full = itup.wrench_costs(tool, task, g, params)
+    slow = itup.wrench_costs(tool, _slowed(task, 1e-7), g, params)
+    assert np.max(np.asarray(slow.tau)) <= 1e-5 * np.max(np.asarray(full.tau))
+    assert np.max(np.asarray(slow.slip)) <= 1e-5 * max(np.max(np.asarray(full.slip)), 1.0)
+    np.testing.assert_allclose(np.asarray(slow.align), np.asarray(full.align), rtol=1e-12)
+    # what is left of C beyond w_alpha C_alpha shrinks with the speed, like the load terms it sums
+    load_terms = np.max(np.asarray(full.total) - 0.7 * np.asarray(full.align))
+    assert np.max(np.abs(np.asarray(slow.total) - 0.7 * np.asarray(slow.align))) <= 1e-5 * load_terms
+
+
+# ------------------------------------------------------------------------------------------------ C4
+def test_c4_torque_cost_ignores_the_closure_axis_and_slip_cost_the_normal_force(tasks):
+    """Synthetic loads: a torque along n_f and a force along n_f are not destabilising; the rest is."""
+    tool, task = tasks["hammer"]
+    loads = task_loads(tool.params, task)
+    T = task.num_steps
+    g = make_grasps([[0.0, 0.0, 0.1]], np.eye(3)[None], [0.03])[0]  # n_f = tool y
+    along, across = np.zeros((T, 3)), np.zeros((T, 3))
+    along[:, 1], across[:, 0] = 5.0, 5.0
+    zero = jnp.zeros((T, 3))
+    mk = lambda F, M: dataclasses.replace(loads, force_tool=jnp.asarray(F), moment_tool=jnp.asarray(M))  # noqa: E731
+    pivot_free = CostParams(lever_arm="com")
+    com = loads.com_tool
+    # pure moment about the closure axis (and about the com, so no lever arm adds to it)
+    c = grasp_costs(mk(zero, along), g, tool.params, pivot_free)
+    assert float(c.tau) == pytest.approx(0.0, abs=1e-12) and float(c.tau_closure) == pytest.approx(5.0)
+    c = grasp_costs(mk(zero, across), g, tool.params, pivot_free)
+    assert float(c.tau) == pytest.approx(5.0)
+    # force along the closure axis: squeezed, no slip; across it: slips by |F| - mu*0
+    c = grasp_costs(mk(along, jnp.cross(com, jnp.asarray(along))), g, tool.params, pivot_free)
+    assert float(c.slip) == pytest.approx(0.0, abs=1e-12)
+    c = grasp_costs(mk(across, jnp.cross(com, jnp.asarray(across))), g, tool.params, pivot_free)
+    assert float(c.slip) == pytest.approx(5.0)
+
+
+# ------------------------------------------------------------------------------------------- gradients
+@pytest.mark.parametrize("kind", ["hammer", "sweep", "reach"])
+def test_gradients_match_central_finite_differences(tasks, grasps_by_kind, kind):
+    """d(C_tau, C_s, C_alpha, C) / d(grasp position, grasp rotation tangent, mu, mass, e)."""
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind][3]
+    R0 = jaxlie.SO3(g.q_tool_grasp)
+    params = CostParams(w_slip=0.3)
+
+    @jax.jit
+    def f(x):  # x = [position (3), rotation tangent (3), mu, mass, restitution]
+        tp = tool.params.replace(mu=x[6], mass=x[7], restitution=x[8])
+        grasp = dataclasses.replace(g, p_tool_grasp=x[:3], q_tool_grasp=(jaxlie.SO3.exp(x[3:6]) @ R0).wxyz)
+        c = grasp_costs(task_loads(tp, task), grasp, tp, params)
+        return jnp.stack([c.tau, c.slip, c.align, c.total])
+
+    x0 = np.concatenate([np.asarray(g.p_tool_grasp), np.zeros(3),
+                         [float(tool.params.mu), float(tool.params.mass), float(tool.params.restitution)]])
+    jac = np.asarray(jax.jit(jax.jacfwd(f))(jnp.asarray(x0)))  # [4 costs, 9 inputs]
+    fd = np.zeros_like(jac)
+    for i in range(len(x0)):
+        e = np.zeros_like(x0)
+        e[i] = FD_STEP
+        fd[:, i] = (np.asarray(f(jnp.asarray(x0 + e))) - np.asarray(f(jnp.asarray(x0 - e)))) / (2 * FD_STEP)
+    assert np.abs(fd).max() > 0
+    for row, cost in enumerate(("tau", "slip", "align", "total")):
+        scale = max(1.0, np.abs(fd[row]).max())
+        np.testing.assert_allclose(jac[row], fd[row], rtol=FD_RTOL, atol=FD_ATOL * scale, err_msg=f"d {cost}")
+
+
+# --------------------------------------------------------------------------------------------- batching
+def test_vmap_equals_a_loop_and_peaks_equal_trace_maxima(tasks, grasps_by_kind):
+    tool, task = tasks["sweep"]
+    g = grasps_by_kind["sweep"]
+    params = VARIANTS[3]
+    batched = itup.wrench_costs(tool, task, g, params)
+    loads = task_loads(tool.params, task, params.include_gravity)
+    for i in range(len(g)):
+        one = grasp_costs(loads, g[i], tool.params, params)
+        trace = grasp_cost_trace(loads, g[i], tool.params, params)
+        for k in COST_NAMES:
+            assert float(getattr(batched, k)[i]) == pytest.approx(float(getattr(one, k)), rel=1e-12, abs=1e-12)
+        for k in ("tau", "slip", "align", "tau_closure"):
+            assert float(getattr(trace, k).max()) == pytest.approx(float(getattr(one, k)), rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize("kind", itup.TASK_KINDS)
+@pytest.mark.parametrize("variant", range(len(VARIANTS)))
+def test_jax_matches_the_numpy_reference(tasks, grasps_by_kind, kind, variant):
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    p = VARIANTS[variant]
+    ref = numpy_wrench_costs(*to_numpy_inputs(tool.params, task, g), w_tau=p.w_tau, w_slip=p.w_slip, w_align=p.w_align,
+                             grip_force=p.grip_force, lever_arm=p.lever_arm, torque_projection=p.torque_projection,
+                             include_gravity=p.include_gravity)
+    out = itup.wrench_costs(tool, task, g, p)
+    for k in COST_NAMES:
+        np.testing.assert_allclose(np.asarray(getattr(out, k)), ref[k], rtol=1e-9, atol=1e-9, err_msg=k)
+
+
+def test_second_call_with_the_same_shapes_does_not_recompile(tasks, grasps_by_kind):
+    tool, task = tasks["reach"]
+    g = grasps_by_kind["reach"]
+    itup.wrench_costs(tool, task, g)
+    before = wrench_costs_jit._cache_size()
+    moved = dataclasses.replace(g, p_tool_grasp=g.p_tool_grasp + 0.001)
+    itup.wrench_costs(tool.with_params(mu=0.3), task, moved, CostParams(w_tau=2.0))
+    assert wrench_costs_jit._cache_size() == before
+    itup.wrench_costs(tool, task, g[:5])  # a new batch size compiles once more
+    assert wrench_costs_jit._cache_size() == before + 1
+
+
+# -------------------------------------------------------------------------------------------- physics
+def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
+    tool, task = tasks["hammer"]
+    R = np.eye(3)[None].repeat(3, 0)
+    g = make_grasps([[0, 0, 0.02], [0, 0, 0.1], [0, 0, 0.2]], R, [0.03] * 3)
+    com = itup.wrench_costs(tool, task, g, CostParams(lever_arm="com"))
+    assert np.ptp(np.asarray(com.tau)) < 1e-9
+    grasp = itup.wrench_costs(tool, task, g)
+    assert np.all(np.diff(np.asarray(grasp.tau)) < 0)  # nearer the head, shorter lever, less torque
+
+
+def test_regimes_of_the_four_tasks(tasks):
+    expected = {"hammer": Regime.DYNAMIC, "knock": Regime.DYNAMIC, "sweep": Regime.CLUSTERED, "reach": Regime.QUASI_STATIC}
+    for kind, (tool, task) in tasks.items():
+        assert itup.classify_regime(tool, task) == expected[kind], kind
+
+
+def test_bad_cost_input(tasks, grasps_by_kind):
+    tool, task = tasks["hammer"]
+    g = grasps_by_kind["hammer"]
+    bad = dataclasses.replace(g, p_tool_grasp=g.p_tool_grasp.at[2, 1].set(jnp.nan))
+    with pytest.raises(itup.InputError, match=r"p_tool_grasp: NaN.*\[2\]"):
+        itup.wrench_costs(tool, task, bad)
+    with pytest.raises(itup.InputError, match="lever_arm"):
+        CostParams(lever_arm="wrist")
+    with pytest.raises(itup.InputError, match="batch"):
+        itup.wrench_costs(tool, task, g[0])
+    with pytest.raises(itup.InputError, match="Task"):
+        itup.wrench_costs(tool, "hammer", g)
+
+
+def test_costs_are_differentiable_through_the_public_batched_function(tasks, grasps_by_kind):
+    tool, task = tasks["knock"]
+    g = grasps_by_kind["knock"]
+    grad = jax.jit(jax.grad(lambda tp: batched_wrench_costs(tp, task, g, CostParams()).total.sum()))(tool.params)
+    assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree_util.tree_leaves(grad))
+    assert isinstance(g, Grasps)

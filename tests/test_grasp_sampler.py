@@ -1,0 +1,98 @@
+"""The antipodal sampler: every grasp antipodal, within the stroke, in the region, not penetrating."""
+
+import dataclasses
+import math
+
+import jax
+import numpy as np
+import pytest
+import trimesh
+
+import itup_jax as itup
+from itup_jax import units
+from itup_jax.grasp_sampler import SamplerConfig, SamplingError
+from itup_jax.grasp import gripper_boxes
+from itup_jax.tool import Box
+
+# Contact normals are read back from the nearest mesh face; on a 48-facet cylinder a point near a facet
+# edge may snap to the neighbouring facet, 7.5 degrees away. The cone check allows that much.
+FACET_ANGLE = 2 * math.pi / 48
+# A sampled pad centre lies on the surface up to float rounding of the ray cast.
+SURFACE_TOL = 1e-6
+# The sampler resolves collisions to its surface-sample spacing (2.5 mm) and grows the gripper boxes by
+# a 1 mm margin to catch shallow cuts between samples; a point of the gripper deeper than this inside
+# the tool would mean the check failed.
+PENETRATION_TOL = 2e-4
+
+
+def _check_grasps(tool, grasps, config=SamplerConfig()):
+    mu = float(tool.params.mu)
+    p = np.asarray(grasps.p_tool_grasp)
+    R = np.asarray(grasps.rotation)
+    w = np.asarray(grasps.width)
+    assert np.all(w <= units.GRIPPER_MAX_OPENING - 2 * config.clearance) and np.all(w >= config.min_width)
+    assert np.all(tool.grasp_region.contains(p))
+    pads = np.asarray(grasps.pad_centres())  # [N, 2, 3]: -y pad, +y pad
+    assert np.all(tool.grasp_region.contains(pads, tol=1e-9))
+    closest, dist, tri = trimesh.proximity.closest_point(tool.mesh, pads.reshape(-1, 3))
+    assert dist.max() < SURFACE_TOL
+    normals = tool.mesh.face_normals[tri].reshape(-1, 2, 3)
+    y = R[:, :, 1]
+    cone = math.atan(mu) + FACET_ANGLE
+    # Outward normal at the -y pad points along -y, at the +y pad along +y: antipodal within the cone.
+    assert np.all(np.einsum("ij,ij->i", normals[:, 0], -y) >= math.cos(cone))
+    assert np.all(np.einsum("ij,ij->i", normals[:, 1], y) >= math.cos(cone))
+    # No penetration, checked independently of the sampler: no point of a dense grid of each gripper box
+    # (fingers opened by the clearance) lies inside the mesh deeper than PENETRATION_TOL (trimesh's
+    # ray-parity containment, then its signed distance).
+    grid = []
+    for i in range(len(p)):
+        for _, lo, hi in gripper_boxes(w[i] + 2 * config.clearance):
+            axes = [np.linspace(lo[k] + 1e-4, hi[k] - 1e-4, 5) for k in range(3)]
+            local = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+            grid.append(local @ R[i].T + p[i])
+    grid = np.concatenate(grid)
+    inside = tool.mesh.contains(grid)
+    depth = trimesh.proximity.signed_distance(tool.mesh, grid[inside]) if inside.any() else np.zeros(1)
+    assert depth.max() <= PENETRATION_TOL
+
+
+@pytest.mark.parametrize("name", ["hammer", "l_stick", "broom", "mallet"])
+def test_sampled_grasps_are_valid(tools, name):
+    tool = tools[name]
+    grasps = itup.sample_grasps(tool, 60, seed=3)
+    assert len(grasps) == 60
+    _check_grasps(tool, grasps)
+
+
+def test_same_key_same_grasps_other_key_other_grasps(tools):
+    tool = tools["l_stick"]
+    key = jax.random.key(7)
+    a = itup.sample_grasps(tool, 50, seed=key)
+    b = itup.sample_grasps(tool, 50, seed=key)
+    c = itup.sample_grasps(tool, 50, seed=jax.random.key(8))
+    for f in ("p_tool_grasp", "q_tool_grasp", "width"):
+        np.testing.assert_array_equal(np.asarray(getattr(a, f)), np.asarray(getattr(b, f)))
+    assert not np.allclose(np.asarray(a.p_tool_grasp), np.asarray(c.p_tool_grasp))
+    d = itup.sample_grasps(tool, 50, seed=jax.random.PRNGKey(7))  # raw uint32 keys work too
+    assert len(d) == 50
+
+
+def test_approach_axes_cover_the_circle_around_the_handle(tools):
+    """Approach directions are drawn around the closure axis: both sides of the handle occur."""
+    g = itup.sample_grasps(tools["hammer"], 200, seed=0)
+    z = np.asarray(g.approach_axis)
+    assert z[:, 0].max() > 0.5 and z[:, 0].min() < -0.5
+
+
+def test_region_without_room_raises(tools):
+    tool = dataclasses.replace(tools["hammer"], grasp_region=Box(np.array([0.055, -0.003, 0.286]), np.array([0.06, 0.003, 0.294])))
+    with pytest.raises(SamplingError, match="found 0 of 10"):
+        itup.sample_grasps(tool, 10, seed=0, config=SamplerConfig(batch=512, max_rounds=2))
+
+
+def test_bad_arguments(tools):
+    with pytest.raises(itup.InputError, match="n must be a positive integer"):
+        itup.sample_grasps(tools["hammer"], 0)
+    with pytest.raises(itup.InputError, match="seed"):
+        itup.sample_grasps(tools["hammer"], 5, seed="abc")

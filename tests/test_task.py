@@ -1,0 +1,105 @@
+"""Tasks: Omega and schedules consistent with the trajectory; defaults inside the UR5e's limits."""
+
+import warnings
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax import units
+from itup_jax.task import peak_speeds
+
+KINDS = itup.TASK_KINDS
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_defaults_build_without_speed_warnings(tools, kind):
+    from itup_jax.task import DEFAULT_TOOL
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        task = itup.make_task(kind, tools[DEFAULT_TOOL[kind]])
+    peaks = peak_speeds(task, tools[DEFAULT_TOOL[kind]])
+    assert peaks["angular"] <= units.UR5E_MAX_JOINT_SPEED
+    T, K = task.num_steps, task.num_contacts
+    assert task.impact.shape == task.drag.shape == (T, K)
+    assert task.traj.R_world_tool.shape == (T, 3, 3)
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(task.n_world), axis=1), 1.0, atol=1e-12)
+    assert set(task.omega) == {"c_tool", "c_obj", "n", "d"}
+
+
+@pytest.mark.parametrize("kind", ["hammer", "knock"])
+def test_swing_strikes_the_target_at_the_impact_speed(tasks, kind):
+    tool, task = tasks[kind]
+    i = int(np.argmax(np.asarray(task.impact[:, 0])))
+    c_world = np.asarray(task.traj.point_position(task.c_tool[0]))[i]
+    np.testing.assert_allclose(c_world, np.asarray(task.c_obj_world[0]), atol=1e-12)
+    v_c = np.asarray(task.traj.point_velocity(task.c_tool[0]))[i]
+    default = {"hammer": itup.task.HammerParams, "knock": itup.task.KnockParams}[kind]().impact_speed
+    assert np.linalg.norm(v_c) == pytest.approx(default, rel=1e-9)
+    n = np.asarray(task.n_world[0])
+    assert v_c @ n < -0.9 * np.linalg.norm(v_c)  # moving into the target, nearly along its normal
+    # the face that strikes is the tool's contact face
+    R = np.asarray(task.traj.R_world_tool[i])
+    np.testing.assert_allclose(R @ tool.contact_normal, -n, atol=1e-12)
+
+
+def test_hammer_winds_up_before_it_swings(tasks):
+    tool, task = tasks["hammer"]
+    z = np.asarray(task.traj.point_position(task.c_tool[0]))[:, 2]
+    i = int(np.argmax(np.asarray(task.impact[:, 0])))
+    assert z[:i].max() > z[i] + 0.2  # the head rises well above the nail first
+
+
+def test_sweep_has_several_contacts_at_once(tasks):
+    _, task = tasks["sweep"]
+    acting = (np.maximum(np.asarray(task.impact), np.asarray(task.drag)) > 0).sum(axis=1)
+    assert acting.max() >= 3
+    first_hits = np.argmax(np.asarray(task.impact[:, :-1]), axis=0)
+    assert np.all(np.diff(first_hits) > 0)  # debris further ahead is met later
+
+
+@pytest.mark.parametrize("mode,sign", [("pull", -1.0), ("push", 1.0)])
+def test_reach_moves_the_block_towards_or_away_from_the_robot(tools, mode, sign):
+    task = itup.make_task("reach", tools["l_stick"], mode=mode)
+    assert float(task.d_world[0]) == sign
+    acting = np.asarray(task.drag[:, 0]) > 0
+    v = np.asarray(task.traj.v_world)[acting]
+    assert np.all(v[:, 0] * sign >= -1e-12) and (v[:, 0] * sign).max() > 0.1
+    # the face in contact pushes along the motion: the block's normal opposes the motion
+    assert float(task.n_world[0] @ task.d_world) == pytest.approx(-1.0)
+
+
+def test_overrides_change_the_trajectory(tools):
+    fast = itup.make_task("hammer", tools["hammer"], impact_speed=1.0, steps=80)
+    assert fast.num_steps == 80
+    i = int(np.argmax(np.asarray(fast.impact[:, 0])))
+    assert np.linalg.norm(np.asarray(fast.traj.point_velocity(fast.c_tool[0]))[i]) == pytest.approx(1.0)
+
+
+def test_absurd_speed_warns(tools):
+    with pytest.warns(UserWarning, match="joint-speed limit"):
+        itup.make_task("hammer", tools["hammer"], impact_speed=20.0)
+
+
+@pytest.mark.parametrize("kind,kwargs,match", [
+    ("drill", {}, r"task kind 'drill'.*known: hammer"),
+    ("hammer", {"speed": 1.0}, r"unknown parameter.*speed"),
+    ("hammer", {"impact_speed": -1.0}, r"impact_speed.*> 0"),
+    ("hammer", {"impact_speed": float("nan")}, r"impact_speed"),
+    ("hammer", {"steps": 3}, r"steps.*>= 8"),
+    ("hammer", {"target": (0.0, float("nan"), 0.0)}, r"target"),
+    ("reach", {"mode": "throw"}, r"mode.*'pull' or 'push'"),
+    ("sweep", {"debris_gaps": (0.1, 0.5)}, r"debris_gaps.*shorter than the stroke"),
+])
+def test_bad_task_input(tools, kind, kwargs, match):
+    with pytest.raises(itup.InputError, match=match):
+        itup.make_task(kind, tools["hammer" if kind != "sweep" else "broom"], **kwargs)
+
+
+def test_task_is_a_pytree_with_static_kind(tasks):
+    import jax
+    _, task = tasks["hammer"]
+    leaves, treedef = jax.tree_util.tree_flatten(task)
+    assert all(isinstance(x, jnp.ndarray) for x in leaves)
+    assert jax.tree_util.tree_unflatten(treedef, leaves).kind == "hammer"

@@ -1,0 +1,197 @@
+"""Tools: mass properties against closed forms, built-in tools, user tools, bad input."""
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+import itup_jax as itup
+from itup_jax import priors
+from itup_jax.tool import combine_mass_properties, mesh_mass_properties
+
+# A 48-facet prism has 0.29 % less cross-section than its cylinder (n sin(2 pi / n) / (2 pi)); the
+# second moments differ by ~0.6 %. Compare built-in (48-facet) parts to true cylinders at 1 %.
+POLYGON_RTOL = 0.01
+# Boxes are exact, but an STL file stores vertices in float32 (relative rounding ~6e-8 per coordinate;
+# mass and inertia are cubic and quintic in them).
+EXACT_RTOL = 1e-9
+STL_RTOL = 1e-6
+
+
+def _write_tool(tmp_path, mesh, spec_text, name="tool"):
+    mesh_path = tmp_path / f"{name}.stl"
+    mesh.export(mesh_path)
+    spec_path = tmp_path / f"{name}.toml"
+    spec_path.write_text(spec_text)
+    return str(mesh_path), str(spec_path)
+
+
+BOX_SPEC = """
+name = "block"
+category = "mallet"
+contact_point = [0.0, 0.0, 0.15]
+contact_normal = [0.0, 0.0, 1.0]
+grasp_region = { min = [-0.02, -0.02, -0.15], max = [0.02, 0.02, 0.0] }
+density = 700.0
+"""
+
+
+def test_box_tool_mass_and_inertia_equal_closed_form(tmp_path):
+    a, b, c = 0.03, 0.02, 0.30
+    mesh_path, spec_path = _write_tool(tmp_path, trimesh.creation.box((a, b, c)), BOX_SPEC)
+    tool = itup.load_tool(mesh_path, spec=spec_path)
+    m = 700.0 * a * b * c
+    I = m / 12 * np.diag([b**2 + c**2, a**2 + c**2, a**2 + b**2])
+    np.testing.assert_allclose(float(tool.params.mass), m, rtol=STL_RTOL)
+    np.testing.assert_allclose(np.asarray(tool.params.com), 0.0, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(tool.params.inertia), I, rtol=STL_RTOL, atol=1e-15)
+
+
+def test_mass_override_scales_inertia(tmp_path):
+    a, b, c = 0.03, 0.02, 0.30
+    spec = BOX_SPEC.replace("density = 700.0", "mass = 0.5")
+    mesh_path, spec_path = _write_tool(tmp_path, trimesh.creation.box((a, b, c)), spec)
+    tool = itup.load_tool(mesh_path, spec=spec_path)
+    np.testing.assert_allclose(np.asarray(tool.params.inertia)[2, 2], 0.5 / 12 * (a**2 + b**2), rtol=STL_RTOL)
+
+
+def _cylinder_inertia(m, r, length):
+    """Solid cylinder along z about its centre: (I_xx = I_yy, I_zz)."""
+    return m * (3 * r**2 + length**2) / 12, m * r**2 / 2
+
+
+def test_hammer_mass_properties_equal_closed_form_of_its_parts(tools):
+    """Handle (hickory cylinder along z) + head (steel cylinder along x), parallel-axis by hand."""
+    tool = tools["hammer"]
+    rho_h, rho_s = priors.MATERIAL_DENSITY["hickory"], priors.MATERIAL_DENSITY["steel"]
+    r_h, L_h = 0.0145, 0.290 - 0.011
+    r_s, L_s, z_s, x_s = 0.011, 0.110, 0.290, 0.005
+    m_h, m_s = rho_h * math.pi * r_h**2 * L_h, rho_s * math.pi * r_s**2 * L_s
+    com = (m_h * np.array([0, 0, L_h / 2]) + m_s * np.array([x_s, 0, z_s])) / (m_h + m_s)
+    it_h, ia_h = _cylinder_inertia(m_h, r_h, L_h)
+    it_s, ia_s = _cylinder_inertia(m_s, r_s, L_s)
+    I = np.diag([it_h, it_h, ia_h]) + np.diag([ia_s, it_s, it_s])
+    for m, c in ((m_h, np.array([0, 0, L_h / 2])), (m_s, np.array([x_s, 0, z_s]))):
+        d = c - com
+        I = I + m * (d @ d * np.eye(3) - np.outer(d, d))
+    np.testing.assert_allclose(float(tool.params.mass), m_h + m_s, rtol=POLYGON_RTOL)
+    np.testing.assert_allclose(np.asarray(tool.params.com), com, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(tool.params.inertia), I, rtol=POLYGON_RTOL, atol=1e-6)
+
+
+def test_combine_mass_properties_of_two_halves_equals_the_whole():
+    whole = trimesh.creation.box((0.2, 0.04, 0.02))
+    left = trimesh.creation.box((0.1, 0.04, 0.02), transform=trimesh.transformations.translation_matrix((-0.05, 0, 0)))
+    right = trimesh.creation.box((0.1, 0.04, 0.02), transform=trimesh.transformations.translation_matrix((0.05, 0, 0)))
+    m, c, i = combine_mass_properties([mesh_mass_properties(left, 800.0), mesh_mass_properties(right, 800.0)])
+    m0, c0, i0 = mesh_mass_properties(whole, 800.0)
+    np.testing.assert_allclose(m, m0, rtol=EXACT_RTOL)
+    np.testing.assert_allclose(c, c0, atol=1e-12)
+    np.testing.assert_allclose(i, i0, rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("name,mass_range,length_range", [
+    ("hammer", (0.3, 0.6), (0.28, 0.34)),
+    ("broom", (0.2, 0.8), (0.3, 0.5)),
+    ("mallet", (0.15, 0.5), (0.35, 0.5)),
+    ("l_stick", (0.08, 0.4), (0.4, 0.55)),
+])
+def test_builtin_tools_are_realistic_and_consistent(tools, name, mass_range, length_range):
+    tool = tools[name]
+    assert tool.mesh.is_watertight
+    assert mass_range[0] <= tool.mass <= mass_range[1]
+    lo, hi = tool.mesh.bounds
+    assert length_range[0] <= (hi - lo).max() <= length_range[1]
+    # every contact point lies on the surface, the contact normal is a unit vector
+    _, dist, _ = trimesh.proximity.closest_point(tool.mesh, tool.contact_points)
+    assert np.all(dist < 1.5e-3)
+    assert abs(np.linalg.norm(tool.contact_normal) - 1) < 1e-12
+    # the centre of mass lies inside the tool's bounding box; the grasp region meets the mesh
+    assert np.all(np.asarray(tool.params.com) > lo) and np.all(np.asarray(tool.params.com) < hi)
+    assert np.any(tool.grasp_region.contains(tool.mesh.vertices, tol=0.02))
+    # priors come from the category table
+    assert float(tool.params.mu) == priors.CATEGORY_PRIORS[tool.category].mu.value
+
+
+def test_hammer_centre_of_mass_is_near_the_head(tools):
+    """Steel head, wooden handle: the com sits in the top fifth of a claw hammer."""
+    assert float(tools["hammer"].params.com[2]) > 0.8 * 0.30
+
+
+def test_default_contact_normal_is_the_nearest_face_normal(tmp_path):
+    spec = BOX_SPEC.replace('contact_normal = [0.0, 0.0, 1.0]\n', "")
+    mesh_path, spec_path = _write_tool(tmp_path, trimesh.creation.box((0.03, 0.02, 0.30)), spec)
+    np.testing.assert_allclose(itup.load_tool(mesh_path, spec=spec_path).contact_normal, [0, 0, 1], atol=1e-12)
+
+
+def test_with_params_validates_and_scales():
+    tool = itup.load_tool("hammer")
+    heavier = tool.with_params(mass=2 * tool.mass)
+    np.testing.assert_allclose(np.asarray(heavier.params.inertia), 2 * np.asarray(tool.params.inertia))
+    assert float(tool.with_params(mu=0.3).params.mu) == 0.3
+
+
+# ----------------------------------------------------------------------------------------------- bad input
+def _expect(match, fn, *args, **kwargs):
+    with pytest.raises(itup.InputError, match=match):
+        fn(*args, **kwargs)
+
+
+def test_empty_mesh_is_refused(tmp_path):
+    path = tmp_path / "empty.obj"
+    path.write_text("# no geometry\n")
+    spec = tmp_path / "s.toml"
+    spec.write_text(BOX_SPEC)
+    _expect(r"empty\.obj.*(empty|cannot read)", itup.load_tool, str(path), spec=str(spec))
+
+
+def test_open_mesh_is_refused(tmp_path):
+    box = trimesh.creation.box((0.03, 0.02, 0.3))
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2], process=False)
+    mesh_path, spec_path = _write_tool(tmp_path, open_box, BOX_SPEC)
+    _expect(r"tool\.stl.*not watertight", itup.load_tool, mesh_path, spec=spec_path)
+
+
+@pytest.mark.parametrize("line,match", [
+    ("mass = 0.0", r"field 'mass'.*> 0"),
+    ("mass = -1.0", r"field 'mass'.*> 0"),
+    ("mu = -0.1", r"mu.*>= 0"),
+    ("restitution = 1.5", r"restitution.*\[0, 1\]"),
+    ("contact_duration = 0.0", r"contact_duration.*> 0"),
+    ("density = -5.0", r"field 'density'.*> 0"),
+])
+def test_bad_physical_values_are_refused(tmp_path, line, match):
+    spec = BOX_SPEC.replace("density = 700.0", line) if "density" in line else BOX_SPEC + line + "\n"
+    mesh_path, spec_path = _write_tool(tmp_path, trimesh.creation.box((0.03, 0.02, 0.3)), spec)
+    _expect(match, itup.load_tool, mesh_path, spec=spec_path)
+
+
+@pytest.mark.parametrize("old,new,match", [
+    ('category = "mallet"', 'category = "spoon"', r"category.*unknown tool category 'spoon'.*known"),
+    ("contact_normal = [0.0, 0.0, 1.0]", "contact_normal = [0.0, 0.0, 0.0]", r"contact_normal.*zero-length"),
+    ("contact_point = [0.0, 0.0, 0.15]", "contact_point = [0.0, nan, 0.15]", r"contact_point.*NaN"),
+    ("contact_point = [0.0, 0.0, 0.15]", "contact_point = [0.0, 0.15]", r"contact_point.*three numbers"),
+    ('name = "block"', "", r"missing required field.*name"),
+    ('name = "block"', 'name = "block"\ncolour = "red"', r"unknown field.*colour"),
+    ("max = [0.02, 0.02, 0.0]", "max = [-0.03, 0.02, 0.0]", r"grasp_region.*below max"),
+    ('name = "block"', 'name = "block', r"malformed TOML"),
+])
+def test_malformed_specs_are_refused(tmp_path, old, new, match):
+    mesh_path, spec_path = _write_tool(tmp_path, trimesh.creation.box((0.03, 0.02, 0.3)), BOX_SPEC.replace(old, new))
+    _expect(match, itup.load_tool, mesh_path, spec=spec_path)
+
+
+def test_unknown_builtin_and_missing_spec_and_missing_file(tmp_path):
+    _expect(r"'spoon'.*built-ins: hammer", itup.load_tool, "spoon")
+    _expect(r"needs a TOML spec", itup.load_tool, "thing.stl")
+    spec = tmp_path / "s.toml"
+    spec.write_text(BOX_SPEC)
+    _expect(r"nope\.stl.*not found", itup.load_tool, str(tmp_path / "nope.stl"), spec=str(spec))
+    _expect(r"missing\.toml.*not found", itup.load_tool, str(tmp_path / "x.stl"), spec=str(tmp_path / "missing.toml"))
+
+
+def test_with_params_refuses_bad_values(tools):
+    _expect(r"mu.*>= 0", tools["hammer"].with_params, mu=-0.2)
+    _expect(r"mass.*> 0", tools["hammer"].with_params, mass=0.0)
+    _expect(r"unknown parameter", tools["hammer"].with_params, colour=1.0)
