@@ -222,9 +222,7 @@ def test_second_call_with_the_same_shapes_does_not_recompile(tasks, grasps_by_ki
     before = wrench_costs_jit._cache_size()
     moved = dataclasses.replace(g, p_tool_grasp=g.p_tool_grasp + 0.001)
     itup.wrench_costs(tool.with_params(mu=0.3), task, moved, CostParams(w_tau=2.0))
-    assert wrench_costs_jit._cache_size() == before
-    itup.wrench_costs(tool, task, g[:5])  # a new batch size compiles once more
-    assert wrench_costs_jit._cache_size() == before + 1
+    assert before >= 1 and wrench_costs_jit._cache_size() == before
 
 
 # -------------------------------------------------------------------------------------------- physics
