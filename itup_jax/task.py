@@ -107,6 +107,7 @@ class HammerParams:
     wind_up: float = 0.9  # rad, swing angle raised before the strike
     t_wind: float = 0.8  # s (a rest-to-rest quintic peaks at 1.875 x its mean rate)
     follow_through: float = 0.05  # rad past the impact pose
+    rest_angle: float = 0.15  # rad short of the impact pose at the start (the face clear of the nail)
     pivot_offset: float = 0.10  # m, pivot behind the handle butt along the handle
     target: tuple = (0.55, 0.0, 0.05)  # m, nail head (world)
     target_mass: float = math.inf  # kg: the nail is held by the wood
@@ -121,8 +122,9 @@ class KnockParams:
     wind_up: float = 0.8  # rad
     t_wind: float = 0.7  # s
     follow_through: float = 0.25  # rad
+    rest_angle: float = 0.15  # rad short of the impact pose at the start
     pivot_offset: float = 0.10  # m
-    target: tuple = (0.50, 0.0, 0.30)  # m, struck face of the top block (world)
+    target: tuple = (0.50, 0.0, 0.21)  # m, struck face of a tower's top block (world)
     target_mass: float = 0.05  # kg, one wooden block
 
 
@@ -149,16 +151,18 @@ class SweepParams:
 
 @dataclasses.dataclass(frozen=True)
 class ReachParams:
-    """Reach: slow extension past a block, then a pull (or push) that slides it over the table.
+    """Reach: slow extension past a block, lowering behind it, then a pull (or push) that slides it.
 
-    The stick lies horizontal along world +x with the hook pointing down.
+    The stick lies horizontal along world +x with the hook pointing down; it extends `lift` above
+    its working height (the hook clears the block), lowers during `t_pause`, then moves.
     """
 
     steps: int = 64
     mode: str = "pull"  # "pull" with the hook's inner face, or "push" with its outer face
     extension: float = 0.20  # m
     t_extend: float = 1.2  # s
-    t_pause: float = 0.2  # s
+    t_pause: float = 0.4  # s, lowering the hook behind the block
+    lift: float = 0.12  # m, clearance above the working height while extending (the hook sags in the grasp)
     move: float = 0.15  # m, pull (or push) distance
     t_move: float = 1.0  # s
     start: tuple = (0.30, 0.0, 0.10)  # m, tool-frame origin at the start
@@ -260,7 +264,7 @@ def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray,
     t_swing, t_follow = 2.0 * prm.wind_up / omega_impact, 2.0 * prm.follow_through / omega_impact
     t, (k0, k1, k2, k3) = _time_grid(prm.steps, [prm.t_wind, t_swing, t_follow])
     theta = Profile.through([
-        (k0, 0.0, 0.0, 0.0),
+        (k0, -prm.rest_angle, 0.0, 0.0),
         (k1, -prm.wind_up, 0.0, 0.0),
         (k2, 0.0, omega_impact, 0.0),
         (k3, prm.follow_through, 0.0, 0.0),
@@ -339,10 +343,12 @@ def _reach(tool: Tool, prm: ReachParams) -> Task:
         (k0, 0.0, 0.0, 0.0), (k1, prm.extension, 0.0, 0.0), (k2, prm.extension, 0.0, 0.0),
         (k3, prm.extension + sign * prm.move, 0.0, 0.0),
     ])
+    h = Profile.through([(k0, prm.lift, 0.0, 0.0), (k1, prm.lift, 0.0, 0.0), (k2, 0.0, 0.0, 0.0), (k3, 0.0, 0.0, 0.0)])
     p0 = np.asarray(prm.start, float)
+    z = np.array([0.0, 0.0, 1.0])
 
     def pose(tt):
-        return jnp.asarray(p0) + s(tt) * jnp.asarray(x), jnp.asarray(R0)
+        return jnp.asarray(p0) + s(tt) * jnp.asarray(x) + h(tt) * jnp.asarray(z), jnp.asarray(R0)
 
     traj = sample_pose_fn(pose, jnp.asarray(t))
     # Pull: the hook's inner face (the tool's contact normal) drives the block towards the robot.

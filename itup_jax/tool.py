@@ -123,6 +123,9 @@ class Tool:
         tools that touch the target in several places at once (broom bristles).
       grasp_region: `Box` in which grasps are allowed (the handle).
       parts: description of the parts, ((name, material, mass_kg), ...), for documentation.
+      primitives: collision primitives for the simulator, (("capsule", p0, p1, radius) |
+        ("box", lo, hi), ...) in the tool frame; empty for a mesh tool (the simulator then uses the
+        mesh's convex hull).
     """
 
     name: str
@@ -134,6 +137,7 @@ class Tool:
     contact_points: np.ndarray
     grasp_region: Box
     parts: tuple = ()
+    primitives: tuple = ()
 
     @property
     def mass(self) -> float:
@@ -210,31 +214,37 @@ def combine_mass_properties(
 _SECTIONS = 48  # facets around a cylinder: mass within 0.3 % of the true cylinder
 
 
-def _cylinder(radius: float, p0: Sequence[float], p1: Sequence[float]) -> trimesh.Trimesh:
-    return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], float), sections=_SECTIONS)
+def _cylinder(radius: float, p0: Sequence[float], p1: Sequence[float]) -> tuple[trimesh.Trimesh, tuple]:
+    """A solid cylinder part and its collision primitive: a capsule of the same length overall."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    u = (p1 - p0) / np.linalg.norm(p1 - p0)
+    mesh = trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1]), sections=_SECTIONS)
+    return mesh, ("capsule", p0 + radius * u, p1 - radius * u, radius)
 
 
-def _box(lo: Sequence[float], hi: Sequence[float]) -> trimesh.Trimesh:
+def _box(lo: Sequence[float], hi: Sequence[float]) -> tuple[trimesh.Trimesh, tuple]:
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    return trimesh.creation.box(extents=hi - lo, transform=trimesh.transformations.translation_matrix((lo + hi) / 2))
+    mesh = trimesh.creation.box(extents=hi - lo, transform=trimesh.transformations.translation_matrix((lo + hi) / 2))
+    return mesh, ("box", lo, hi)
 
 
 def assemble_tool(
     *,
     name: str,
     category: str,
-    parts: Sequence[tuple[str, str, trimesh.Trimesh]],
+    parts: Sequence[tuple[str, str, tuple[trimesh.Trimesh, tuple]]],
     contact_points: Any,
     contact_normal: Sequence[float],
     grasp_region: tuple[Sequence[float], Sequence[float]],
 ) -> Tool:
-    """Build a tool from parts `(part_name, material, closed_mesh)` that do not overlap.
+    """Build a tool from parts `(part_name, material, (closed_mesh, primitive))` that do not overlap.
 
     The mass properties are the sum of the parts' (each at its material's density); the collision and
     sampling mesh is their boolean union.
     """
-    props, described, meshes = [], [], []
-    for part_name, material, mesh in parts:
+    props, described, meshes, prims = [], [], [], []
+    for part_name, material, (mesh, prim) in parts:
+        prims.append(prim)
         mesh = check_mesh(mesh, f"tool {name!r} part {part_name!r}")
         m, c, i = mesh_mass_properties(mesh, priors.MATERIAL_DENSITY[material])
         props.append((m, c, i))
@@ -253,7 +263,7 @@ def assemble_tool(
         name=name, category=category, mesh=union, params=params, contact_point=cps[0],
         contact_normal=_unit(contact_normal, f"tool {name!r}.contact_normal"), contact_points=cps,
         grasp_region=_box_from(grasp_region[0], grasp_region[1], f"tool {name!r}.grasp_region"),
-        parts=tuple(described),
+        parts=tuple(described), primitives=tuple(prims),
     )
 
 

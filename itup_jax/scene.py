@@ -1,0 +1,218 @@
+"""Scene composition with `mujoco.MjSpec`: UR5e + parallel gripper + any tool + a task environment.
+
+    scene = build_scene(tool, task)        # -> Scene: compiled MjModel plus the indices the rollout needs
+
+The composed model: the task environment from `mjcf/scenes/<kind>.xml` (moved so its target sits at
+the task's c_obj), the UR5e from `mjcf/universal_robots_ur5e/ur5e.xml` at the world origin, the gripper
+from `mjcf/parallel_gripper/gripper.xml` attached to the flange (the wrist force/torque sensor between
+them), and the tool as a free body whose mass and inertia are the `Tool`'s. Collision is by explicit
+pairs only (pads-tool, tool-target, tool-table for sweep and reach; the environment's own pairs),
+elliptic cones. The arm has no collision geometry: IK keeps its elbow and wrist above the table.
+
+Physics of the tool's contacts, from the tool's priors:
+  * pads-tool friction: mu (torsional 0.005 m, an assumed pad patch);
+  * tool-target: MuJoCo's soft contact as a damped spring whose damping ratio gives the restitution,
+    zeta = -ln e / sqrt(pi^2 + ln^2 e), and whose half period is the contact duration,
+    timeconst = dt_c sqrt(1 - zeta^2) / (pi zeta) (MuJoCo clamps it to >= 2 timesteps).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from itup_jax.errors import InputError
+from itup_jax.task import Task
+from itup_jax.tool import Tool
+
+MJCF_DIR = Path(os.environ.get("ITUP_MJCF_DIR", Path(__file__).resolve().parent.parent / "mjcf"))
+UR5E_XML = MJCF_DIR / "universal_robots_ur5e" / "ur5e.xml"
+GRIPPER_XML = MJCF_DIR / "parallel_gripper" / "gripper.xml"
+TIMESTEP = 0.002  # s
+ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+PAD_TORSION = 0.005  # m, torsional friction length of the pads (assumed contact patch radius)
+TOOL_TARGET_FRICTION = 0.5  # -, tool on nail/blocks (assumed)
+TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed)
+
+
+def scene_xml(kind: str) -> Path:
+    return MJCF_DIR / "scenes" / f"{kind}.xml"
+
+
+def restitution_solref(restitution: float, contact_duration: float, timestep: float = TIMESTEP) -> tuple[float, float]:
+    """MuJoCo solref (timeconst s, dampratio) whose spring-damper bounces with `restitution` over
+    half a period of `contact_duration` seconds.
+
+    The time constant is clamped to 2 timesteps here, as native MuJoCo would do silently, so that
+    MJX and native MuJoCo integrate the same contact.
+    """
+    e = min(max(float(restitution), 1e-3), 0.999)
+    zeta = -math.log(e) / math.sqrt(math.pi**2 + math.log(e) ** 2)
+    return max(contact_duration * math.sqrt(1 - zeta**2) / (math.pi * zeta), 2 * timestep), zeta
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Scene:
+    """A compiled scene and the indices a rollout needs (host side)."""
+
+    model: mujoco.MjModel
+    kind: str
+    tool: Tool
+    arm_qpos: np.ndarray  # [6] qpos addresses of the arm joints
+    arm_dof: np.ndarray  # [6] dof addresses
+    finger_qpos: np.ndarray  # [2]
+    tool_qpos: int  # address of the tool's free joint (7 values)
+    tool_dof: int
+    grip_actuator: int
+    arm_actuators: np.ndarray  # [6] position servos
+    arm_vel_actuators: np.ndarray  # [6] velocity servos (velocity feed-forward)
+    grasp_site: int
+    ft_site: int
+    sensors: dict  # name -> (adr, dim)
+    tool_target_pairs: np.ndarray  # pair ids
+    pad_tool_pairs: np.ndarray
+
+    def sensor(self, sensordata: np.ndarray, name: str) -> np.ndarray:
+        """Slice a named sensor out of sensordata [..., nsensordata]."""
+        adr, dim = self.sensors[name]
+        return sensordata[..., adr:adr + dim]
+
+
+def _add_tool(spec: mujoco.MjSpec, tool: Tool) -> list[str]:
+    body = spec.worldbody.add_body(name="tool", pos=[0.0, 0.0, 1.0])
+    body.add_freejoint(name="tool")
+    p = tool.params
+    body.mass = float(p.mass)
+    body.ipos = np.asarray(p.com, float)
+    I = np.asarray(p.inertia, float)
+    body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
+    body.explicitinertial = True
+    names = []
+    kw = dict(contype=0, conaffinity=0, rgba=[0.55, 0.35, 0.2, 1.0], density=0.0)
+    if tool.primitives:
+        for i, prim in enumerate(tool.primitives):
+            name = f"tool_{i}"
+            if prim[0] == "capsule":
+                _, a, b, r = prim
+                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
+            else:
+                _, lo, hi = prim
+                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
+            names.append(name)
+    else:  # a user's mesh: its convex hull (MuJoCo and MJX collide convex meshes)
+        hull = tool.mesh.convex_hull
+        spec.add_mesh(name="tool_hull", uservert=np.asarray(hull.vertices, float).ravel(),
+                      userface=np.asarray(hull.faces, np.int32).ravel())
+        body.add_geom(name="tool_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="tool_hull", **kw)
+        names.append("tool_0")
+    return names
+
+
+_TARGET_GEOMS = {
+    "hammer": ("nail_head",),
+    "sweep": ("debris_0", "debris_1", "debris_2"),
+    "knock": ("block_3", "block_2"),
+    "reach": ("block",),
+}
+
+
+def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
+    """Move the environment so its targets sit where the task expects them (world)."""
+    c_obj = np.asarray(task.c_obj_world, float)
+    n = np.asarray(task.n_world[0], float)  # from the target into the tool
+    if task.kind == "hammer":
+        head_top = c_obj[0]
+        if head_top[2] < 0.045:
+            raise InputError(f"hammer scene: nail head at z = {head_top[2]:.3f} m leaves no nail above the 40 mm board")
+        spec.body("nail").pos = head_top
+        spec.body("board").pos = [head_top[0], head_top[1], 0.02]
+        spec.joint("nail_depth").range = [-(head_top[2] - 0.041), 0.0]  # stops 1 mm above the board
+    elif task.kind == "sweep":
+        push = -n[:2] / np.linalg.norm(n[:2])  # horizontal direction the bristles push the debris
+        for i in range(3):
+            centre = c_obj[i, :2] + 0.021 * push
+            spec.body(f"debris_{i}").pos = [centre[0], centre[1], 0.02]
+    elif task.kind == "knock":
+        centre = c_obj[0] - 0.0255 * n  # the top block's centre, half a block behind the struck face
+        if abs(c_obj[0, 2] - 0.21) > 0.02:
+            raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be at the top block's height 0.21 m")
+        for i in range(4):
+            spec.body(f"block_{i}").pos = [centre[0], centre[1], 0.03 + 0.06 * i]
+    elif task.kind == "reach":
+        centre = c_obj[0] - 0.041 * n  # the block lies on the far side of the hook's contact face
+        spec.body("block").pos = [centre[0], centre[1], 0.03]
+
+
+def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
+    """Compose and compile the scene for `tool` doing `task` (host side)."""
+    if task.kind not in _TARGET_GEOMS:
+        raise InputError(f"build_scene: no scene for task kind {task.kind!r}")
+    spec = mujoco.MjSpec.from_file(str(scene_xml(task.kind)))
+    _place_environment(spec, task)
+    arm = mujoco.MjSpec.from_file(str(UR5E_XML))
+    gripper = mujoco.MjSpec.from_file(str(GRIPPER_XML))
+    spec.worldbody.add_frame().attach_body(arm.body("base"), "ur5e/", "")
+    spec.site("ur5e/flange").attach_body(gripper.body("gripper_base"), "gripper/", "")
+    # attach keeps the parent's <option>: set the solver options on the composed spec (DESIGN.md)
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10.0
+    tool_geoms = _add_tool(spec, tool)
+
+    mu = float(tool.params.mu)
+    pad_pairs, target_pairs = [], []
+    for pad in ("gripper/pad_neg", "gripper/pad_pos"):
+        for g in tool_geoms:
+            spec.add_pair(name=f"{pad}-{g}", geomname1=pad, geomname2=g, condim=4,
+                          friction=[mu, mu, PAD_TORSION, 1e-4, 1e-4], solref=[0.004, 1.0],
+                          solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
+            pad_pairs.append(f"{pad}-{g}")
+    solref = restitution_solref(float(tool.params.restitution), float(tool.params.contact_duration))
+    for target in _TARGET_GEOMS[task.kind]:
+        for g in tool_geoms:
+            spec.add_pair(name=f"{g}-{target}", geomname1=g, geomname2=target, condim=3,
+                          friction=[TOOL_TARGET_FRICTION] * 2 + [0.005, 1e-4, 1e-4], solref=list(solref))
+            target_pairs.append(f"{g}-{target}")
+    if task.kind in ("sweep", "reach"):  # the tool works on the table: bristles and hook touch it
+        for g in tool_geoms:
+            spec.add_pair(name=f"{g}-table", geomname1=g, geomname2="table", condim=3,
+                          friction=[TOOL_TABLE_FRICTION] * 2 + [0.005, 1e-4, 1e-4])
+    # sensors: the tool's pose in the grasp frame, and in the world
+    mj = mujoco.mjtObj
+    for name, stype, ref in (("tool_pos_grasp", mujoco.mjtSensor.mjSENS_FRAMEPOS, "gripper/grasp"),
+                             ("tool_quat_grasp", mujoco.mjtSensor.mjSENS_FRAMEQUAT, "gripper/grasp"),
+                             ("tool_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS, None),
+                             ("tool_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT, None)):
+        kw = dict(name=name, type=stype, objtype=mj.mjOBJ_XBODY, objname="tool")  # body frame, not inertial
+        if ref:
+            kw.update(reftype=mj.mjOBJ_SITE, refname=ref)
+        spec.add_sensor(**kw)
+    for key in list(spec.keys):  # the arm's keyframe no longer matches the composed qpos
+        spec.delete(key)
+    model = spec.compile()
+
+    def jid(name):
+        return model.joint(name).id
+
+    sensors = {model.sensor(i).name: (int(model.sensor_adr[i]), int(model.sensor_dim[i])) for i in range(model.nsensor)}
+    arm_ids = [jid(f"ur5e/{j}") for j in ARM_JOINTS]
+    return Scene(
+        model=model, kind=task.kind, tool=tool,
+        arm_qpos=np.array([model.jnt_qposadr[j] for j in arm_ids]),
+        arm_dof=np.array([model.jnt_dofadr[j] for j in arm_ids]),
+        finger_qpos=np.array([model.jnt_qposadr[jid(f"gripper/finger_{s}")] for s in ("neg", "pos")]),
+        tool_qpos=int(model.jnt_qposadr[jid("tool")]), tool_dof=int(model.jnt_dofadr[jid("tool")]),
+        grip_actuator=model.actuator("gripper/grip").id,
+        arm_actuators=np.array([model.actuator(f"ur5e/{j}").id for j in ARM_JOINTS]),
+        arm_vel_actuators=np.array([model.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS]),
+        grasp_site=model.site("gripper/grasp").id, ft_site=model.site("gripper/ft_site").id,
+        sensors=sensors,
+        tool_target_pairs=np.array([model.pair(n).id for n in target_pairs]),
+        pad_tool_pairs=np.array([model.pair(n).id for n in pad_pairs]),
+    )

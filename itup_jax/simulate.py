@@ -1,0 +1,460 @@
+"""Executing grasps in MuJoCo: batched rollouts with two backends and one label schema.
+
+    result = simulate(tool, task, grasps, backend=None, seed=0)   # result.labels.<name>: arrays [N]
+
+Per rollout: the tool starts in the gripper at grasp g with the pads closed on it at the grip force;
+the arm holds still for `settle_time` (the static holding wrench is measured at its end), then its
+flange follows the task trajectory xi(t) through closed-form UR5e inverse kinematics (`ik.py`), as
+position targets of the joint servos. Recorded per step (sensors, so both backends record the same):
+wrist force/torque at the flange/gripper interface, the tool's pose in the grasp frame and in the
+world, and the task objects' state.
+
+Backends (same inputs, same outputs):
+  * 'native': `mujoco.rollout` with one MjData per thread and one MjModel per rollout (so mass,
+    friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
+  * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
+    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
+    batch of 128 or more hangs: `rollout_mjx` refuses a per-device batch above 64 on CPU.
+
+Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible` and not stepped in
+earnest; rollouts that blow up are flagged `diverged`. Neither is a label: `Labels.valid` is False.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import os
+from typing import Any
+
+import jax
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from itup_jax import ik, units
+from itup_jax.errors import InputError
+from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.scene import Scene, build_scene, restitution_solref
+from itup_jax.task import Task
+from itup_jax.tool import Tool
+
+#: The UR5e posture the first IK solution is chosen near (elbow up, wrist down): 'home'.
+HOME_Q = np.array([0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0])
+#: Distance from the flange to the grasp frame along the approach axis (gripper.xml): m.
+FLANGE_TO_GRASP = 0.085
+#: Joint ranges of the MJCF (rad): +-2 pi, elbow +-pi.
+JOINT_LIMITS = np.array([2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi])
+#: Elbow and wrist joints must stay this high above the table (m): the arm has no collision geometry.
+ARM_CLEARANCE = 0.03
+#: Pads start this much inside the tool's surface so contact exists at step 0 (m).
+INITIAL_SQUEEZE = 3e-4
+#: MJX on CPU hangs at a device batch of 128 or more (DESIGN.md): never exceed this there.
+MJX_CPU_MAX_BATCH = 64
+
+
+@dataclasses.dataclass(frozen=True)
+class SimConfig:
+    """Rollout settings and label thresholds (SI units)."""
+
+    settle_time: float = 0.3  # s, still, gripped, before the motion
+    grip_force: float = 100.0  # N per pad (Robotiq 2F-85 range 20-235 N)
+    slip_threshold: float = 0.01  # m, failure when the tool moves this far in the gripper
+    rotation_threshold: float = math.radians(10.0)  # rad, failure when it turns this far
+    lost_distance: float = 0.05  # m, tool lost
+    impact_window: float = 0.05  # s after an impact still counted as contact (alignment drift)
+    diverged_qvel: float = 500.0  # rad/s or m/s: any |qvel| above is a blow-up
+    static_window: float = 0.05  # s at the end of the settle phase averaged for the static wrench
+
+
+@dataclasses.dataclass(frozen=True)
+class Randomization:
+    """Relative spreads of the domain randomisation (uniform, +- the value); 0 switches one off."""
+
+    mass: float = 0.1
+    mu: float = 0.2
+    restitution: float = 0.1  # absolute, clipped to [0.05, 0.95]
+    contact_duration: float = 0.3
+    grip_force: float = 0.2
+
+
+@dataclasses.dataclass(frozen=True)
+class Physics:
+    """Physical parameters of each rollout, arrays [N]."""
+
+    mass_scale: np.ndarray
+    mu: np.ndarray
+    restitution: np.ndarray
+    contact_duration: np.ndarray
+    grip_force: np.ndarray
+
+
+def sample_physics(tool: Tool, n: int, seed: int = 0, *, spread: Randomization | None = Randomization(),
+                   grip_force: float = SimConfig.grip_force) -> Physics:
+    """Per-rollout physics around the tool's priors; `spread=None` gives the nominal values."""
+    p = tool.params
+    nominal = Physics(np.ones(n), np.full(n, float(p.mu)), np.full(n, float(p.restitution)),
+                      np.full(n, float(p.contact_duration)), np.full(n, float(grip_force)))
+    if spread is None:
+        return nominal
+    rng = np.random.default_rng(seed)
+    u = lambda: rng.uniform(-1.0, 1.0, n)  # noqa: E731
+    return Physics(
+        mass_scale=1.0 + spread.mass * u(),
+        mu=nominal.mu * (1.0 + spread.mu * u()),
+        restitution=np.clip(nominal.restitution + spread.restitution * u(), 0.05, 0.95),
+        contact_duration=nominal.contact_duration * (1.0 + spread.contact_duration * u()),
+        grip_force=np.clip(nominal.grip_force * (1.0 + spread.grip_force * u()),
+                           units.GRIPPER_MIN_GRIP_FORCE, units.GRIPPER_MAX_GRIP_FORCE),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """Everything a backend needs, arrays with leading [N]."""
+
+    qpos0: np.ndarray  # [N, nq]
+    ctrl: np.ndarray  # [N, nstep, nu]
+    q_traj: np.ndarray  # [N, T, 6] IK solution at the trajectory samples
+    infeasible: np.ndarray  # [N] bool
+    over_speed: np.ndarray  # [N] bool, a joint faster than 180 deg/s
+    nstep: int
+    n_settle: int
+    sim_t: np.ndarray  # [nstep] s, time of each recorded step from the start of the motion
+    traj_index: np.ndarray  # [nstep] nearest trajectory sample of each step (-1 during settling)
+
+
+def _pose_matrix(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3], T[..., :3, 3], T[..., 3, 3] = R, p, 1.0
+    return T
+
+
+def _quat_from_matrix(R: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R).ravel())
+    return q
+
+
+def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig = SimConfig()) -> Plan:
+    """Initial states and control sequences (IK of the grasp-frame trajectory), host side."""
+    m = scene.model
+    dt = m.opt.timestep
+    n = len(grasps)
+    tr = task.traj
+    T_world_tool = _pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))  # [T]
+    T_tool_grasp = _pose_matrix(np.asarray(grasps.rotation, float), np.asarray(grasps.p_tool_grasp, float))  # [N]
+    T_grasp_flange = _pose_matrix(np.eye(3), np.array([0.0, 0.0, -FLANGE_TO_GRASP]))
+    T06 = T_world_tool[None] @ T_tool_grasp[:, None] @ T_grasp_flange  # [N, T, 4, 4]
+    q_traj = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
+    t_traj = np.asarray(tr.t, float)
+    infeasible = np.isnan(q_traj).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q_traj)) > JOINT_LIMITS).any(axis=(1, 2))
+    q_safe = np.where(infeasible[:, None, None], HOME_Q, q_traj)
+    over_speed = (np.abs(np.diff(q_safe, axis=1)) / np.diff(t_traj)[None, :, None] > units.UR5E_MAX_JOINT_SPEED * 1.001).any(axis=(1, 2))
+
+    n_settle = int(round(config.settle_time / dt))
+    n_motion = int(round(t_traj[-1] / dt))
+    nstep = n_settle + n_motion
+    sim_t = (np.arange(nstep) + 1 - n_settle) * dt  # time after the motion started, at the end of each step
+    t_clip = np.clip(sim_t, 0.0, t_traj[-1])
+    traj_index = np.where(sim_t > 0, np.abs(t_traj[None, :] - t_clip[:, None]).argmin(1), -1)
+    ctrl = np.zeros((n, nstep, m.nu))
+    qd_safe = np.gradient(q_safe, t_traj, axis=1)  # joint velocities at the samples (rad/s)
+    moving = (sim_t > 0) & (sim_t < t_traj[-1])
+    for j in range(6):  # linear interpolation of the IK samples at each step's end
+        ctrl[:, :, scene.arm_actuators[j]] = np.stack([np.interp(t_clip, t_traj, q_safe[i, :, j]) for i in range(n)])
+        ctrl[:, :, scene.arm_vel_actuators[j]] = moving * np.stack(
+            [np.interp(t_clip, t_traj, qd_safe[i, :, j]) for i in range(n)])
+    ctrl[:, :, scene.grip_actuator] = physics.grip_force[:, None]
+
+    # initial state: arm at the first IK sample, tool where the (actual) grasp frame holds it
+    qpos0 = np.tile(m.qpos0, (n, 1))
+    qpos0[:, scene.arm_qpos] = q_safe[:, 0]
+    T_world_grasp0 = ik.forward_kinematics(q_safe[:, 0]) @ np.linalg.inv(T_grasp_flange)
+    T_world_tool0 = T_world_grasp0 @ np.linalg.inv(T_tool_grasp)
+    half = np.maximum(np.asarray(grasps.width, float) / 2 - INITIAL_SQUEEZE, 0.0)
+    qpos0[:, scene.finger_qpos[0]] = half
+    qpos0[:, scene.finger_qpos[1]] = half
+    qpos0[:, scene.tool_qpos:scene.tool_qpos + 3] = T_world_tool0[:, :3, 3]
+    qpos0[:, scene.tool_qpos + 3:scene.tool_qpos + 7] = [_quat_from_matrix(T[:3, :3]) for T in T_world_tool0]
+    return Plan(qpos0=qpos0, ctrl=ctrl, q_traj=q_traj, infeasible=infeasible, over_speed=over_speed, nstep=nstep,
+                n_settle=n_settle, sim_t=sim_t, traj_index=traj_index)
+
+
+def randomized_model(scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
+    """A copy of the scene's model with rollout i's physics."""
+    m = copy.copy(scene.model)
+    b = m.body("tool").id
+    m.body_mass[b] = scene.model.body_mass[b] * physics.mass_scale[i]
+    m.body_inertia[b] = scene.model.body_inertia[b] * physics.mass_scale[i]
+    for p in scene.pad_tool_pairs:
+        m.pair_friction[p, :2] = physics.mu[i]
+    solref = restitution_solref(physics.restitution[i], physics.contact_duration[i])
+    for p in scene.tool_target_pairs:
+        m.pair_solref[p] = solref
+    return m
+
+
+def _initial_states(model: mujoco.MjModel, qpos0: np.ndarray) -> np.ndarray:
+    d = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    out = np.empty((len(qpos0), mujoco.mj_stateSize(model, spec)))
+    for i, q in enumerate(qpos0):
+        mujoco.mj_resetData(model, d)
+        d.qpos[:] = q
+        mujoco.mj_getState(model, d, out[i], spec)
+    return out
+
+
+def rollout_native(scene: Scene, p: Plan, physics: Physics, nthread: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(qvel peak |.| [N, nstep], sensordata [N, nstep, nsensordata]) with `mujoco.rollout`."""
+    nthread = nthread or os.cpu_count() or 1
+    models = [randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
+    datas = [mujoco.MjData(scene.model) for _ in range(nthread)]
+    state0 = _initial_states(scene.model, p.qpos0)
+    state, sensordata = mj_rollout.rollout(models, datas, state0, p.ctrl, nstep=p.nstep)
+    nq = scene.model.nq
+    qvel = state[:, :, 1 + nq:1 + nq + scene.model.nv]
+    return np.abs(qvel).max(-1), sensordata
+
+
+def rollout_mjx(scene: Scene, p: Plan, physics: Physics) -> tuple[np.ndarray, np.ndarray]:
+    """Same outputs as `rollout_native`, from MJX: one jit of vmap(scan(step)) (built per scene)."""
+    n = len(p.qpos0)
+    if jax.default_backend() == "cpu" and n > MJX_CPU_MAX_BATCH * jax.device_count():
+        raise InputError(f"rollout_mjx: batch {n} > {MJX_CPU_MAX_BATCH} per CPU device hangs MJX (DESIGN.md); "
+                         "use the native backend on a CPU or shard over host devices")
+    fn = _mjx_rollout_fn(scene)
+    m = scene.model
+    b = m.body("tool").id
+    pad, tt = scene.pad_tool_pairs, scene.tool_target_pairs
+    mass = np.tile(m.body_mass, (n, 1))
+    mass[:, b] *= physics.mass_scale
+    inertia = np.tile(m.body_inertia, (n, 1, 1))
+    inertia[:, b] *= physics.mass_scale[:, None]
+    friction = np.tile(m.pair_friction, (n, 1, 1))
+    friction[:, pad, 0] = physics.mu[:, None]
+    friction[:, pad, 1] = physics.mu[:, None]
+    solref = np.tile(m.pair_solref, (n, 1, 1))
+    for i in range(n):
+        solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i])
+    dt = np.float32
+    qvel_peak, sens = fn(mass.astype(dt), inertia.astype(dt), friction.astype(dt), solref.astype(dt),
+                         p.qpos0.astype(dt), p.ctrl.astype(dt))
+    return np.asarray(qvel_peak, float), np.asarray(sens, float)
+
+
+_MJX_CACHE: dict[int, Any] = {}
+
+
+def _mjx_rollout_fn(scene: Scene):
+    """The jitted batched rollout for a scene's model (compiled once per scene and batch shape)."""
+    key = id(scene)
+    if key in _MJX_CACHE:
+        return _MJX_CACHE[key][1]
+    from mujoco import mjx
+
+    mx = mjx.put_model(scene.model)
+
+    def one(mass, inertia, friction, solref, qpos0, ctrl):
+        mi = mx.tree_replace({"body_mass": mass, "body_inertia": inertia, "pair_friction": friction,
+                              "pair_solref": solref})
+        d = mjx.make_data(mi).replace(qpos=qpos0)
+
+        def step(d, u):
+            d = mjx.step(mi, d.replace(ctrl=u))
+            return d, (jax.numpy.abs(d.qvel).max(), d.sensordata)
+
+        _, (qv, sens) = jax.lax.scan(step, d, ctrl)
+        return qv, sens
+
+    fn = jax.jit(jax.vmap(one))  # the outer call: one jit for the whole batch
+    _MJX_CACHE[key] = (scene, fn)  # keep the scene alive so its id is not reused
+    return fn
+
+
+# ---------------------------------------------------------------------------------------------------
+# Labels
+# ---------------------------------------------------------------------------------------------------
+LABEL_FIELDS = (
+    "peak_torque", "peak_torque_induced", "peak_torque_projected", "peak_torque_closure", "static_torque",
+    "peak_force_induced", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
+    "task_metric", "diverged", "infeasible", "over_speed", "valid",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Labels:
+    """Per-rollout labels, each [N] (SI units; torques in N m about the wrist sensor site).
+
+    peak_torque: max |tau| over the motion.  peak_torque_induced: max |tau - tau_static|.
+    peak_torque_projected: max |(I - y y^T)(tau - tau_static)|, y the jaw-closure axis (the cost's
+    projection).  peak_torque_closure: max |(tau - tau_static) . y|.  static_torque: |tau_static|.
+    peak_force_induced: max |F - F_static| (N).  slip_translation (m) and slip_rotation (rad): max
+    motion of the tool in the grasp frame after the settle phase.  alignment_drift (rad): max angle
+    of the tool's z axis from the trajectory's during contact.  failed: slip or rotation over the
+    thresholds, or tool lost.  task_metric: nail depth (m) | debris past the line (count) | top-block
+    displacement (m) | block displacement along the task direction (m).  success: task_metric beyond
+    the task's threshold.  diverged, infeasible, over_speed: flags.  valid: neither diverged nor
+    infeasible (only valid rollouts are labels).
+    """
+
+    peak_torque: np.ndarray
+    peak_torque_induced: np.ndarray
+    peak_torque_projected: np.ndarray
+    peak_torque_closure: np.ndarray
+    static_torque: np.ndarray
+    peak_force_induced: np.ndarray
+    slip_translation: np.ndarray
+    slip_rotation: np.ndarray
+    alignment_drift: np.ndarray
+    failed: np.ndarray
+    success: np.ndarray
+    task_metric: np.ndarray
+    diverged: np.ndarray
+    infeasible: np.ndarray
+    over_speed: np.ndarray
+    valid: np.ndarray
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        return {f: getattr(self, f) for f in LABEL_FIELDS}
+
+
+def _quat_angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+    """Rotation angle (rad) between unit quaternions [..., 4] (either sign)."""
+    return 2.0 * np.arccos(np.clip(np.abs(np.sum(q * q_ref, axis=-1)), 0.0, 1.0))
+
+
+def _quat_z_axis(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=-1)
+
+
+def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sensordata: np.ndarray,
+                   config: SimConfig = SimConfig()) -> Labels:
+    """Labels from recorded sensors (the same code for both backends)."""
+    s = lambda name: scene.sensor(sensordata, name)  # noqa: E731
+    dt = scene.model.opt.timestep
+    tau, force = s("gripper/wrist_torque"), s("gripper/wrist_force")
+    n_static = max(1, int(round(config.static_window / dt)))
+    settle = slice(p.n_settle - n_static, p.n_settle)
+    motion = slice(p.n_settle, p.nstep)
+    tau_static = tau[:, settle].mean(1)
+    F_static = force[:, settle].mean(1)
+    d_tau = tau[:, motion] - tau_static[:, None]
+    y = np.array([0.0, 1.0, 0.0])  # closure axis in the sensor (gripper base) frame
+    closure = d_tau @ y
+    perp = d_tau - closure[..., None] * y
+    pos_g, quat_g = s("tool_pos_grasp"), s("tool_quat_grasp")
+    ref_p, ref_q = pos_g[:, p.n_settle - 1], quat_g[:, p.n_settle - 1]
+    slip_t = np.linalg.norm(pos_g[:, motion] - ref_p[:, None], axis=-1).max(1)
+    slip_r = _quat_angle(quat_g[:, motion], ref_q[:, None]).max(1)
+    # alignment drift: the tool's z axis against the trajectory's, while in contact
+    active = np.asarray(np.maximum(task.impact, task.drag).max(1) > 0)
+    idx = p.traj_index[motion]
+    in_contact = np.where(idx >= 0, active[np.clip(idx, 0, None)], False)
+    impacts = np.nonzero(np.asarray(task.impact).max(1) > 0)[0]
+    t_m = p.sim_t[motion]
+    for k in impacts:
+        t_k = float(task.traj.t[k])
+        in_contact |= (t_m >= t_k - dt) & (t_m <= t_k + config.impact_window)
+    z_sim = _quat_z_axis(s("tool_quat")[:, motion])
+    z_ref = np.asarray(task.traj.R_world_tool, float)[np.clip(idx, 0, None), :, 2]
+    angle = np.arccos(np.clip(np.sum(z_sim * z_ref[None], -1), -1.0, 1.0))
+    drift = np.where(in_contact[None], angle, 0.0).max(1)
+    lost = slip_t > config.lost_distance
+    diverged = ~np.isfinite(sensordata).all(axis=(1, 2)) | (np.nan_to_num(qvel_peak, nan=np.inf).max(1) > config.diverged_qvel)
+    metric, success = _task_outcome(scene, task, sensordata, p)
+    failed = (slip_t > config.slip_threshold) | (slip_r > config.rotation_threshold) | lost
+    nan0 = lambda a: np.nan_to_num(a, nan=np.inf)  # noqa: E731
+    return Labels(
+        peak_torque=nan0(np.linalg.norm(tau[:, motion], axis=-1).max(1)),
+        peak_torque_induced=nan0(np.linalg.norm(d_tau, axis=-1).max(1)),
+        peak_torque_projected=nan0(np.linalg.norm(perp, axis=-1).max(1)),
+        peak_torque_closure=nan0(np.abs(closure).max(1)),
+        static_torque=np.linalg.norm(tau_static, axis=-1),
+        peak_force_induced=nan0(np.linalg.norm(force[:, motion] - F_static[:, None], axis=-1).max(1)),
+        slip_translation=nan0(slip_t), slip_rotation=nan0(slip_r), alignment_drift=nan0(drift),
+        failed=failed | diverged, success=success & ~diverged, task_metric=metric,
+        diverged=diverged, infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy(),
+        valid=~(diverged | p.infeasible),
+    )
+
+
+#: Success thresholds of the task metrics.
+NAIL_DEPTH_SUCCESS = 0.001  # m driven
+TOPPLE_SUCCESS = 0.03  # m top-block displacement
+REACH_SUCCESS_FRACTION = 0.5  # of the commanded pull/push distance
+
+
+def _task_outcome(scene: Scene, task: Task, sensordata: np.ndarray, p: Plan) -> tuple[np.ndarray, np.ndarray]:
+    s = lambda name: scene.sensor(sensordata, name)  # noqa: E731
+    if task.kind == "hammer":  # driven during the motion (the nail may creep while the arm settles)
+        depth = s("nail_depth")[:, p.n_settle - 1, 0] - s("nail_depth")[:, -1, 0]
+        return depth, depth >= NAIL_DEPTH_SUCCESS
+    if task.kind == "sweep":
+        d = np.asarray(task.d_world, float)
+        line = float(np.asarray(task.c_obj_world, float)[:3].mean(0) @ d) + 0.10  # 10 cm past the debris
+        past = sum((s(f"debris_{i}")[:, -1] @ d > line).astype(int) for i in range(3))
+        return past.astype(float), past >= 2
+    if task.kind == "knock":
+        top = s("top_block")
+        moved = np.linalg.norm(top[:, -1] - top[:, 0], axis=-1)
+        return moved, moved >= TOPPLE_SUCCESS
+    block = s("block")
+    d = np.asarray(task.d_world, float)
+    moved = (block[:, -1] - block[:, 0]) @ d
+    first = int(np.argmax(np.asarray(task.drag)[:, 0] > 0))  # the pull (or push) starts
+    p_tool = np.asarray(task.traj.p_world_tool, float)
+    commanded = float((p_tool[-1] - p_tool[first]) @ d)
+    return moved, moved >= REACH_SUCCESS_FRACTION * commanded
+
+
+# ---------------------------------------------------------------------------------------------------
+# Public entry point
+# ---------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class SimResult:
+    """Labels [N], the physics each rollout ran with, the plan, and optional per-step traces."""
+
+    labels: Labels
+    physics: Physics
+    plan: Plan
+    backend: str
+    traces: dict | None = None
+
+
+def default_backend() -> str:
+    """'mjx' on an accelerator, 'native' on a CPU (DESIGN.md: MJX is 240-430x slower on this CPU)."""
+    return "native" if jax.default_backend() == "cpu" else "mjx"
+
+
+def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = None, seed: int = 0,
+             randomize: Randomization | None = Randomization(), config: SimConfig = SimConfig(),
+             traces: bool = False, nthread: int | None = None, scene: Scene | None = None) -> SimResult:
+    """Roll out every grasp along the task in MuJoCo and return its labels (arrays [N]).
+
+    Args:
+      tool, task, grasps: as for `wrench_costs`.
+      backend: 'native' | 'mjx' | None (follows `jax.default_backend()`).
+      seed: seeds the domain randomisation.  randomize: spreads, or None for nominal physics.
+      config: `SimConfig`.  traces: also return per-step sensor traces.  nthread: native threads.
+      scene: a prebuilt `build_scene(tool, task)` to reuse.
+    """
+    backend = backend or default_backend()
+    if backend not in ("native", "mjx"):
+        raise InputError(f"simulate: backend must be 'native' or 'mjx', got {backend!r}")
+    validate_grasps(grasps)
+    if scene is None:
+        scene = build_scene(tool, task)
+    physics = sample_physics(tool, len(grasps), seed, spread=randomize, grip_force=config.grip_force)
+    pl = plan(scene, task, grasps, physics, config)
+    run = rollout_native if backend == "native" else rollout_mjx
+    qvel_peak, sensordata = run(scene, pl, physics) if backend == "mjx" else run(scene, pl, physics, nthread)
+    labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
+    tr = None
+    if traces:
+        tr = {name: scene.sensor(sensordata, name) for name in scene.sensors}
+        tr["t"] = pl.sim_t
+    return SimResult(labels=labels, physics=physics, plan=pl, backend=backend, traces=tr)
