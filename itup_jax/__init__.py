@@ -7,7 +7,7 @@ Grasps for tools are chosen by minimising the wrench that the task trajectory in
   3   trajectory synthesis xi(t)                          -> `trajectory`, `task.make_task`
   4   grasp candidates G                                  -> `grasp` (frame), `grasp_sampler`
   5   wrench-conditioned scoring                          -> `wrench` (physics), `costs`
-  6   execution along xi                                  -> simulation (later issues)
+  6   execution along xi in MuJoCo                        -> `scene` (MjSpec composition), `ik`, `simulate`
 
 Notebook API::
 
@@ -16,6 +16,7 @@ Notebook API::
     task = itup.make_task("hammer", tool)
     grasps = itup.sample_grasps(tool, 1000, seed=0)
     costs = itup.wrench_costs(tool, task, grasps)      # .tau .slip .align .total, shape [N]
+    labels = itup.simulate(tool, task, grasps).labels  # MuJoCo ground truth, arrays [N]
 """
 
 from itup_jax.costs import (
@@ -31,6 +32,8 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
+from itup_jax.scene import Scene, build_scene
+from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
 from itup_jax.task import TASK_KINDS, Task, make_task
 from itup_jax.tool import Tool, ToolParams, load_tool
 from itup_jax.trajectory import Trajectory
@@ -43,4 +46,5 @@ __all__ = [
     "TASK_KINDS", "Task", "Tool", "ToolParams", "Trajectory", "batched_wrench_costs", "classify_regime",
     "from_graspnet", "grasp_cost_trace", "grasp_costs", "load_tool", "make_grasps", "make_task",
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
+    "Scene", "build_scene", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
 ]

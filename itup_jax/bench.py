@@ -112,3 +112,68 @@ def bench_costs(n: int = 100_000, t: int = 64, repeats: int = 10, numpy_repeats:
         "target_warm_ms": 200.0,
         "machine": machine_info(),
     }
+
+
+def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1, 16, 64), mjx_steps: int = 50,
+                  repeats: int = 3, seed: int = 0) -> dict[str, Any]:
+    """Hammer scene: raw `mujoco.rollout` stepping vs full label generation (`simulate`), and MJX.
+
+    raw: only `mujoco.rollout` on prepared models, states and controls. labels: `simulate` end to end
+    (IK planning, per-rollout models, rollout, labels), with the scene prebuilt and the grasps given.
+    MJX: `rollout_mjx`'s jitted vmap(scan(step)) on the first `mjx_steps` steps, compile timed apart.
+    """
+    import mujoco
+    from mujoco import rollout as mj_rollout
+
+    from itup_jax.grasp_sampler import sample_grasps
+    from itup_jax.scene import build_scene
+    from itup_jax.simulate import (MJX_CPU_MAX_BATCH, _initial_states, _mjx_rollout_fn, plan, randomized_model,
+                                   sample_physics, simulate)
+
+    tool = load_tool("hammer")
+    task = make_task("hammer", tool)
+    scene = build_scene(tool, task)
+    grasps = sample_grasps(tool, 4 * n, seed=seed)
+    probe = plan(scene, task, grasps, sample_physics(tool, len(grasps), spread=None))
+    feasible = np.nonzero(~probe.infeasible)[0][:n]
+    grasps = grasps[feasible]
+    n = len(feasible)
+    physics = sample_physics(tool, n, seed)
+    p = plan(scene, task, grasps, physics)
+    models = [randomized_model(scene, physics, i) for i in range(n)]
+    state0 = _initial_states(scene.model, p.qpos0)
+    env_steps = n * p.nstep
+    out: dict[str, Any] = {"benchmark": "rollout", "scene": "hammer", "n_rollouts": n, "nstep": p.nstep,
+                           "timestep_s": scene.model.opt.timestep, "nq": scene.model.nq, "nv": scene.model.nv,
+                           "npair": scene.model.npair}
+    for nt in threads:
+        datas = [mujoco.MjData(scene.model) for _ in range(nt)]
+        raw = min(_timed(lambda: mj_rollout.rollout(models, datas, state0, p.ctrl, nstep=p.nstep), repeats))
+        full = min(_timed(lambda: simulate(tool, task, grasps, scene=scene, seed=seed, nthread=nt), repeats))
+        out[f"raw_steps_per_s_threads{nt}"] = round(env_steps / raw)
+        out[f"label_steps_per_s_threads{nt}"] = round(env_steps / full)
+        out[f"label_over_raw_threads{nt}"] = round(raw / full, 3)
+    out["mjx"] = []
+    for b in mjx_batches:
+        if jax.default_backend() == "cpu" and b > MJX_CPU_MAX_BATCH:
+            continue
+        idx = np.arange(b) % n
+        fn = _mjx_rollout_fn(scene)
+        m = scene.model
+        dt = fn.dtype
+        args = (np.tile(m.body_mass, (b, 1)).astype(dt), np.tile(m.body_inertia, (b, 1, 1)).astype(dt),
+                np.tile(m.pair_friction, (b, 1, 1)).astype(dt), np.tile(m.pair_solref, (b, 1, 1)).astype(dt),
+                p.qpos0[idx].astype(dt), p.ctrl[idx, :mjx_steps].astype(dt))
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn(*args))
+        first = time.perf_counter() - t0
+        warm = min(_timed(lambda: jax.block_until_ready(fn(*args)), max(1, repeats - 1)))
+        out["mjx"].append({"batch": b, "steps": mjx_steps, "compile_s": round(first - warm, 2),
+                           "steps_per_s": round(b * mjx_steps / warm, 1)})
+    raw1 = out.get("raw_steps_per_s_threads1")
+    for row in out["mjx"]:
+        if raw1:
+            row["native_threads1_over_mjx"] = round(raw1 / row["steps_per_s"], 1)
+    out["target_label_over_raw"] = 0.9
+    out["machine"] = machine_info()
+    return out

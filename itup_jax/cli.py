@@ -2,6 +2,7 @@
 
   itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--json OUT]
   itup bench costs [--n 100000] [--t 64] [--json]
+  itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
   itup tools
 
 Bad input exits with status 2 and a message that names the problem; nothing is half-written.
@@ -21,8 +22,10 @@ import numpy as np
 EXAMPLES = """examples:
   itup plan                                   # hammer task, built-in claw hammer, 1000 candidates
   itup plan --task reach --n 2000 --json best.json
+  itup plan --task hammer --verify 5           # and check the 5 best in MuJoCo
   itup plan --task hammer --tool my.stl --tool-spec my.toml
   itup bench costs --n 100000 --t 64 --json
+  itup bench rollout --json
   itup tools
 """
 
@@ -110,6 +113,23 @@ def cmd_plan(args) -> int:
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
     s = result["summary"]
     print(f"all candidates: C_tau {s['tau']['min']:.3f}..{s['tau']['max']:.3f} N·m (median {s['tau']['median']:.3f})")
+    if args.verify > 0:
+        k = min(args.verify, len(order))
+        res = itup.simulate(tool, task, grasps[order[:k]], seed=args.seed)
+        L = res.labels
+        print(f"MuJoCo ({res.backend}, randomised physics, seed {args.seed}) for the {k} best:")
+        print(f"{'rank':>4} {'valid':>5} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
+              f"{'failed':>6} {'success':>7}")
+        rows = []
+        for r in range(k):
+            row = {f: (bool(v) if v.dtype == bool else float(v)) for f, v in ((f, getattr(L, f)[r]) for f in
+                   ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
+                    "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
+            rows.append(row)
+            print(f"{r + 1:>4} {str(row['valid']):>5} {row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
+                  f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
+                  f"{str(row['failed']):>6} {str(row['success']):>7}")
+        result["verified"] = {"backend": res.backend, "labels": rows}
     if args.json:
         _atomic_write_json(args.json, result)
         print(f"wrote {args.json}")
@@ -119,8 +139,18 @@ def cmd_plan(args) -> int:
 def cmd_bench(args) -> int:
     from itup_jax.bench import bench_costs
 
+    if args.what == "rollout":
+        from itup_jax.bench import bench_rollout
+
+        batches = tuple(int(b) for b in args.mjx_batches.split(",") if b) if args.mjx_batches else ()
+        res = bench_rollout(n=min(args.n, 256) if args.n != 100_000 else 64, mjx_batches=batches,
+                            mjx_steps=args.mjx_steps, repeats=args.repeats if args.repeats != 10 else 3)
+        print(json.dumps(res) if args.json else
+              f"rollout: raw {res['raw_steps_per_s_threads2']} steps/s, labels {res['label_steps_per_s_threads2']} "
+              f"steps/s (x{res['label_over_raw_threads2']}) on 2 threads; mjx {res['mjx']}")
+        return 0
     if args.what != "costs":
-        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs")
+        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout")
     if args.n < 1 or args.t < 8:
         raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
     res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
@@ -172,12 +202,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--w-tau", type=float, default=1.0, help="weight of C_tau, 1/(N m)")
     p.add_argument("--w-slip", type=float, default=1.0, help="weight of C_s, 1/N")
     p.add_argument("--w-align", type=float, default=1.0, help="weight of C_alpha, 1/rad")
+    p.add_argument("--verify", type=int, default=0, help="roll the N best grasps out in MuJoCo and report")
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/1)")
     p.set_defaults(fn=cmd_plan)
 
-    b = sub.add_parser("bench", help="benchmarks: costs")
-    b.add_argument("what", help="costs")
-    b.add_argument("--n", type=int, default=100_000)
+    b = sub.add_parser("bench", help="benchmarks: costs, rollout")
+    b.add_argument("what", help="costs | rollout")
+    b.add_argument("--n", type=int, default=100_000, help="costs: grasps; rollout: rollouts (default 64)")
+    b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
+    b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
     b.add_argument("--t", type=int, default=64)
     b.add_argument("--task", default="hammer", choices=TASK_KINDS)
     b.add_argument("--repeats", type=int, default=10)

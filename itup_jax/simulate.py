@@ -239,7 +239,7 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics) -> tuple[np.ndarray, np
     solref = np.tile(m.pair_solref, (n, 1, 1))
     for i in range(n):
         solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i])
-    dt = np.float32
+    dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
     qvel_peak, sens = fn(mass.astype(dt), inertia.astype(dt), friction.astype(dt), solref.astype(dt),
                          p.qpos0.astype(dt), p.ctrl.astype(dt))
     return np.asarray(qvel_peak, float), np.asarray(sens, float)
@@ -269,7 +269,12 @@ def _mjx_rollout_fn(scene: Scene):
         _, (qv, sens) = jax.lax.scan(step, d, ctrl)
         return qv, sens
 
-    fn = jax.jit(jax.vmap(one))  # the outer call: one jit for the whole batch
+    jitted = jax.jit(jax.vmap(one))  # the outer call: one jit for the whole batch
+
+    def fn(*args):
+        return jitted(*args)
+
+    fn.dtype = np.asarray(mx.body_mass).dtype
     _MJX_CACHE[key] = (scene, fn)  # keep the scene alive so its id is not reused
     return fn
 

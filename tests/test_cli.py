@@ -26,6 +26,15 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
 
 
 @pytest.mark.filterwarnings("ignore:.*joint-speed limit")  # a short stick swings faster for the same tip speed
+def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
+    out = tmp_path / "v.json"
+    assert main(["plan", "--task", "sweep", "--n", "30", "--verify", "2", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert len(res["verified"]["labels"]) == 2 and res["verified"]["backend"] == "native"
+    assert {"valid", "peak_torque_induced", "slip_translation", "failed"} <= set(res["verified"]["labels"][0])
+    assert "MuJoCo" in capsys.readouterr().out
+
+
 def test_plan_with_a_user_mesh_tool(tmp_path):
     import trimesh
 
@@ -53,7 +62,7 @@ def test_bench_costs_prints_one_json_object():
     (["plan", "--tool", "spoon"], "not a built-in tool"),
     (["plan", "--tool-spec", "x.toml"], "--tool-spec needs --tool"),
     (["plan", "--n", "5", "--json", "/no/such/folder/out.json"], "does not exist"),
-    (["bench", "rollout"], "unknown benchmark"),
+    (["bench", "walk"], "unknown benchmark"),
 ])
 def test_bad_input_exits_non_zero_with_a_message(argv, match, capsys, tmp_path):
     assert main(argv) == 2
