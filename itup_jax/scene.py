@@ -193,6 +193,12 @@ def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
         if ref:
             kw.update(reftype=mj.mjOBJ_SITE, refname=ref)
         spec.add_sensor(**kw)
+    # pad contact: per pad, whether it touches and the force of its strongest contact (contact frame:
+    # normal first). intprm = (data: found | force, reduce: max force, slots: 1), a form MJX supports.
+    data_bits = (1 << int(mujoco.mjtConDataField.mjCONDATA_FOUND)) | (1 << int(mujoco.mjtConDataField.mjCONDATA_FORCE))
+    for pad in ("neg", "pos"):
+        spec.add_sensor(name=f"pad_{pad}_contact", type=mujoco.mjtSensor.mjSENS_CONTACT, objtype=mj.mjOBJ_GEOM,
+                        objname=f"gripper/pad_{pad}", intprm=[data_bits, 2, 1])
     for key in list(spec.keys):  # the arm's keyframe no longer matches the composed qpos
         spec.delete(key)
     model = spec.compile()

@@ -6,8 +6,8 @@ Per rollout: the tool starts in the gripper at grasp g with the pads closed on i
 the arm holds still for `settle_time` (the static holding wrench is measured at its end), then its
 flange follows the task trajectory xi(t) through closed-form UR5e inverse kinematics (`ik.py`), as
 position targets of the joint servos. Recorded per step (sensors, so both backends record the same):
-wrist force/torque at the flange/gripper interface, the tool's pose in the grasp frame and in the
-world, and the task objects' state.
+wrist force/torque at the flange/gripper interface, each pad's contact (found, force of its strongest
+contact), the tool's pose in the grasp frame and in the world, and the task objects' state.
 
 Backends (same inputs, same outputs):
   * 'native': `mujoco.rollout` with one MjData per thread and one MjModel per rollout (so mass,
@@ -284,7 +284,7 @@ def _mjx_rollout_fn(scene: Scene):
 # ---------------------------------------------------------------------------------------------------
 LABEL_FIELDS = (
     "peak_torque", "peak_torque_induced", "peak_torque_projected", "peak_torque_closure", "static_torque",
-    "peak_force_induced", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
+    "peak_force_induced", "peak_pad_force", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
     "task_metric", "diverged", "infeasible", "over_speed", "valid",
 )
 
@@ -296,7 +296,8 @@ class Labels:
     peak_torque: max |tau| over the motion.  peak_torque_induced: max |tau - tau_static|.
     peak_torque_projected: max |(I - y y^T)(tau - tau_static)|, y the jaw-closure axis (the cost's
     projection).  peak_torque_closure: max |(tau - tau_static) . y|.  static_torque: |tau_static|.
-    peak_force_induced: max |F - F_static| (N).  slip_translation (m) and slip_rotation (rad): max
+    peak_force_induced: max |F - F_static| (N).  peak_pad_force: max normal force of either pad's
+    strongest contact during the motion (N).  slip_translation (m) and slip_rotation (rad): max
     motion of the tool in the grasp frame after the settle phase.  alignment_drift (rad): max angle
     of the tool's z axis from the trajectory's during contact.  failed: slip or rotation over the
     thresholds, or tool lost.  task_metric: nail depth (m) | debris past the line (count) | top-block
@@ -311,6 +312,7 @@ class Labels:
     peak_torque_closure: np.ndarray
     static_torque: np.ndarray
     peak_force_induced: np.ndarray
+    peak_pad_force: np.ndarray
     slip_translation: np.ndarray
     slip_rotation: np.ndarray
     alignment_drift: np.ndarray
@@ -368,6 +370,8 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     z_ref = np.asarray(task.traj.R_world_tool, float)[np.clip(idx, 0, None), :, 2]
     angle = np.arccos(np.clip(np.sum(z_sim * z_ref[None], -1), -1.0, 1.0))
     drift = np.where(in_contact[None], angle, 0.0).max(1)
+    pads = np.stack([s(f"pad_{side}_contact")[:, motion] for side in ("neg", "pos")])  # [2, N, steps, 4]
+    pad_normal = np.where(pads[..., 0] > 0, np.abs(pads[..., 1]), 0.0)  # found, then normal force
     lost = slip_t > config.lost_distance
     diverged = ~np.isfinite(sensordata).all(axis=(1, 2)) | (np.nan_to_num(qvel_peak, nan=np.inf).max(1) > config.diverged_qvel)
     metric, success = _task_outcome(scene, task, sensordata, p)
@@ -380,6 +384,7 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
         peak_torque_closure=nan0(np.abs(closure).max(1)),
         static_torque=np.linalg.norm(tau_static, axis=-1),
         peak_force_induced=nan0(np.linalg.norm(force[:, motion] - F_static[:, None], axis=-1).max(1)),
+        peak_pad_force=nan0(pad_normal.max(axis=(0, 2))),
         slip_translation=nan0(slip_t), slip_rotation=nan0(slip_r), alignment_drift=nan0(drift),
         failed=failed | diverged, success=success & ~diverged, task_metric=metric,
         diverged=diverged, infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy(),

@@ -73,6 +73,20 @@ def test_static_wrist_torque_equals_m_g_times_the_lever_arm(hammer):
 R_FROM_SIDE = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 
+def test_both_pads_touch_the_tool_at_the_grip_force(hammer):
+    """At the end of the settle phase both pads are in contact and share the commanded squeeze."""
+    tool, task, scene = hammer
+    g = make_grasps([[0.0, 0.0, 0.15]], R_FROM_SIDE[None], [0.029])
+    res = simulate(tool, task, g, scene=scene, randomize=None, traces=True)
+    k = res.plan.n_settle - 1
+    grip = res.physics.grip_force[0]
+    for side in ("neg", "pos"):
+        found, normal = res.traces[f"pad_{side}_contact"][0, k, :2]
+        assert found >= 1
+        assert 0.25 * grip <= abs(normal) <= 1.05 * grip  # the strongest of the pad's contacts
+    assert res.labels.peak_pad_force[0] > 0
+
+
 def test_grasp_near_the_head_feels_less_torque_than_at_the_handle_end(hammer):
     """Peak wrist torque (raw) grows as the grasp moves from the head to the handle's end.
 
