@@ -144,7 +144,7 @@ def cmd_bench(args) -> int:
 
         batches = tuple(int(b) for b in args.mjx_batches.split(",") if b) if args.mjx_batches else ()
         res = bench_rollout(n=min(args.n, 256) if args.n != 100_000 else 64, mjx_batches=batches,
-                            mjx_steps=args.mjx_steps, repeats=args.repeats if args.repeats != 10 else 3)
+                            mjx_steps=args.mjx_steps, repeats=args.repeats if args.repeats != 10 else 9)
         print(json.dumps(res) if args.json else
               f"rollout: raw {res['raw_steps_per_s_threads2']} steps/s, labels {res['label_steps_per_s_threads2']} "
               f"steps/s (x{res['label_over_raw_threads2']}) on 2 threads; mjx {res['mjx']}")

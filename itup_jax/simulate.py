@@ -26,6 +26,8 @@ import copy
 import dataclasses
 import math
 import os
+import weakref
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import jax
@@ -125,6 +127,17 @@ class Plan:
     traj_index: np.ndarray  # [nstep] nearest trajectory sample of each step (-1 during settling)
 
 
+def _concat_plans(plans: list[Plan]) -> Plan:
+    first = plans[0]
+    cat = lambda f: np.concatenate([getattr(q, f) for q in plans])  # noqa: E731
+    return dataclasses.replace(first, qpos0=cat("qpos0"), ctrl=cat("ctrl"), q_traj=cat("q_traj"),
+                               infeasible=cat("infeasible"), over_speed=cat("over_speed"))
+
+
+def _slice_physics(physics: Physics, sl: slice) -> Physics:
+    return Physics(*(getattr(physics, f.name)[sl] for f in dataclasses.fields(Physics)))
+
+
 def _pose_matrix(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     T = np.zeros(R.shape[:-2] + (4, 4))
     T[..., :3, :3], T[..., :3, 3], T[..., 3, 3] = R, p, 1.0
@@ -162,10 +175,11 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
     ctrl = np.zeros((n, nstep, m.nu))
     qd_safe = np.gradient(q_safe, t_traj, axis=1)  # joint velocities at the samples (rad/s)
     moving = (sim_t > 0) & (sim_t < t_traj[-1])
-    for j in range(6):  # linear interpolation of the IK samples at each step's end
-        ctrl[:, :, scene.arm_actuators[j]] = np.stack([np.interp(t_clip, t_traj, q_safe[i, :, j]) for i in range(n)])
-        ctrl[:, :, scene.arm_vel_actuators[j]] = moving * np.stack(
-            [np.interp(t_clip, t_traj, qd_safe[i, :, j]) for i in range(n)])
+    # linear interpolation of the IK samples at each step's end (one time grid for every rollout)
+    hi = np.clip(np.searchsorted(t_traj, t_clip, side="right"), 1, len(t_traj) - 1)
+    w = ((t_clip - t_traj[hi - 1]) / (t_traj[hi] - t_traj[hi - 1]))[None, :, None]
+    ctrl[:, :, scene.arm_actuators] = (1 - w) * q_safe[:, hi - 1] + w * q_safe[:, hi]
+    ctrl[:, :, scene.arm_vel_actuators] = moving[None, :, None] * ((1 - w) * qd_safe[:, hi - 1] + w * qd_safe[:, hi])
     ctrl[:, :, scene.grip_actuator] = physics.grip_force[:, None]
 
     # initial state: arm at the first IK sample, tool where the (actual) grasp frame holds it
@@ -184,7 +198,22 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
 
 def randomized_model(scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
     """A copy of the scene's model with rollout i's physics."""
-    m = copy.copy(scene.model)
+    return _set_physics(copy.copy(scene.model), scene, physics, i)
+
+
+_MODEL_POOL: "weakref.WeakKeyDictionary[Scene, list]" = weakref.WeakKeyDictionary()
+
+
+def _pooled_models(scene: Scene, physics: Physics, idx: range) -> list[mujoco.MjModel]:
+    """Models for rollouts `idx`, from a per-scene pool of copies (slot i serves rollout i), with each
+    rollout's physics written in place: copying a model per rollout costs more than setting 5 fields."""
+    pool = _MODEL_POOL.setdefault(scene, [])
+    while len(pool) < idx.stop:
+        pool.append(copy.copy(scene.model))
+    return [_set_physics(pool[i], scene, physics, i) for i in idx]
+
+
+def _set_physics(m: mujoco.MjModel, scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
     b = m.body("tool").id
     m.body_mass[b] = scene.model.body_mass[b] * physics.mass_scale[i]
     m.body_inertia[b] = scene.model.body_inertia[b] * physics.mass_scale[i]
@@ -207,10 +236,15 @@ def _initial_states(model: mujoco.MjModel, qpos0: np.ndarray) -> np.ndarray:
     return out
 
 
-def rollout_native(scene: Scene, p: Plan, physics: Physics, nthread: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(qvel peak |.| [N, nstep], sensordata [N, nstep, nsensordata]) with `mujoco.rollout`."""
+def rollout_native(scene: Scene, p: Plan, physics: Physics, nthread: int | None = None,
+                   models: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(qvel peak |.| [N, nstep], sensordata [N, nstep, nsensordata]) with `mujoco.rollout`.
+
+    Releases the GIL while stepping (so host work can overlap it: see `simulate`).
+    """
     nthread = nthread or os.cpu_count() or 1
-    models = [randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
+    if models is None:
+        models = [randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
     datas = [mujoco.MjData(scene.model) for _ in range(nthread)]
     state0 = _initial_states(scene.model, p.qpos0)
     state, sensordata = mj_rollout.rollout(models, datas, state0, p.ctrl, nstep=p.nstep)
@@ -435,6 +469,39 @@ class SimResult:
     traces: dict | None = None
 
 
+#: Rollouts per chunk of the native pipeline: planning the next chunk and labelling the previous one
+#: run on the host while the current chunk steps (mujoco.rollout releases the GIL).
+NATIVE_CHUNK = 16
+
+
+def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig,
+                     nthread: int | None) -> tuple[Plan, Labels, np.ndarray]:
+    n = len(grasps)
+    bounds = [(s, min(s + NATIVE_CHUNK, n)) for s in range(0, n, NATIVE_CHUNK)]
+    plans, labels, sens = [], [], []
+    with ThreadPoolExecutor(max_workers=1) as stepper:
+        pending = None
+        for lo, hi in bounds:
+            ph = _slice_physics(physics, slice(lo, hi))
+            p = plan(scene, task, grasps[lo:hi], ph, config)
+            models = _pooled_models(scene, physics, range(lo, hi))
+            # queued behind the previous chunk: it starts stepping the moment that one ends
+            future = stepper.submit(rollout_native, scene, p, ph, nthread, models)
+            if pending is not None:  # label the previous chunk while this one steps
+                labels.append(_finish(scene, task, config, *pending, sens))
+            pending = (p, future)
+            plans.append(p)
+        labels.append(_finish(scene, task, config, *pending, sens))
+    merged = Labels(**{f: np.concatenate([getattr(lab, f) for lab in labels]) for f in LABEL_FIELDS})
+    return _concat_plans(plans), merged, np.concatenate(sens)
+
+
+def _finish(scene, task, config, p: Plan, future, sens_out: list) -> Labels:
+    qvel_peak, sensordata = future.result()
+    sens_out.append(sensordata)
+    return compute_labels(scene, task, p, qvel_peak, sensordata, config)
+
+
 def default_backend() -> str:
     """'mjx' on an accelerator, 'native' on a CPU (DESIGN.md: MJX is 240-430x slower on this CPU)."""
     return "native" if jax.default_backend() == "cpu" else "mjx"
@@ -459,10 +526,12 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
     if scene is None:
         scene = build_scene(tool, task)
     physics = sample_physics(tool, len(grasps), seed, spread=randomize, grip_force=config.grip_force)
-    pl = plan(scene, task, grasps, physics, config)
-    run = rollout_native if backend == "native" else rollout_mjx
-    qvel_peak, sensordata = run(scene, pl, physics) if backend == "mjx" else run(scene, pl, physics, nthread)
-    labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
+    if backend == "mjx":
+        pl = plan(scene, task, grasps, physics, config)
+        qvel_peak, sensordata = rollout_mjx(scene, pl, physics)
+        labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
+    else:
+        pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread)
     tr = None
     if traces:
         tr = {name: scene.sensor(sensordata, name) for name in scene.sensors}
