@@ -475,9 +475,11 @@ NATIVE_CHUNK = 16
 
 
 def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig,
-                     nthread: int | None) -> tuple[Plan, Labels, np.ndarray]:
+                     nthread: int | None, keep_sensordata: bool = False) -> tuple[Plan, Labels, np.ndarray | None]:
     n = len(grasps)
-    bounds = [(s, min(s + NATIVE_CHUNK, n)) for s in range(0, n, NATIVE_CHUNK)]
+    # a small first chunk gets the stepping threads busy early; the rest overlap host and stepping
+    edges = [0, min(n, NATIVE_CHUNK // 4)] + list(range(NATIVE_CHUNK // 4 + NATIVE_CHUNK, n, NATIVE_CHUNK)) + [n]
+    bounds = [(lo, hi) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo]
     plans, labels, sens = [], [], []
     with ThreadPoolExecutor(max_workers=1) as stepper:
         pending = None
@@ -493,12 +495,12 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
             plans.append(p)
         labels.append(_finish(scene, task, config, *pending, sens))
     merged = Labels(**{f: np.concatenate([getattr(lab, f) for lab in labels]) for f in LABEL_FIELDS})
-    return _concat_plans(plans), merged, np.concatenate(sens)
+    return _concat_plans(plans), merged, (np.concatenate(sens) if keep_sensordata else None)
 
 
 def _finish(scene, task, config, p: Plan, future, sens_out: list) -> Labels:
     qvel_peak, sensordata = future.result()
-    sens_out.append(sensordata)
+    sens_out.append(sensordata)  # kept until the call returns: only concatenated when traces are asked for
     return compute_labels(scene, task, p, qvel_peak, sensordata, config)
 
 
@@ -531,7 +533,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
         qvel_peak, sensordata = rollout_mjx(scene, pl, physics)
         labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
     else:
-        pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread)
+        pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread, traces)
     tr = None
     if traces:
         tr = {name: scene.sensor(sensordata, name) for name in scene.sensors}

@@ -3,6 +3,9 @@
 import jax
 
 jax.config.update("jax_enable_x64", True)
+# Persistent compilation cache: a second local run reuses the MJX rollout's compile (tens of seconds).
+jax.config.update("jax_compilation_cache_dir", str(__import__("pathlib").Path(__file__).resolve().parent.parent / ".jax_cache"))
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
