@@ -1,0 +1,127 @@
+"""SDG-Net's building blocks: our MLP, our Adam, array-only checkpoints."""
+
+import pickle
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax import checkpoint, mlp
+from itup_jax.optim import AdamConfig, adam_init, adam_update, learning_rate
+
+# float64 throughout (conftest): the NumPy re-implementation differs by rounding only.
+FWD_RTOL = 1e-12
+FD_STEP = 1e-6
+FD_RTOL = 1e-6
+
+
+def _numpy_forward(layers, x):
+    h = x
+    for W, b in layers[:-1]:
+        z = h @ W + b
+        h = z / (1 + np.exp(-z))  # SiLU
+    W, b = layers[-1]
+    return h @ W + b
+
+
+def test_forward_matches_numpy(rng):
+    params = mlp.init(jax.random.key(0), [7, 16, 16, 3])
+    x = rng.normal(size=(5, 7))
+    out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, jnp.asarray(x))
+    ref = _numpy_forward([(np.asarray(W), np.asarray(b)) for W, b in params], x)
+    np.testing.assert_allclose(np.asarray(out), ref, rtol=FWD_RTOL, atol=1e-14)
+    assert mlp.num_params(params) == 7 * 16 + 16 + 16 * 16 + 16 + 16 * 3 + 3
+
+
+def test_one_adam_step_matches_a_hand_computation():
+    cfg = AdamConfig(lr=0.1, weight_decay=0.01, warmup_steps=1, total_steps=100)
+    p = {"w": jnp.array([1.0, -2.0])}
+    g = {"w": jnp.array([0.5, 0.25])}
+    new, state = adam_update(g, adam_init(p), p, cfg)
+    # step 1: m = (1-b1) g, v = (1-b2) g^2; bias-corrected m_hat = g, v_hat = g^2; lr at step 0 = 0.1
+    m_hat, v_hat = np.array([0.5, 0.25]), np.array([0.25, 0.0625])
+    expected = np.array([1.0, -2.0]) - 0.1 * (m_hat / (np.sqrt(v_hat) + 1e-8) + 0.01 * np.array([1.0, -2.0]))
+    np.testing.assert_allclose(np.asarray(new["w"]), expected, rtol=1e-12)
+    assert int(state.step) == 1
+
+
+def test_schedule_warms_up_then_decays():
+    cfg = AdamConfig(lr=1.0, warmup_steps=10, total_steps=110, final_fraction=0.1)
+    lrs = np.array([float(learning_rate(s, cfg)) for s in range(0, 120)])
+    assert lrs[0] == pytest.approx(0.1) and lrs[9] == pytest.approx(1.0)
+    assert np.all(np.diff(lrs[10:110]) <= 1e-12) and lrs[110] == pytest.approx(0.1)
+
+
+def test_loss_gradient_matches_finite_differences(rng):
+    params = mlp.init(jax.random.key(1), [4, 8, 3])
+    x, y = jnp.asarray(rng.normal(size=(6, 4))), jnp.asarray(rng.normal(size=(6, 3)))
+
+    def loss(flat):
+        W0 = flat[:32].reshape(4, 8)
+        ps = [(W0, params[0][1]), params[1]]
+        return jnp.sum((jax.vmap(mlp.apply, in_axes=(None, 0))(ps, x) - y) ** 2)
+
+    w = params[0][0].ravel()
+    g = np.asarray(jax.grad(loss)(w))
+    fd = np.array([(float(loss(w.at[i].add(FD_STEP))) - float(loss(w.at[i].add(-FD_STEP)))) / (2 * FD_STEP)
+                   for i in range(w.size)])
+    np.testing.assert_allclose(g, fd, rtol=FD_RTOL, atol=1e-8)
+
+
+def test_training_on_a_synthetic_problem_lowers_the_loss_tenfold(rng):
+    x = rng.uniform(-1, 1, size=(256, 3))
+    y = np.stack([np.sin(2 * x[:, 0]) + x[:, 1] * x[:, 2], x[:, 0] ** 2 - 0.5 * x[:, 1]], axis=1)
+    X, Y = jnp.asarray(x), jnp.asarray(y)
+    params = mlp.init(jax.random.key(2), [3, 32, 32, 2])
+    cfg = AdamConfig(lr=3e-3, warmup_steps=20, total_steps=600, weight_decay=1e-5)
+
+    def loss(p):
+        return jnp.mean(jnp.sum((jax.vmap(mlp.apply, in_axes=(None, 0))(p, X) - Y) ** 2, axis=1))
+
+    @jax.jit  # the outer call: one jitted train step
+    def step(p, s):
+        l, g = jax.value_and_grad(loss)(p)
+        p, s = adam_update(g, s, p, cfg)
+        return p, s, l
+
+    state = adam_init(params)
+    first = float(loss(params))
+    for _ in range(600):
+        params, state, _ = step(params, state)
+    assert float(loss(params)) < first / 10
+
+
+def test_checkpoint_round_trip_is_bit_exact(tmp_path):
+    params = mlp.init(jax.random.key(3), [5, 8, 2])
+    spec = {"features": ["a", "b"], "mean": [0.5, 1.5], "config": {"lr": 1e-3}}
+    path = str(tmp_path / "net.npz")
+    checkpoint.save(path, params, spec)
+    layers, spec2 = checkpoint.load(path)
+    assert spec2 == spec
+    for (W, b), (W2, b2) in zip(params, layers):
+        assert np.array_equal(np.asarray(W), W2) and np.asarray(W).dtype == W2.dtype
+        assert np.array_equal(np.asarray(b), b2)
+    assert [p.name for p in tmp_path.iterdir()] == ["net.npz"]  # no temporary left behind
+
+
+def test_pickled_truncated_and_foreign_files_are_refused(tmp_path):
+    pkl = tmp_path / "evil.npz"
+    pkl.write_bytes(pickle.dumps({"W0": np.zeros(3)}))
+    with pytest.raises(itup.InputError, match="refused|unreadable"):
+        checkpoint.load(str(pkl))
+    good = tmp_path / "good.npz"
+    checkpoint.save(str(good), mlp.init(jax.random.key(4), [3, 4, 1]), {"x": 1})
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(good.read_bytes()[:200])
+    with pytest.raises(itup.InputError, match="unreadable or truncated"):
+        checkpoint.load(str(cut))
+    obj = tmp_path / "obj.npz"
+    np.savez(obj, meta_json=np.array([{"format": "x"}], dtype=object))
+    with pytest.raises(itup.InputError, match="refused"):
+        checkpoint.load(str(obj))
+    plain = tmp_path / "plain.npz"
+    np.savez(plain, W0=np.zeros(3))
+    with pytest.raises(itup.InputError, match="not an itup checkpoint"):
+        checkpoint.load(str(plain))
