@@ -73,6 +73,7 @@ class Loads:
       impulse: [T, K] N s, normal impulse of each contact (zero where it does not strike).
       inertial_force_world: [T, 3] N, m (a_com - g) (g included only when asked for).
       com_tool: [3] m, the tool's centre of mass (pivot of the 'com' lever-arm variant).
+      contact_point_tool: [3] m, the primary contact point (tool frame).
     """
 
     force_tool: jax.Array
@@ -83,12 +84,13 @@ class Loads:
     impulse: jax.Array
     inertial_force_world: jax.Array
     com_tool: jax.Array
+    contact_point_tool: jax.Array
 
 
 def _step_loads(tool: ToolParams, task: Task, include_gravity: bool, t_index: jax.Array):
     """Loads at one time step (world), then expressed in the tool frame."""
     tr = task.traj
-    R, p = tr.R_world_tool[t_index], tr.p_world_tool[t_index]
+    R = tr.R_world_tool[t_index]
     v, w, a, alpha = tr.v_world[t_index], tr.w_world[t_index], tr.a_world[t_index], tr.alpha_world[t_index]
     I_w = R @ tool.inertia @ R.T
     I_inv_w = R @ jnp.linalg.inv(tool.inertia) @ R.T
@@ -124,4 +126,4 @@ def task_loads(tool: ToolParams, task: Task, include_gravity: bool = False) -> L
     steps = jnp.arange(task.num_steps)
     F, M, n, active, F_k, J_k, F_in = jax.vmap(lambda i: _step_loads(tool, task, include_gravity, i))(steps)
     return Loads(force_tool=F, moment_tool=M, normal_tool=n, active=active, contact_force_world=F_k,
-                 impulse=J_k, inertial_force_world=F_in, com_tool=tool.com)
+                 impulse=J_k, inertial_force_world=F_in, com_tool=tool.com, contact_point_tool=task.c_tool[0])

@@ -13,6 +13,7 @@ from itup_jax.costs import CostParams, Regime, batched_wrench_costs, grasp_cost_
 from itup_jax.grasp import Grasps, make_grasps
 from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
 from itup_jax.wrench import task_loads
+from transforms import move_tool_frame as _move_tool_frame, move_world as _move_world
 
 COST_NAMES = ("tau", "slip", "align", "total", "tau_closure")
 # Invariance and implementation-equivalence checks run in float64: only rounding separates the two
@@ -41,32 +42,6 @@ def grasps_by_kind(tasks):
 
 
 # ------------------------------------------------------------------------------------------------ C1
-def _move_world(task, Q, t):
-    """The same task seen from a world frame rotated by Q and shifted by t."""
-    tr = task.traj
-    rot = lambda x: x @ Q.T  # noqa: E731  (rows are vectors)
-    traj = dataclasses.replace(tr, p_world_tool=rot(tr.p_world_tool) + t, R_world_tool=jnp.einsum("ij,tjk->tik", Q, tr.R_world_tool),
-                               v_world=rot(tr.v_world), w_world=rot(tr.w_world), a_world=rot(tr.a_world),
-                               alpha_world=rot(tr.alpha_world))
-    return task.replace(traj=traj, c_obj_world=rot(task.c_obj_world) + t, n_world=rot(task.n_world),
-                        d_world=Q @ task.d_world, gravity_world=Q @ task.gravity_world)
-
-
-def _move_tool_frame(tool_params, task, grasps, Q, t):
-    """The same problem with the tool's mesh frame re-chosen: x_new = Q x_old + t."""
-    tp = tool_params.replace(com=Q @ tool_params.com + t, inertia=Q @ tool_params.inertia @ Q.T)
-    tr = task.traj
-    R_new = jnp.einsum("tij,kj->tik", tr.R_world_tool, Q)  # R_world_old Q^T
-    d = -jnp.einsum("tij,j->ti", R_new, t)  # new origin minus old origin, world
-    traj = dataclasses.replace(
-        tr, R_world_tool=R_new, p_world_tool=tr.p_world_tool + d,
-        v_world=tr.v_world + jnp.cross(tr.w_world, d),
-        a_world=tr.a_world + jnp.cross(tr.alpha_world, d) + jnp.cross(tr.w_world, jnp.cross(tr.w_world, d)))
-    Rg = np.asarray(grasps.rotation)
-    g = make_grasps(np.asarray(grasps.p_tool_grasp) @ Q.T + t, np.einsum("ij,njk->nik", Q, Rg), grasps.width)
-    return tp, task.replace(traj=traj, c_tool=task.c_tool @ Q.T + t), g
-
-
 @pytest.mark.parametrize("kind", itup.TASK_KINDS)
 @pytest.mark.parametrize("params", VARIANTS[:1] + VARIANTS[3:])
 def test_c1_rigid_transform_of_the_world_leaves_costs_unchanged(tasks, grasps_by_kind, rng, kind, params):

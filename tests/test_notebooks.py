@@ -1,6 +1,5 @@
 """Notebooks run top to bottom in quick mode (they are jupytext py:percent scripts)."""
 
-import os
 import pathlib
 import runpy
 

@@ -1,7 +1,5 @@
 """Rollouts and labels: closed-form static torque, lever-arm ordering, flags, MJX against native."""
 
-import dataclasses
-
 import mujoco
 import numpy as np
 import pytest
@@ -9,7 +7,7 @@ import pytest
 import itup_jax as itup
 from itup_jax.grasp import make_grasps
 from itup_jax.scene import build_scene
-from itup_jax.simulate import LABEL_FIELDS, Randomization, SimConfig, plan, sample_physics, simulate
+from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, sample_physics, simulate
 
 # Static holding torque: the settled arm still creeps (servo residuals, pad creep): 1 %.
 STATIC_RTOL = 0.01
