@@ -26,6 +26,7 @@ EXAMPLES = """examples:
   itup plan --task hammer --tool my.stl --tool-spec my.toml
   itup bench costs --n 100000 --t 64 --json
   itup bench rollout --json
+  itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup tools
 """
 
@@ -136,6 +137,19 @@ def cmd_plan(args) -> int:
     return 0
 
 
+def cmd_generate(args) -> int:
+    from itup_jax.dataset import GenerateConfig, generate
+
+    tasks = tuple(t for t in args.tasks.split(",") if t)
+    cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
+                         backend=args.backend, randomize=not args.nominal)
+    m = generate(args.out, cfg, progress=not args.quiet)
+    t = m.get("totals", {})
+    print(f"{args.out}: {len(m['shards'])} shards, {t.get('n', 0)} rollouts: {t.get('valid', 0)} valid, "
+          f"{t.get('infeasible', 0)} infeasible, {t.get('diverged', 0)} diverged (see {args.out}/manifest.json)")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from itup_jax.bench import bench_costs
 
@@ -216,6 +230,17 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--repeats", type=int, default=10)
     b.add_argument("--json", action="store_true", help="print one JSON object")
     b.set_defaults(fn=cmd_bench)
+
+    gen = sub.add_parser("generate", help="label dataset: shards + manifest; resumes after a kill")
+    gen.add_argument("--out", required=True, help="dataset folder (created; resumed if it holds a manifest)")
+    gen.add_argument("--tasks", default=",".join(TASK_KINDS), help="comma-separated task kinds")
+    gen.add_argument("--tools-per-task", type=int, default=4, help="built-in tool + procedural variants")
+    gen.add_argument("--grasps", type=int, default=128, help="grasps (rollouts) per tool")
+    gen.add_argument("--seed", type=int, default=0)
+    gen.add_argument("--backend", default=None, choices=["native", "mjx"])
+    gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
+    gen.add_argument("--quiet", action="store_true", help="no progress bar")
+    gen.set_defaults(fn=cmd_generate)
 
     t = sub.add_parser("tools", help="list the built-in tools and the category priors")
     t.set_defaults(fn=cmd_tools)

@@ -75,3 +75,11 @@ def grasp_features(points_tool: jax.Array, loads: Loads, tool: ToolParams, grasp
                                to_grasp(tool.com - p)])
     physics = jnp.stack([jnp.log(tool.mass), tool.mu, tool.restitution, jnp.log(tool.contact_duration)])
     return jnp.concatenate([occ, load_feats, contact, physics])
+
+
+def _batched(points_tool, loads, tool, grasps, spec):
+    return jax.vmap(lambda g: grasp_features(points_tool, loads, tool, g, spec))(grasps)
+
+
+#: The outer call for a batch of grasps: one jit, `spec` static (recompiles only for new shapes/specs).
+batched_features = jax.jit(_batched, static_argnames=("spec",))

@@ -1,0 +1,283 @@
+"""Label datasets for SDG-Net: shards of arrays plus a manifest (`itup generate`).
+
+    manifest = generate("data/", GenerateConfig(tasks=("hammer",), tools_per_task=4, grasps=256))
+
+One shard per (task, tool variant): the tool (variant 0 is the built-in, the others are procedural
+variants of it, `vary_tool`), `grasps` sampled grasps, their rollouts in MuJoCo with randomised
+physics (`simulate`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
+.npz written atomically (temporary file, then rename) with fixed zip timestamps, so the same config
+and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
+config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
+rollouts. A run killed at any point and started again skips the shards whose checksum matches and
+makes the rest: nothing lost, nothing duplicated. Diverged and infeasible rollouts are stored with
+their flags (and counted) so that nothing is dropped silently; `load_shard(valid_only=True)` gives
+the labels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import json
+import os
+import tempfile
+import warnings
+import zipfile
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from itup_jax import __version__
+from itup_jax.costs import CostParams, wrench_costs
+from itup_jax.errors import InputError
+from itup_jax.features import FeatureSpec, batched_features, surface_sample
+from itup_jax.grasp_sampler import sample_grasps
+from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
+from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
+from itup_jax.tool import Box, Tool, load_tool, make_tool_params
+from itup_jax.wrench import task_loads
+
+FORMAT = "itup.dataset/1"
+MANIFEST = "manifest.json"
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
+
+
+# ---------------------------------------------------------------------------------------------------
+# Procedural tool variants
+# ---------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class VariantRanges:
+    """Uniform ranges of a variant: handle-axis scale, radial scale, density scale (all relative)."""
+
+    axial: tuple = (0.85, 1.15)
+    radial: tuple = (0.8, 1.25)
+    density: tuple = (0.8, 1.25)
+
+
+def vary_tool(tool: Tool, seed: int, ranges: VariantRanges = VariantRanges()) -> Tool:
+    """A procedural variant: the tool stretched by diag(r, r, a) (tool z is the handle axis) and made
+    denser or lighter by d. Mass properties transform exactly (each part keeps a uniform density):
+    m' = d r^2 a m, c' = D c, and with S = tr(I)/2 E - I the second moments, S' = d r^2 a D S D.
+    """
+    rng = np.random.default_rng(seed)
+    a, r, d = (rng.uniform(*ranges.axial), rng.uniform(*ranges.radial), rng.uniform(*ranges.density))
+    D = np.diag([r, r, a])
+    p = tool.params
+    I = np.asarray(p.inertia, float)
+    S = 0.5 * np.trace(I) * np.eye(3) - I
+    k = d * r * r * a
+    S2 = k * D @ S @ D
+    mesh = tool.mesh.copy()
+    mesh.apply_transform(np.diag([r, r, a, 1.0]))
+    prims = []
+    for prim in tool.primitives:
+        if prim[0] == "capsule":
+            _, p0, p1, rad = prim
+            prims.append(("capsule", D @ p0, D @ p1, rad * r))
+        else:
+            _, lo, hi = prim
+            prims.append(("box", D @ lo, D @ hi))
+    normal = np.linalg.solve(D, tool.contact_normal)  # normals transform by D^-T (D is diagonal)
+    params = make_tool_params(
+        mass=k * float(p.mass), com=D @ np.asarray(p.com, float), inertia=np.trace(S2) * np.eye(3) - S2,
+        restitution=float(p.restitution), mu=float(p.mu), contact_duration=float(p.contact_duration),
+        what=f"variant of {tool.name!r}")
+    return dataclasses.replace(
+        tool, name=f"{tool.name}~{seed}", mesh=mesh, params=params, contact_point=D @ tool.contact_point,
+        contact_points=tool.contact_points @ D, contact_normal=normal / np.linalg.norm(normal),
+        grasp_region=Box(D @ tool.grasp_region.lo, D @ tool.grasp_region.hi), primitives=tuple(prims),
+        parts=tuple((n, m, round(w * k, 4)) for n, m, w in tool.parts))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Generation
+# ---------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class GenerateConfig:
+    """What `generate` makes: per task, `tools_per_task` tools (the built-in + variants) x `grasps`."""
+
+    tasks: tuple = TASK_KINDS
+    tools_per_task: int = 4
+    grasps: int = 128
+    seed: int = 0
+    backend: str | None = None
+    randomize: bool = True
+    feature_spec: dict = dataclasses.field(default_factory=lambda: FeatureSpec().to_dict())
+
+    def validate(self) -> None:
+        unknown = set(self.tasks) - set(TASK_KINDS)
+        if not self.tasks or unknown:
+            raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
+        if self.tools_per_task < 1 or self.grasps < 1:
+            raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
+
+    def to_json(self) -> dict:
+        return dict(dataclasses.asdict(self), tasks=list(self.tasks))
+
+
+def shard_units(config: GenerateConfig) -> list[tuple[str, int]]:
+    """(task, variant index) of every shard, in generation order."""
+    return [(task, v) for task in config.tasks for v in range(config.tools_per_task)]
+
+
+def _shard_name(task: str, variant: int) -> str:
+    return f"shard_{task}_{variant:03d}.npz"
+
+
+def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
+    """A seed per shard from the run seed, stable under reordering of the tasks."""
+    h = hashlib.sha256(f"{config.seed}/{task}/{variant}".encode()).digest()
+    return int.from_bytes(h[:4], "little")
+
+
+def make_shard(config: GenerateConfig, task_kind: str, variant: int) -> dict[str, np.ndarray]:
+    """Arrays of one shard (host side; the features and costs run jitted at their outer calls)."""
+    seed = _unit_seed(config, task_kind, variant)
+    base = load_tool(DEFAULT_TOOL[task_kind])
+    tool = base if variant == 0 else vary_tool(base, seed)
+    with warnings.catch_warnings():  # a stretched tool may swing a little over the speed limit: flagged per rollout
+        warnings.simplefilter("ignore", UserWarning)
+        task = make_task(task_kind, tool)
+    grasps = sample_grasps(tool, config.grasps, seed=seed)
+    res = simulate(tool, task, grasps, backend=config.backend, seed=seed,
+                   randomize=Randomization() if config.randomize else None)
+    spec = FeatureSpec(**config.feature_spec)
+    points = surface_sample(tool, spec)
+    tp = tool.params
+    loads = task_loads(tp, task)
+    feats = batched_features(points, loads, tp, grasps, spec=spec)
+    costs = wrench_costs(tool, task, grasps, CostParams())
+    arrays = {f"label_{f}": np.asarray(v) for f, v in res.labels.as_dict().items()}
+    arrays.update(
+        features=np.asarray(feats, np.float32),
+        grasp_p=np.asarray(grasps.p_tool_grasp, np.float64), grasp_q=np.asarray(grasps.q_tool_grasp, np.float64),
+        grasp_width=np.asarray(grasps.width, np.float64),
+        physics=np.stack([getattr(res.physics, f.name) for f in dataclasses.fields(res.physics)], axis=1),
+        analytic_tau=np.asarray(costs.tau, np.float64), analytic_slip=np.asarray(costs.slip, np.float64),
+        analytic_align=np.asarray(costs.align, np.float64),
+        tool_id=np.full(config.grasps, variant, np.int32),
+    )
+    arrays["meta_json"] = np.frombuffer(json.dumps(
+        {"task": task_kind, "tool": tool.name, "variant": variant, "seed": seed, "backend": res.backend,
+         "physics_fields": [f.name for f in dataclasses.fields(res.physics)]}, sort_keys=True).encode(), np.uint8)
+    return arrays
+
+
+def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """A .npz with fixed timestamps and sorted members: the same arrays give the same bytes."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_STORED) as zf:
+        for name in sorted(arrays):
+            member = io.BytesIO()
+            np.lib.format.write_array(member, np.ascontiguousarray(arrays[name]), allow_pickle=False)
+            zf.writestr(zipfile.ZipInfo(name + ".npy", date_time=_ZIP_TIME), member.getvalue())
+    return buf.getvalue()
+
+
+def _atomic_write(path: str, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".tmp-")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _counts(arrays: dict[str, np.ndarray]) -> dict[str, int]:
+    return {"n": int(len(arrays["label_valid"])), "valid": int(arrays["label_valid"].sum()),
+            "diverged": int(arrays["label_diverged"].sum()), "infeasible": int(arrays["label_infeasible"].sum())}
+
+
+def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progress: bool = True,
+             after_shard: Callable[[int], None] | None = None) -> dict[str, Any]:
+    """Make (or complete) the dataset in `out_dir`; returns the manifest.
+
+    Resumes: shards already listed in the manifest whose file has the recorded checksum are kept; a
+    manifest made with another config is refused. `after_shard(k)` is called after the k-th shard
+    is written (tests use it to interrupt a run).
+    """
+    config.validate()
+    os.makedirs(out_dir, exist_ok=True)
+    mpath = os.path.join(out_dir, MANIFEST)
+    manifest = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
+                "label_fields": list(LABEL_FIELDS), "shards": []}
+    if os.path.exists(mpath):
+        with open(mpath) as fh:
+            old = json.load(fh)
+        if old.get("config") != manifest["config"]:
+            raise InputError(f"generate: {mpath} was made with another config; use a new folder")
+        manifest["shards"] = [s for s in old["shards"]
+                              if os.path.exists(os.path.join(out_dir, s["file"]))
+                              and sha256_file(os.path.join(out_dir, s["file"])) == s["sha256"]]
+    done = {s["file"] for s in manifest["shards"]}
+    units = shard_units(config)
+    todo = [u for u in units if _shard_name(*u) not in done]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(units) * config.grasps, initial=len(done) * config.grasps, unit="rollout",
+                   desc="generate", dynamic_ncols=True)
+    try:
+        for k, (task_kind, variant) in enumerate(todo):
+            arrays = make_shard(config, task_kind, variant)
+            name = _shard_name(task_kind, variant)
+            _atomic_write(os.path.join(out_dir, name), _npz_bytes(arrays))
+            manifest["shards"].append({"file": name, "task": task_kind, "variant": variant,
+                                       "sha256": sha256_file(os.path.join(out_dir, name)), **_counts(arrays)})
+            manifest["shards"].sort(key=lambda s: units.index((s["task"], s["variant"])))
+            manifest["totals"] = {c: sum(s[c] for s in manifest["shards"]) for c in ("n", "valid", "diverged", "infeasible")}
+            _atomic_write(mpath, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+            if bar is not None:
+                bar.update(config.grasps)
+            if after_shard is not None:
+                after_shard(k)
+    finally:
+        if bar is not None:
+            bar.close()
+    return manifest
+
+
+def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: bool = True) -> dict[str, np.ndarray]:
+    """Arrays of a manifest entry; checks its SHA-256 first (a corrupted shard raises InputError)."""
+    path = os.path.join(out_dir, entry["file"])
+    if verify and sha256_file(path) != entry["sha256"]:
+        raise InputError(f"dataset shard {path!r}: checksum mismatch (corrupted or changed); regenerate it")
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    if valid_only:
+        keep = arrays["label_valid"]
+        arrays = {k: (v[keep] if v.ndim and len(v) == len(keep) and k != "meta_json" else v) for k, v in arrays.items()}
+    return arrays
+
+
+def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """All shards of a dataset (verified), concatenated; adds `task` [N] (str) per row."""
+    with open(os.path.join(out_dir, MANIFEST)) as fh:
+        manifest = json.load(fh)
+    parts = []
+    for entry in manifest["shards"]:
+        if tasks is not None and entry["task"] not in tasks:
+            continue
+        a = load_shard(out_dir, entry, valid_only=valid_only)
+        a.pop("meta_json")
+        a["task"] = np.array([entry["task"]] * len(a["label_valid"]))
+        parts.append(a)
+    if not parts:
+        raise InputError(f"dataset {out_dir!r}: no shards{' for ' + ','.join(tasks) if tasks else ''}")
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
