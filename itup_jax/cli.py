@@ -27,6 +27,7 @@ EXAMPLES = """examples:
   itup bench costs --n 100000 --t 64 --json
   itup bench rollout --json
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
+  itup train --data data/ --out model.npz
   itup tools
 """
 
@@ -150,6 +151,30 @@ def cmd_generate(args) -> int:
     return 0
 
 
+def cmd_train(args) -> int:
+    import json as _json
+
+    from itup_jax.dataset import MANIFEST, load_dataset
+    from itup_jax.sdgnet import TrainConfig, save_model, train
+
+    mpath = os.path.join(args.data, MANIFEST)
+    if not os.path.exists(mpath):
+        raise_input(f"--data {args.data!r}: no {MANIFEST} there (make one with `itup generate`)")
+    manifest = _json.load(open(mpath))
+    data = load_dataset(args.data)
+    hidden = tuple(int(h) for h in args.hidden.split(",") if h)
+    cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
+                      patience=args.patience)
+    model = train(data, cfg, feature_spec=manifest["config"]["feature_spec"], progress=not args.quiet)
+    model.spec["dataset"] = {"folder": os.path.abspath(args.data), "config": manifest["config"],
+                             "totals": manifest.get("totals"), "code_version": manifest["code_version"]}
+    model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
+    save_model(args.out, model)
+    print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE), "
+          f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from itup_jax.bench import bench_costs
 
@@ -241,6 +266,18 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.set_defaults(fn=cmd_generate)
+
+    tr = sub.add_parser("train", help="train SDG-Net on a dataset from `itup generate`")
+    tr.add_argument("--data", required=True, help="dataset folder")
+    tr.add_argument("--out", required=True, help="checkpoint to write (.npz, arrays only)")
+    tr.add_argument("--hidden", default="128,128")
+    tr.add_argument("--epochs", type=int, default=200)
+    tr.add_argument("--batch", type=int, default=128)
+    tr.add_argument("--lr", type=float, default=2e-3)
+    tr.add_argument("--patience", type=int, default=25)
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--quiet", action="store_true")
+    tr.set_defaults(fn=cmd_train)
 
     t = sub.add_parser("tools", help="list the built-in tools and the category priors")
     t.set_defaults(fn=cmd_tools)

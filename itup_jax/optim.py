@@ -57,7 +57,7 @@ def adam_update(grads: Any, state: AdamState, params: Any, config: AdamConfig) -
     lr = learning_rate(state.step, config)
     c1 = 1 - config.b1 ** t.astype(lr.dtype)
     c2 = 1 - config.b2 ** t.astype(lr.dtype)
-    new = jax.tree_util.tree_map(
-        lambda p, m, v: p - lr * ((m / c1) / (jnp.sqrt(v / c2) + config.eps) + config.weight_decay * p),
+    new = jax.tree_util.tree_map(  # each parameter keeps its dtype (float32 nets under jax_enable_x64)
+        lambda p, m, v: (p - lr * ((m / c1) / (jnp.sqrt(v / c2) + config.eps) + config.weight_decay * p)).astype(p.dtype),
         params, mu, nu)
     return new, AdamState(step=t, mu=mu, nu=nu)

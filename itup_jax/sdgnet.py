@@ -1,0 +1,187 @@
+"""SDG-Net: training on label datasets and scoring grasp candidates.
+
+The network (`mlp.py`) maps a grasp's features (`features.py`) to the MuJoCo-measured counterparts of
+the three costs — C_tau: peak wrist torque perpendicular to the jaw axis (N m), C_s: slip of the tool in
+the grasp (m), C_alpha: alignment drift (rad) — trained with the sum of squared errors on normalised
+targets (the paper's loss). Train/validation split by tool (held-out tools), our own AdamW, minibatches
+scanned inside one jitted epoch, early stopping on the validation loss.
+
+    model = train(load_dataset("data/"), TrainConfig())        # -> Model (params + spec)
+    save_model("model.npz", model); model = load_model("model.npz")
+    costs = itup.score(tool, task, grasps, model=None)         # None: the shipped default checkpoint
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from itup_jax import checkpoint, mlp
+from itup_jax.errors import InputError
+from itup_jax.features import FeatureSpec, batched_features, surface_sample
+from itup_jax.optim import AdamConfig, adam_init, adam_update
+
+TARGETS = ("label_peak_torque_projected", "label_slip_translation", "label_alignment_drift")
+#: Targets are learned as log1p(y / scale): slip is heavy-tailed (a lost tool "slips" metres), torque
+#: spans decades; the scales are 1 N m, 1 mm, 0.1 rad. Predictions are mapped back by scale * expm1.
+TARGET_SCALES = (1.0, 1e-3, 0.1)
+COST_NAMES = ("tau", "slip", "align")
+DEFAULT_MODEL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "models", "sdgnet_default.npz")
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    hidden: tuple = (128, 128)
+    epochs: int = 200
+    batch: int = 128
+    lr: float = 2e-3
+    weight_decay: float = 1e-4
+    patience: int = 25
+    val_fraction: float = 0.25  # of the tools (task x variant), held out
+    seed: int = 0
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """Trained SDG-Net: MLP layers plus everything needed to rebuild its inputs and outputs."""
+
+    params: list
+    spec: dict  # feature_spec, x_mean, x_std, y_mean, y_std, targets, train config, metrics
+
+    @property
+    def feature_spec(self) -> FeatureSpec:
+        return FeatureSpec(**self.spec["feature_spec"])
+
+
+def _split_by_tool(data: dict, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    tools = np.array([f"{t}/{v}" for t, v in zip(data["task"], data["tool_id"])])
+    names = np.unique(tools)
+    rng = np.random.default_rng(seed)
+    n_val = max(1, int(round(fraction * len(names)))) if len(names) > 1 else 0
+    val_names = set(rng.choice(names, size=n_val, replace=False)) if n_val else set()
+    val = np.array([t in val_names for t in tools])
+    return ~val, val
+
+
+def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict | None = None,
+          progress: bool = True, log=print) -> Model:
+    """Fit SDG-Net on a loaded dataset (valid rows only; see `dataset.load_dataset`)."""
+    X = np.asarray(data["features"], np.float64)
+    Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(TARGET_SCALES))
+    keep = np.isfinite(X).all(1) & np.isfinite(Y).all(1)
+    X, Y = X[keep], Y[keep]
+    sub = {k: np.asarray(v)[keep] for k, v in data.items() if k in ("task", "tool_id")}
+    if len(X) < 8:
+        raise InputError(f"train: need at least 8 valid examples, got {len(X)}")
+    tr, va = _split_by_tool(sub, config.val_fraction, config.seed)
+    x_mean, x_std = X[tr].mean(0), X[tr].std(0) + 1e-8
+    y_mean, y_std = Y[tr].mean(0), Y[tr].std(0) + 1e-8
+    Xn, Yn = (X - x_mean) / x_std, (Y - y_mean) / y_std
+    f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731
+    Xtr, Ytr, Xva, Yva = f32(Xn[tr]), f32(Yn[tr]), f32(Xn[va]), f32(Yn[va])
+    n_tr = len(Xtr)
+    batch = min(config.batch, n_tr)
+    steps_per_epoch = max(1, n_tr // batch)
+    key = jax.random.key(config.seed)
+    key, k_init = jax.random.split(key)
+    params = jax.tree_util.tree_map(f32, mlp.init(k_init, [X.shape[1], *config.hidden, len(TARGETS)]))
+    adam = AdamConfig(lr=config.lr, weight_decay=config.weight_decay, warmup_steps=min(100, 5 * steps_per_epoch),
+                      total_steps=config.epochs * steps_per_epoch)
+    opt = adam_init(params)
+
+    def loss_fn(p, x, y):  # sum of squared errors on normalised targets, mean over examples
+        pred = jax.vmap(mlp.apply, in_axes=(None, 0))(p, x)
+        return jnp.mean(jnp.sum((pred - y) ** 2, axis=1))
+
+    @jax.jit  # the outer call: one jitted epoch (shuffle, then scan over minibatches)
+    def epoch(p, s, k):
+        perm = jax.random.permutation(k, n_tr)[: steps_per_epoch * batch].reshape(steps_per_epoch, batch)
+
+        def step(carry, idx):
+            p, s = carry
+            l, g = jax.value_and_grad(loss_fn)(p, Xtr[idx], Ytr[idx])
+            p, s = adam_update(g, s, p, adam)
+            return (p, s), l
+
+        (p, s), losses = jax.lax.scan(step, (p, s), perm)
+        return p, s, losses.mean()
+
+    val_loss = jax.jit(loss_fn)
+    best = (np.inf, params, 0)
+    history = []
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=config.epochs, desc="train", unit="epoch", dynamic_ncols=True)
+    t0 = time.perf_counter()
+    for e in range(config.epochs):
+        key, k = jax.random.split(key)
+        params, opt, tl = epoch(params, opt, k)
+        vl = float(val_loss(params, Xva, Yva)) if len(Xva) else float(tl)
+        history.append((float(tl), vl))
+        if vl < best[0]:
+            best = (vl, params, e)
+        if bar is not None:
+            bar.set_postfix(train=f"{float(tl):.3f}", val=f"{vl:.3f}")
+            bar.update(1)
+        if e - best[2] >= config.patience:
+            break
+    if bar is not None:
+        bar.close()
+    wall = time.perf_counter() - t0
+    log(f"train: {len(history)} epochs in {wall:.1f} s, best val loss {best[0]:.4f} at epoch {best[2]} "
+        f"({int(tr.sum())} train / {int(va.sum())} validation examples, held-out tools)")
+    spec = {
+        "feature_spec": feature_spec or {}, "targets": list(TARGETS), "cost_names": list(COST_NAMES),
+        "target_scales": list(TARGET_SCALES),
+        "x_mean": x_mean.tolist(), "x_std": x_std.tolist(), "y_mean": y_mean.tolist(), "y_std": y_std.tolist(),
+        "config": dataclasses.asdict(config), "best_epoch": best[2], "best_val_loss": best[0],
+        "history": history, "train_seconds": wall, "n_train": int(tr.sum()), "n_val": int(va.sum()),
+    }
+    return Model(params=[(np.asarray(W), np.asarray(b)) for W, b in best[1]], spec=spec)
+
+
+def save_model(path: str, model: Model) -> None:
+    checkpoint.save(path, model.params, model.spec)
+
+
+def load_model(path: str | None = None) -> Model:
+    """A saved model; None: the default checkpoint shipped in the package."""
+    layers, spec = checkpoint.load(path or DEFAULT_MODEL)
+    if spec.get("targets") != list(TARGETS):
+        raise InputError(f"model {path!r}: trained for targets {spec.get('targets')}, expected {list(TARGETS)}")
+    return Model(params=layers, spec=spec)
+
+
+def _predict_normalised(params, x_mean, x_std, y_mean, y_std, feats):
+    x = (feats - x_mean) / x_std
+    t = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x) * y_std + y_mean
+    return jnp.asarray(TARGET_SCALES, t.dtype) * jnp.expm1(t)
+
+
+#: The scorer's network half: one jit (features are jitted separately by `batched_features`).
+predict = jax.jit(_predict_normalised)
+
+
+def predict_costs(model: Model, feats: Any) -> dict[str, jax.Array]:
+    """{tau, slip, align}: each [N], from features [N, F]."""
+    s = model.spec
+    out = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
+                  jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
+                  jnp.asarray(feats, jnp.asarray(model.params[0][0]).dtype))
+    return {name: out[:, i] for i, name in enumerate(COST_NAMES)}
+
+
+def model_features(model: Model, tool, task, grasps) -> jax.Array:
+    """Features of `grasps` in the spec the model was trained with."""
+    from itup_jax.wrench import task_loads
+
+    spec = model.feature_spec
+    return batched_features(surface_sample(tool, spec), task_loads(tool.params, task), tool.params, grasps, spec=spec)
