@@ -6,14 +6,15 @@ stored as a uint8 array, so nothing in it needs pickle to read.
 
 from __future__ import annotations
 
+import io
 import json
 import os
-import tempfile
 import zipfile
 from typing import Any
 
 import numpy as np
 
+from itup_jax.atomic import atomic_write
 from itup_jax.errors import InputError
 
 FORMAT = "itup.checkpoint/1"
@@ -27,16 +28,9 @@ def save(path: str, layers: list, spec: dict[str, Any]) -> None:
         arrays[f"b{i}"] = np.asarray(b)
     meta = {"format": FORMAT, "num_layers": len(layers), "spec": spec}
     arrays["meta_json"] = np.frombuffer(json.dumps(meta, sort_keys=True).encode(), dtype=np.uint8)
-    folder = os.path.dirname(os.path.abspath(path)) or "."
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    atomic_write(path, buf.getvalue())
 
 
 def load(path: str) -> tuple[list, dict[str, Any]]:

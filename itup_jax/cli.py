@@ -14,7 +14,6 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 from typing import Any
 
 import numpy as np
@@ -33,20 +32,13 @@ EXAMPLES = """examples:
 
 
 def _atomic_write_json(path: str, obj: Any) -> None:
-    """Write JSON to a temporary file in the same folder, then rename: never half-written."""
+    """Write JSON atomically (`atomic.atomic_write`): never half-written."""
+    from itup_jax.atomic import atomic_write
+
     folder = os.path.dirname(os.path.abspath(path)) or "."
     if not os.path.isdir(folder):
         raise_input(f"--json {path!r}: folder {folder!r} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=2)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
 def raise_input(msg: str) -> None:

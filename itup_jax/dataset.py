@@ -21,7 +21,6 @@ import hashlib
 import io
 import json
 import os
-import tempfile
 import warnings
 import zipfile
 from collections.abc import Callable, Sequence
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from itup_jax import __version__
+from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import FeatureSpec, batched_features, surface_sample
@@ -176,20 +176,6 @@ def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
     return buf.getvalue()
 
 
-def _atomic_write(path: str, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".tmp-")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def sha256_file(path: str) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as fh:
@@ -237,12 +223,12 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
         for k, (task_kind, variant) in enumerate(todo):
             arrays = make_shard(config, task_kind, variant)
             name = _shard_name(task_kind, variant)
-            _atomic_write(os.path.join(out_dir, name), _npz_bytes(arrays))
+            atomic_write(os.path.join(out_dir, name), _npz_bytes(arrays))
             manifest["shards"].append({"file": name, "task": task_kind, "variant": variant,
                                        "sha256": sha256_file(os.path.join(out_dir, name)), **_counts(arrays)})
             manifest["shards"].sort(key=lambda s: units.index((s["task"], s["variant"])))
             manifest["totals"] = {c: sum(s[c] for s in manifest["shards"]) for c in ("n", "valid", "diverged", "infeasible")}
-            _atomic_write(mpath, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+            atomic_write(mpath, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
             if bar is not None:
                 bar.update(config.grasps)
             if after_shard is not None:

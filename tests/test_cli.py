@@ -76,12 +76,12 @@ def test_unknown_task_is_refused_by_the_parser(capsys):
 
 
 def test_failed_json_write_leaves_nothing_behind(tmp_path, monkeypatch):
-    import itup_jax.cli as cli
+    import itup_jax.atomic as atomic
 
     def boom(*a, **k):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(cli.json, "dump", boom)
+    monkeypatch.setattr(atomic.os, "fsync", boom)  # fails after the temporary file is written
     with pytest.raises(RuntimeError):
         main(["plan", "--task", "reach", "--n", "5", "--json", str(tmp_path / "x.json")])
     assert list(tmp_path.iterdir()) == []
