@@ -127,8 +127,8 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
 
     from itup_jax.grasp_sampler import sample_grasps
     from itup_jax.scene import build_scene
-    from itup_jax.simulate import (MJX_CPU_MAX_BATCH, _initial_states, _mjx_rollout_fn, plan, randomized_model,
-                                   sample_physics, simulate)
+    from itup_jax.simulate import (MJX_CPU_MAX_BATCH, _initial_states, _mjx_rollout_fn, _slice_physics,
+                                   mjx_model_fields, plan, randomized_model, sample_physics, simulate)
 
     tool = load_tool("hammer")
     task = make_task("hammer", tool)
@@ -161,13 +161,11 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
     for b in mjx_batches:
         if jax.default_backend() == "cpu" and b > MJX_CPU_MAX_BATCH:
             continue
-        idx = np.arange(b) % n
+        idx = np.arange(b) % n  # an index array: _slice_physics and the plan arrays take it alike
         fn = _mjx_rollout_fn(scene)
-        m = scene.model
         dt = fn.dtype
-        args = (np.tile(m.body_mass, (b, 1)).astype(dt), np.tile(m.body_inertia, (b, 1, 1)).astype(dt),
-                np.tile(m.pair_friction, (b, 1, 1)).astype(dt), np.tile(m.pair_solref, (b, 1, 1)).astype(dt),
-                p.qpos0[idx].astype(dt), p.ctrl[idx, :mjx_steps].astype(dt))
+        fields = mjx_model_fields(scene, _slice_physics(physics, idx))
+        args = tuple(a.astype(dt) for a in fields) + (p.qpos0[idx].astype(dt), p.ctrl[idx, :mjx_steps].astype(dt))
         t0 = time.perf_counter()
         jax.block_until_ready(fn(*args))
         first = time.perf_counter() - t0

@@ -11,18 +11,18 @@ with the same shapes does not recompile.
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from itup_jax import mlp
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import _batched, surface_sample
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.sdgnet import TARGET_SCALES, Model, load_model
+from itup_jax.sdgnet import Model, load_model, predict_from_features
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
@@ -53,16 +53,14 @@ class Scores:
 def _sdgnet_scores(points, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, weights, spec):
     loads = task_loads(tool_params, task)
     feats = _batched(points, loads, tool_params, grasps, spec)
-    x = (feats.astype(x_mean.dtype) - x_mean) / x_std
-    t = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x) * y_std + y_mean
-    y = jnp.asarray(TARGET_SCALES, t.dtype) * jnp.expm1(t)  # back from log1p(y / scale)
+    y = predict_from_features(params, x_mean, x_std, y_mean, y_std, feats.astype(x_mean.dtype))
     tau, slip, align = y[:, 0], y[:, 1], y[:, 2]
     return tau, slip, align, weights[0] * tau + weights[1] * slip + weights[2] * align
 
 
 #: The one jit of SDG-Net scoring (the outer call).
 sdgnet_scores_jit = jax.jit(_sdgnet_scores, static_argnames=("spec",))
-_POINTS: dict = {}
+_POINTS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: points}
 
 
 def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
@@ -77,10 +75,10 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
     spec = model.feature_spec
-    key = (id(tool), spec)
-    if key not in _POINTS:
-        _POINTS[key] = (tool, surface_sample(tool, spec))  # keep the tool alive so its id stays unique
-    points = _POINTS[key][1]
+    per_tool = _POINTS.setdefault(tool, {})
+    if spec not in per_tool:
+        per_tool[spec] = surface_sample(tool, spec)
+    points = per_tool[spec]
     s = model.spec
     dt = jnp.float32
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]

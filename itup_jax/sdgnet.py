@@ -24,7 +24,7 @@ import numpy as np
 
 from itup_jax import checkpoint, mlp
 from itup_jax.errors import InputError
-from itup_jax.features import FeatureSpec, batched_features, surface_sample
+from itup_jax.features import FeatureSpec
 from itup_jax.optim import AdamConfig, adam_init, adam_update
 
 TARGETS = ("label_peak_torque_projected", "label_slip_translation", "label_alignment_drift")
@@ -160,14 +160,16 @@ def load_model(path: str | None = None) -> Model:
     return Model(params=layers, spec=spec)
 
 
-def _predict_normalised(params, x_mean, x_std, y_mean, y_std, feats):
+def predict_from_features(params, x_mean, x_std, y_mean, y_std, feats):
+    """[N, F] features -> [N, 3] costs in SI units: normalise, MLP, de-normalise, undo log1p(y / scale).
+    Pure; `predict` and the scorer's jit wrap it."""
     x = (feats - x_mean) / x_std
     t = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x) * y_std + y_mean
     return jnp.asarray(TARGET_SCALES, t.dtype) * jnp.expm1(t)
 
 
-#: The scorer's network half: one jit (features are jitted separately by `batched_features`).
-predict = jax.jit(_predict_normalised)
+#: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).
+predict = jax.jit(predict_from_features)
 
 
 def predict_costs(model: Model, feats: Any) -> dict[str, jax.Array]:
@@ -178,10 +180,3 @@ def predict_costs(model: Model, feats: Any) -> dict[str, jax.Array]:
                   jnp.asarray(feats, jnp.asarray(model.params[0][0]).dtype))
     return {name: out[:, i] for i, name in enumerate(COST_NAMES)}
 
-
-def model_features(model: Model, tool, task, grasps) -> jax.Array:
-    """Features of `grasps` in the spec the model was trained with."""
-    from itup_jax.wrench import task_loads
-
-    spec = model.feature_spec
-    return batched_features(surface_sample(tool, spec), task_loads(tool.params, task), tool.params, grasps, spec=spec)

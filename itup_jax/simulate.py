@@ -260,7 +260,17 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics) -> tuple[np.ndarray, np
         raise InputError(f"rollout_mjx: batch {n} > {MJX_CPU_MAX_BATCH} per CPU device hangs MJX (DESIGN.md); "
                          "use the native backend on a CPU or shard over host devices")
     fn = _mjx_rollout_fn(scene)
+    dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
+    fields = [a.astype(dt) for a in mjx_model_fields(scene, physics)]
+    qvel_peak, sens = fn(*fields, p.qpos0.astype(dt), p.ctrl.astype(dt))
+    return np.asarray(qvel_peak, float), np.asarray(sens, float)
+
+
+def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
+    """The model fields MJX batches, one row per rollout: (body_mass, body_inertia, pair_friction,
+    pair_solref) with each rollout's physics, as `_set_physics` writes them into a native model."""
     m = scene.model
+    n = len(physics.mass_scale)
     b = m.body("tool").id
     pad, tt = scene.pad_tool_pairs, scene.tool_target_pairs
     mass = np.tile(m.body_mass, (n, 1))
@@ -273,20 +283,16 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics) -> tuple[np.ndarray, np
     solref = np.tile(m.pair_solref, (n, 1, 1))
     for i in range(n):
         solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i])
-    dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
-    qvel_peak, sens = fn(mass.astype(dt), inertia.astype(dt), friction.astype(dt), solref.astype(dt),
-                         p.qpos0.astype(dt), p.ctrl.astype(dt))
-    return np.asarray(qvel_peak, float), np.asarray(sens, float)
+    return mass, inertia, friction, solref
 
 
-_MJX_CACHE: dict[int, Any] = {}
+_MJX_CACHE: "weakref.WeakKeyDictionary[Scene, Any]" = weakref.WeakKeyDictionary()
 
 
 def _mjx_rollout_fn(scene: Scene):
     """The jitted batched rollout for a scene's model (compiled once per scene and batch shape)."""
-    key = id(scene)
-    if key in _MJX_CACHE:
-        return _MJX_CACHE[key][1]
+    if scene in _MJX_CACHE:
+        return _MJX_CACHE[scene]
     from mujoco import mjx
 
     mx = mjx.put_model(scene.model)
@@ -309,7 +315,7 @@ def _mjx_rollout_fn(scene: Scene):
         return jitted(*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
-    _MJX_CACHE[key] = (scene, fn)  # keep the scene alive so its id is not reused
+    _MJX_CACHE[scene] = fn
     return fn
 
 
