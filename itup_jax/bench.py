@@ -180,3 +180,82 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
     out["target_label_over_raw"] = 0.9
     out["machine"] = machine_info()
     return out
+
+
+def _flops(compiled) -> float | None:
+    """XLA's own flop count of a compiled computation (None if the backend does not say)."""
+    try:
+        ca = compiled.cost_analysis()
+    except Exception:  # noqa: BLE001 - some backends have no cost model
+        return None
+    if isinstance(ca, (list, tuple)):
+        ca = ca[0] if ca else None
+    if not ca or "flops" not in ca:
+        return None
+    return float(ca["flops"])
+
+
+def matmul_rate(size: int = 2048, repeats: int = 5, dtype=jnp.float32) -> dict[str, Any]:
+    """The reference of the same run: a large `jnp.dot` (2 size^3 flops), jitted, median of `repeats`."""
+    key = jax.random.PRNGKey(0)
+    a = jax.random.normal(key, (size, size), dtype)
+    b = jax.random.normal(jax.random.fold_in(key, 1), (size, size), dtype)
+    f = jax.jit(jnp.dot).lower(a, b).compile()
+    jax.block_until_ready(f(a, b))
+    t = statistics.median(_timed(lambda: jax.block_until_ready(f(a, b)), repeats))
+    return {"size": size, "ms": round(1e3 * t, 3), "flops_per_s": 2.0 * size**3 / t}
+
+
+def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", model: Any = None) -> dict[str, Any]:
+    """Time SDG-Net scoring (`scoring.sdgnet_scores_jit`: loads + features + MLP, one jit) of n candidates.
+
+    Reports XLA's flop count of the compiled scorer divided by the warm time (`flops_per_s`), a large
+    `jnp.dot` in the same run (`matmul_flops_per_s`, what this device does at best), and the analytic
+    cost path on the same candidates as a second reference.
+    """
+    from itup_jax import scoring
+    from itup_jax.sdgnet import load_model
+
+    tool = load_tool(DEFAULT_TOOL[task_kind])
+    task = make_task(task_kind, tool)
+    grasps = random_grasps(tool, n)
+    m = model if model is not None else load_model(None)
+    args, kw = scoring._sdgnet_args(tool, task, grasps, m, scoring.ScoreWeights())
+    t0 = time.perf_counter()
+    compiled = scoring.sdgnet_scores_jit.lower(*args, **kw).compile()
+    compile_s = time.perf_counter() - t0
+    run = lambda: jax.block_until_ready(compiled(*args))  # noqa: E731
+    run()
+    warm = _timed(run, repeats)
+    warm_s = statistics.median(warm)
+    flops = _flops(compiled)
+    mm = matmul_rate()
+    # second reference: the analytic costs (no features, no MLP) on the same candidates
+    a_args = (tool.params, task, grasps, CostParams())
+    a_compiled = wrench_costs_jit.lower(*a_args).compile()
+    jax.block_until_ready(a_compiled(*a_args))
+    analytic_s = statistics.median(_timed(lambda: jax.block_until_ready(a_compiled(*a_args)), repeats))
+    spec = m.feature_spec
+    return {
+        "benchmark": "score",
+        "task": task_kind,
+        "n": n,
+        "t": task.num_steps,
+        "features": spec.size,
+        "hidden": [int(W.shape[1]) for W, _ in m.params[:-1]],
+        "dtype": "float32",
+        "compile_s": round(compile_s, 3),
+        "warm_ms": round(1e3 * warm_s, 3),
+        "warm_ms_min": round(1e3 * min(warm), 3),
+        "repeats": repeats,
+        "candidates_per_s": round(n / warm_s),
+        "flops": flops,
+        "flops_per_s": None if flops is None else flops / warm_s,
+        "matmul": mm,
+        "matmul_flops_per_s": mm["flops_per_s"],
+        "fraction_of_matmul_rate": None if flops is None else round(flops / warm_s / mm["flops_per_s"], 4),
+        "analytic_warm_ms": round(1e3 * analytic_s, 3),
+        "sdgnet_over_analytic_time": round(warm_s / analytic_s, 2),
+        "target_warm_ms": 20.0,
+        "machine": machine_info(),
+    }

@@ -1,5 +1,7 @@
 """The `itup` command line.
 
+  itup demo [--task hammer] [--out itup-demo/]
+  itup evaluate --task T [--tool MESH --tool-spec SPEC] --methods sdgnet,force_closure,... --seeds K --json OUT
   itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--json OUT]
   itup bench costs [--n 100000] [--t 64] [--json]
   itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
@@ -19,13 +21,19 @@ from typing import Any
 import numpy as np
 
 EXAMPLES = """examples:
-  itup plan                                   # hammer task, built-in claw hammer, 1000 candidates
+  itup demo                                   # the main job: SDG-Net vs force closure, verified in MuJoCo
+  itup demo --task reach --out reach-demo/
+  itup evaluate --task hammer --methods sdgnet,force_closure,geometric,random --seeds 5 --json eval.json
+  itup plan                                   # hammer task, built-in claw hammer, 1000 candidates, SDG-Net
+  itup plan --scorer analytic                 # the analytic wrench cost instead
   itup plan --task reach --n 2000 --json best.json
   itup plan --task hammer --verify 5           # and check the 5 best in MuJoCo
   itup plan --task hammer --tool my.stl --tool-spec my.toml
   itup bench costs --n 100000 --t 64 --json
   itup bench rollout --json
+  itup bench score --n 10000 --json
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
+  itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup train --data data/ --out model.npz
   itup tools
 """
@@ -68,7 +76,11 @@ def cmd_plan(args) -> int:
     task = itup.make_task(args.task, tool)
     grasps = itup.sample_grasps(tool, args.n, seed=args.seed)
     params = itup.CostParams(w_tau=args.w_tau, w_slip=args.w_slip, w_align=args.w_align)
-    costs = itup.wrench_costs(tool, task, grasps, params)
+    if args.scorer == "analytic":
+        costs = itup.wrench_costs(tool, task, grasps, params)
+    else:
+        model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
+        costs = itup.score(tool, task, grasps, model=model, seed=args.seed)
     total = np.asarray(costs.total)
     order = np.argsort(total)[: max(1, args.top)]
     regime = itup.classify_regime(tool, task)
@@ -81,7 +93,8 @@ def cmd_plan(args) -> int:
             "q_tool_grasp_wxyz": np.asarray(grasps.q_tool_grasp[i], float).round(6).tolist(),
             "width_m": round(float(grasps.width[i]), 6),
             "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
-            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure")},
+            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure")
+                      if hasattr(costs, k)},
         }
 
     result = {
@@ -91,7 +104,7 @@ def cmd_plan(args) -> int:
         "regime": regime.name.lower(),
         "n_candidates": int(args.n),
         "seed": args.seed,
-        "scorer": "analytic",
+        "scorer": args.scorer,
         "weights": {"w_tau": args.w_tau, "w_slip": args.w_slip, "w_align": args.w_align},
         "best": row(order[0]),
         "top": [row(i) for i in order],
@@ -99,14 +112,16 @@ def cmd_plan(args) -> int:
                         "max": float(np.max(getattr(costs, k)))} for k in ("tau", "slip", "align", "total")},
     }
     print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {result['regime']} | "
-          f"{args.n} antipodal candidates (seed {args.seed}) | analytic wrench cost")
-    print(f"{'rank':>4} {'idx':>5} {'C_tau N·m':>10} {'C_s N':>9} {'C_alpha rad':>11} {'C':>9}  grasp origin (tool frame, m)")
+          f"{args.n} antipodal candidates (seed {args.seed}) | scorer {args.scorer}")
+    units = ("N·m", "N", "rad") if args.scorer in ("analytic",) else ("N·m", "m", "rad") if args.scorer == "sdgnet" else ("", "", "")
+    print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} {'C':>9}  "
+          "grasp origin (tool frame, m)")
     for rank, i in enumerate(order):
         c = result["top"][rank]["costs"]
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} {c['total']:>9.3f}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
     s = result["summary"]
-    print(f"all candidates: C_tau {s['tau']['min']:.3f}..{s['tau']['max']:.3f} N·m (median {s['tau']['median']:.3f})")
+    print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
     if args.verify > 0:
         k = min(args.verify, len(order))
         res = itup.simulate(tool, task, grasps[order[:k]], seed=args.seed)
@@ -136,7 +151,7 @@ def cmd_generate(args) -> int:
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal)
-    m = generate(args.out, cfg, progress=not args.quiet)
+    m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard)
     t = m.get("totals", {})
     print(f"{args.out}: {len(m['shards'])} shards, {t.get('n', 0)} rollouts: {t.get('valid', 0)} valid, "
           f"{t.get('infeasible', 0)} infeasible, {t.get('diverged', 0)} diverged (see {args.out}/manifest.json)")
@@ -180,8 +195,20 @@ def cmd_bench(args) -> int:
               f"rollout: raw {res['raw_steps_per_s_threads2']} steps/s, labels {res['label_steps_per_s_threads2']} "
               f"steps/s (x{res['label_over_raw_threads2']}) on 2 threads; mjx {res['mjx']}")
         return 0
+    if args.what == "score":
+        from itup_jax.bench import bench_score
+
+        n = 10_000 if args.n == 100_000 else args.n
+        if n < 1:
+            raise_input(f"bench score: --n must be >= 1, got {n}")
+        res = bench_score(n=n, repeats=max(args.repeats, 1) * 2, task_kind=args.task, model=args.model)
+        print(json.dumps(res) if args.json else
+              f"score: n={res['n']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.2f} ms "
+              f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
+              f"{res['matmul_flops_per_s']:.3g}) on {res['machine']['cpu']}")
+        return 0
     if args.what != "costs":
-        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout")
+        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score")
     if args.n < 1 or args.t < 8:
         raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
     res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
@@ -190,6 +217,106 @@ def cmd_bench(args) -> int:
     else:
         print(f"costs: n={res['n']} t={res['t']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.1f} ms "
               f"(numpy {res['numpy_ms']:.1f} ms, x{res['speedup_vs_numpy']}) on {res['machine']['cpu']}")
+    return 0
+
+
+def _print_eval_table(res: dict) -> None:
+    print(f"{'method':>14} {'tau_proj N·m':>14} {'tau_raw N·m':>13} {'slip mm':>12} {'alpha deg':>11} "
+          f"{'fail':>5} {'success':>7}  grasp origin (tool frame, m)")
+    for name, r in res["methods"].items():
+        m = r["measured"]
+
+        def ms(k, scale=1.0, w=5, p=2):
+            return f"{scale * m[k]['mean']:{w}.{p}f}±{scale * m[k]['std']:<{w}.{p}f}"
+        print(f"{name:>14} {ms('peak_torque_projected', w=6)} {ms('peak_torque', w=5)} "
+              f"{ms('slip_translation', 1e3, 5, 1)} {ms('alignment_drift', 180 / np.pi, 4, 1)} "
+              f"{m['failed']['mean']:>5.2f} {m['success']['mean']:>7.2f}  {r['grasp']['p_tool_grasp_m']}")
+
+
+def cmd_evaluate(args) -> int:
+    import itup_jax as itup
+    from itup_jax.evaluate import evaluate
+    from itup_jax.scoring import SCORERS
+
+    methods = tuple(m for m in args.methods.split(",") if m)
+    bad = [m for m in methods if m not in SCORERS]
+    if bad or not methods:
+        raise_input(f"--methods: unknown {bad or 'empty list'}; choose from {','.join(SCORERS)}")
+    if args.seeds < 1 or args.n < 1:
+        raise_input(f"--seeds and --n must be >= 1, got --seeds {args.seeds} --n {args.n}")
+    if args.json:
+        _check_out_folder("--json", args.json)
+    tool = _load_tool_arg(args)
+    task = itup.make_task(args.task, tool)
+    res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=args.model)
+    res = {"schema": "itup.evaluate/1", **res}
+    c = res["candidates"]
+    print(f"task {args.task} | tool {tool.name} | {c.get('used')} reachable candidates of {c.get('sampled')} sampled | "
+          f"{args.seeds} randomised-physics rollouts per pick (native MuJoCo): mean ± std")
+    _print_eval_table(res)
+    if args.json:
+        _atomic_write_json(args.json, res)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _check_out_folder(flag: str, path: str) -> None:
+    folder = os.path.dirname(os.path.abspath(path)) or "."
+    if not os.path.isdir(folder):
+        raise_input(f"{flag} {path!r}: folder {folder!r} does not exist")
+
+
+def cmd_demo(args) -> int:
+    """The main job: hammer + shipped SDG-Net vs force closure, verified in MuJoCo, PNG + MCAP."""
+    import time
+
+    import itup_jax as itup
+    from itup_jax.evaluate import evaluate, feasible_candidates, reduction
+    from itup_jax.mcap_log import write_rollout_mcap
+    from itup_jax.plotting import plot_picks
+    from itup_jax.scene import build_scene
+
+    t_start = time.perf_counter()
+    if args.n < 2 or args.seeds < 1:
+        raise_input(f"--n must be >= 2 and --seeds >= 1, got --n {args.n} --seeds {args.seeds}")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise_input(f"--out {args.out!r} exists and is not a folder")
+    os.makedirs(args.out, exist_ok=True)
+    tool = _load_tool_arg(args)
+    task = itup.make_task(args.task, tool)
+    scene = build_scene(tool, task)
+    print(f"itup demo: task {args.task}, tool {tool.name} ({tool.mass:.3f} kg); sampling {args.n} reachable "
+          "antipodal candidates ...", flush=True)
+    cands, counts = feasible_candidates(tool, task, args.n, seed=args.seed, scene=scene)
+    methods = ("sdgnet", "force_closure")
+    res = evaluate(tool, task, methods, seeds=args.seeds, seed=args.seed, scene=scene, candidates=cands, model=args.model)
+    res["candidates"] = counts
+    print(f"scored {counts['used']} candidates ({counts['feasible']} of {counts['sampled']} sampled were reachable); "
+          f"each pick rolled out {args.seeds}x in native MuJoCo with randomised physics (mean ± std):")
+    _print_eval_table(res)
+    s, f = (res["methods"][m]["measured"] for m in methods)
+    red = reduction(s["peak_torque_projected"]["mean"], f["peak_torque_projected"]["mean"])
+    word = "lower" if red >= 0 else "higher"
+    print(f"SDG-Net's pick vs force closure's: projected peak wrist torque {s['peak_torque_projected']['mean']:.2f} vs "
+          f"{f['peak_torque_projected']['mean']:.2f} N·m ({abs(red):.0f}% {word}), slip "
+          f"{1e3 * s['slip_translation']['mean']:.1f} vs {1e3 * f['slip_translation']['mean']:.1f} mm")
+    # one nominal-physics rollout of each pick with traces: the PNG and the MCAP logs
+    picks = {m: cands[res["methods"][m]["index"]] for m in methods}
+    both = itup.Grasps(*(np.stack([np.asarray(getattr(picks[m], k)) for m in methods])
+                         for k in ("p_tool_grasp", "q_tool_grasp", "width")))
+    tr = itup.simulate(tool, task, both, scene=scene, randomize=None, traces=True)
+    files = {}
+    for k, m in enumerate(methods):
+        files[f"mcap_{m}"] = write_rollout_mcap(os.path.join(args.out, f"{m}.mcap"), scene, task, tr, k, grasp=picks[m])
+    motion = tr.traces["t"] >= 0  # the labels' window: the settling transient is not plotted
+    traces = {m: (tr.traces["t"][motion], tr.traces["gripper/wrist_torque"][k][motion]) for k, m in enumerate(methods)}
+    files["png"] = plot_picks(tool, picks, os.path.join(args.out, "picks.png"), traces=traces,
+                              title=f"{tool.name}, {args.task}: SDG-Net (red) vs force closure (blue)")
+    out = {"schema": "itup.demo/1", **res, "torque_reduction_vs_force_closure_pct": red, "files": files,
+           "wall_s": round(time.perf_counter() - t_start, 2)}
+    files["json"] = os.path.join(args.out, "demo.json")
+    _atomic_write_json(files["json"], out)
+    print(f"wrote {', '.join(files.values())} ({out['wall_s']:.0f} s)")
     return 0
 
 
@@ -215,14 +342,26 @@ def cmd_tools(args) -> int:
     return 0
 
 
+def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
+    """Arguments shared by `evaluate` and `demo`: the tool and task, candidates, seeds, model."""
+    p.add_argument("--task", default="hammer", choices=task_kinds)
+    p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
+    p.add_argument("--tool-spec", default=None)
+    p.add_argument("--n", type=int, default=256, help="reachable candidates every method chooses from")
+    p.add_argument("--seeds", type=int, default=5, help="randomised-physics rollouts per pick")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--model", default=None, help="SDG-Net checkpoint (default: shipped)")
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
 
     ap = argparse.ArgumentParser(prog="itup", description="inverse Tool-use Planning (iTuP) in JAX",
                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
 
-    p = sub.add_parser("plan", help="best grasp for a task by the analytic wrench cost", epilog=EXAMPLES,
+    p = sub.add_parser("plan", help="best grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--task", default="hammer", choices=TASK_KINDS)
     p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
@@ -234,12 +373,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--w-slip", type=float, default=1.0, help="weight of C_s, 1/N")
     p.add_argument("--w-align", type=float, default=1.0, help="weight of C_alpha, 1/rad")
     p.add_argument("--verify", type=int, default=0, help="roll the N best grasps out in MuJoCo and report")
+    p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
+                   help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
+    p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/1)")
     p.set_defaults(fn=cmd_plan)
 
-    b = sub.add_parser("bench", help="benchmarks: costs, rollout")
-    b.add_argument("what", help="costs | rollout")
-    b.add_argument("--n", type=int, default=100_000, help="costs: grasps; rollout: rollouts (default 64)")
+    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score")
+    b.add_argument("what", help="costs | rollout | score")
+    b.add_argument("--n", type=int, default=100_000,
+                   help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts (default 64)")
+    b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
     b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
     b.add_argument("--t", type=int, default=64)
@@ -257,6 +401,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--backend", default=None, choices=["native", "mjx"])
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
+    gen.add_argument("--mcap", default=None, metavar="DIR",
+                     help="also log rollouts as MCAP (Foxglove schemas) into DIR")
+    gen.add_argument("--mcap-per-shard", type=int, default=2, help="rollouts logged per shard with --mcap")
     gen.set_defaults(fn=cmd_generate)
 
     tr = sub.add_parser("train", help="train SDG-Net on a dataset from `itup generate`")
@@ -270,6 +417,20 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--seed", type=int, default=0)
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
+
+    ev = sub.add_parser("evaluate", help="each method's pick, measured in MuJoCo over randomised physics",
+                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_verify_args(ev, TASK_KINDS)
+    ev.add_argument("--methods", default="sdgnet,force_closure,geometric,random",
+                    help=f"comma-separated, from {','.join(SCORERS)}")
+    ev.add_argument("--json", default=None, help="write the result (schema itup.evaluate/1)")
+    ev.set_defaults(fn=cmd_evaluate)
+
+    dm = sub.add_parser("demo", help="the main job: SDG-Net vs force closure on the hammer, verified in MuJoCo",
+                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_verify_args(dm, TASK_KINDS)
+    dm.add_argument("--out", default="itup-demo", help="output folder (default ./itup-demo/)")
+    dm.set_defaults(fn=cmd_demo)
 
     t = sub.add_parser("tools", help="list the built-in tools and the category priors")
     t.set_defaults(fn=cmd_tools)

@@ -32,8 +32,9 @@ from itup_jax import __version__
 from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
-from itup_jax.features import FeatureSpec, batched_features, surface_sample
+from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
+from itup_jax.scene import build_scene
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -132,8 +133,13 @@ def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
     return int.from_bytes(h[:4], "little")
 
 
-def make_shard(config: GenerateConfig, task_kind: str, variant: int) -> dict[str, np.ndarray]:
-    """Arrays of one shard (host side; the features and costs run jitted at their outer calls)."""
+def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir: str | None = None,
+               mcap_per_shard: int = 2) -> dict[str, np.ndarray]:
+    """Arrays of one shard (host side; the features and costs run jitted at their outer calls).
+
+    With `mcap_dir`, the first `mcap_per_shard` valid rollouts are also logged there as MCAP
+    (`mcap_log`), named `<task>_<variant>_<index>.mcap`; the shard's bytes do not change.
+    """
     seed = _unit_seed(config, task_kind, variant)
     base = load_tool(DEFAULT_TOOL[task_kind])
     tool = base if variant == 0 else vary_tool(base, seed)
@@ -141,13 +147,20 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int) -> dict[str
         warnings.simplefilter("ignore", UserWarning)
         task = make_task(task_kind, tool)
     grasps = sample_grasps(tool, config.grasps, seed=seed)
-    res = simulate(tool, task, grasps, backend=config.backend, seed=seed,
+    scene = build_scene(tool, task)
+    res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
                    randomize=Randomization() if config.randomize else None)
+    if mcap_dir is not None:
+        from itup_jax.mcap_log import write_rollout_mcap
+
+        for i in np.nonzero(res.labels.valid)[0][:mcap_per_shard]:
+            write_rollout_mcap(os.path.join(mcap_dir, f"{task_kind}_{variant:03d}_{i:04d}.mcap"), scene, task, res,
+                               int(i), grasp=grasps[int(i)])
     spec = FeatureSpec(**config.feature_spec)
-    points = surface_sample(tool, spec)
+    field = tool_field(tool, spec)
     tp = tool.params
     loads = task_loads(tp, task)
-    feats = batched_features(points, loads, tp, grasps, spec=spec)
+    feats = batched_features(field, loads, tp, grasps, spec=spec)
     costs = wrench_costs(tool, task, grasps, CostParams())
     arrays = {f"label_{f}": np.asarray(v) for f, v in res.labels.as_dict().items()}
     arrays.update(
@@ -190,15 +203,22 @@ def _counts(arrays: dict[str, np.ndarray]) -> dict[str, int]:
 
 
 def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progress: bool = True,
-             after_shard: Callable[[int], None] | None = None) -> dict[str, Any]:
+             after_shard: Callable[[int], None] | None = None, mcap_dir: str | None = None,
+             mcap_per_shard: int = 2) -> dict[str, Any]:
     """Make (or complete) the dataset in `out_dir`; returns the manifest.
+
+    `mcap_dir`: also log `mcap_per_shard` valid rollouts of every shard made in this call as MCAP.
 
     Resumes: shards already listed in the manifest whose file has the recorded checksum are kept; a
     manifest made with another config is refused. `after_shard(k)` is called after the k-th shard
     is written (tests use it to interrupt a run).
     """
     config.validate()
+    if mcap_per_shard < 0:
+        raise InputError(f"generate: mcap_per_shard must be >= 0, got {mcap_per_shard}")
     os.makedirs(out_dir, exist_ok=True)
+    if mcap_dir is not None:
+        os.makedirs(mcap_dir, exist_ok=True)
     mpath = os.path.join(out_dir, MANIFEST)
     manifest = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
                 "label_fields": list(LABEL_FIELDS), "shards": []}
@@ -221,7 +241,7 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
                    desc="generate", dynamic_ncols=True)
     try:
         for k, (task_kind, variant) in enumerate(todo):
-            arrays = make_shard(config, task_kind, variant)
+            arrays = make_shard(config, task_kind, variant, mcap_dir=mcap_dir, mcap_per_shard=mcap_per_shard)
             name = _shard_name(task_kind, variant)
             atomic_write(os.path.join(out_dir, name), _npz_bytes(arrays))
             manifest["shards"].append({"file": name, "task": task_kind, "variant": variant,

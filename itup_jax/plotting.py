@@ -115,3 +115,40 @@ def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *,
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = None, title: str | None = None) -> str:
+    """The tool with each method's picked grasp (gripper wireframe), and (with `traces`) each pick's
+    measured wrist-torque norm over time. grasps: {method: Grasps of one}; traces: {method: (t [S],
+    torque [S, 3])}. Writes a PNG (atomically) and returns the path."""
+    from itup_jax.atomic import atomic_write
+    import io
+
+    colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
+    ncol = 2 if traces else 1
+    fig = plt.figure(figsize=(6.5 * ncol, 5.0))
+    ax = fig.add_subplot(1, ncol, 1, projection="3d")
+    draw_mesh(ax, tool.mesh)
+    for (name, g), c in zip(grasps.items(), colours):
+        R = np.asarray(g.rotation, float).reshape(3, 3)
+        p = np.asarray(g.p_tool_grasp, float).reshape(3)
+        draw_gripper(ax, R, p, float(np.asarray(g.width).reshape(())) + 0.01, colour=c, lw=1.4)
+        ax.text(*(p + np.array([0.0, 0.0, 0.015])), name, color=c, fontsize=8)
+    _equal_axes(ax, np.asarray(tool.mesh.vertices))
+    ax.view_init(elev=15, azim=-50)
+    ax.set_title(title or f"{tool.name}: picked grasps", fontsize=9)
+    if traces:
+        ax2 = fig.add_subplot(1, 2, 2)
+        for (name, (t, tau)), c in zip(traces.items(), colours):
+            ax2.plot(t, np.linalg.norm(tau, axis=-1), color=c, lw=1, label=name)
+        ax2.set_xlabel("time from the start of the motion (s)")
+        ax2.set_ylabel("|wrist torque| (N m)")
+        ax2.legend(fontsize=8)
+        ax2.set_title("measured in MuJoCo", fontsize=9)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    atomic_write(path, buf.getvalue())
+    return path

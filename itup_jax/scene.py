@@ -119,6 +119,13 @@ _TARGET_GEOMS = {
     "knock": ("block_3", "block_2"),
     "reach": ("block",),
 }
+#: The task objects whose world pose is recorded (sensors `target/<body>_pos`, `target/<body>_quat`).
+TARGET_BODIES = {
+    "hammer": ("nail",),
+    "sweep": ("debris_0", "debris_1", "debris_2"),
+    "knock": ("block_0", "block_1", "block_2", "block_3"),
+    "reach": ("block",),
+}
 
 
 def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
@@ -193,6 +200,11 @@ def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
         if ref:
             kw.update(reftype=mj.mjOBJ_SITE, refname=ref)
         spec.add_sensor(**kw)
+    for body in TARGET_BODIES[task.kind]:  # the task objects' world poses (logs, plots)
+        spec.add_sensor(name=f"target/{body}_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=mj.mjOBJ_XBODY,
+                        objname=body)
+        spec.add_sensor(name=f"target/{body}_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=mj.mjOBJ_XBODY,
+                        objname=body)
     # pad contact: per pad, whether it touches and the force of its strongest contact (contact frame:
     # normal first). intprm = (data: found | force, reduce: max force, slots: 1), a form MJX supports.
     data_bits = (1 << int(mujoco.mjtConDataField.mjCONDATA_FOUND)) | (1 << int(mujoco.mjtConDataField.mjCONDATA_FORCE))

@@ -18,9 +18,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from itup_jax.baselines import BASELINES
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
-from itup_jax.features import _batched, surface_sample
+from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.sdgnet import Model, load_model, predict_from_features
 from itup_jax.task import Task
@@ -50,9 +51,9 @@ class Scores:
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
 
 
-def _sdgnet_scores(points, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, weights, spec):
+def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, weights, spec):
     loads = task_loads(tool_params, task)
-    feats = _batched(points, loads, tool_params, grasps, spec)
+    feats = _batched(field, loads, tool_params, grasps, spec)
     y = predict_from_features(params, x_mean, x_std, y_mean, y_std, feats.astype(x_mean.dtype))
     tau, slip, align = y[:, 0], y[:, 1], y[:, 2]
     return tau, slip, align, weights[0] * tau + weights[1] * slip + weights[2] * align
@@ -60,13 +61,38 @@ def _sdgnet_scores(points, tool_params, task, grasps, params, x_mean, x_std, y_m
 
 #: The one jit of SDG-Net scoring (the outer call).
 sdgnet_scores_jit = jax.jit(_sdgnet_scores, static_argnames=("spec",))
-_POINTS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: points}
+_FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
+
+
+def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
+    """Arguments of `sdgnet_scores_jit` (float32; the tool's density field cached per tool and spec)."""
+    spec = model.feature_spec
+    per_tool = _FIELDS.setdefault(tool, {})
+    if spec not in per_tool:
+        per_tool[spec] = tool_field(tool, spec)
+    f = per_tool[spec]
+    s = model.spec
+    dt = jnp.float32
+    params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
+    args = (DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing), tool.params, task, grasps, params,
+            jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
+            jnp.asarray(s["y_std"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt))
+    return args, {"spec": spec}
 
 
 def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
-          weights: ScoreWeights = ScoreWeights(), cost_params: CostParams | None = None) -> Scores:
-    """Scores [N] of `grasps`: model None (default checkpoint), a path, a `Model`, or 'analytic'."""
+          weights: ScoreWeights = ScoreWeights(), cost_params: CostParams | None = None, seed: int = 0) -> Scores:
+    """Scores [N] of `grasps` (lower is better).
+
+    model: None or 'sdgnet' (the shipped checkpoint), a checkpoint path, a `Model`, 'analytic' (the
+    foundation's wrench costs), or a baseline of `baselines.py`: 'force_closure' (Ferrari-Canny),
+    'geometric', 'static', 'random' (seeded by `seed`).
+    """
     validate_grasps(grasps)
+    if isinstance(model, str) and model in BASELINES:
+        return _baseline(model, tool, task, grasps, seed)
+    if isinstance(model, str) and model == "sdgnet":
+        model = None
     if isinstance(model, str) and model == "analytic":
         c = wrench_costs(tool, task, grasps, cost_params)
         return Scores(tau=c.tau, slip=c.slip, align=c.align, total=c.total, scorer="analytic")
@@ -74,19 +100,32 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
         model = load_model(model)
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
-    spec = model.feature_spec
-    per_tool = _POINTS.setdefault(tool, {})
-    if spec not in per_tool:
-        per_tool[spec] = surface_sample(tool, spec)
-    points = per_tool[spec]
-    s = model.spec
-    dt = jnp.float32
-    params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
-    out = sdgnet_scores_jit(jnp.asarray(points, dt), tool.params, task, grasps, params,
-                            jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
-                            jnp.asarray(s["y_std"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt),
-                            spec=spec)
+    args, kw = _sdgnet_args(tool, task, grasps, model, weights)
+    out = sdgnet_scores_jit(*args, **kw)
     return Scores(*out, scorer="sdgnet")
+
+
+def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> Scores:
+    from itup_jax import baselines
+
+    n = len(grasps)
+    zero = jnp.zeros(n)
+    if name == "force_closure":
+        eps = baselines.force_closure_scores(tool, grasps)
+        return Scores(tau=zero, slip=zero, align=zero, total=jnp.asarray(-eps), scorer=name)
+    if name == "geometric":
+        g = baselines.geometric_scores(tool, grasps)
+        return Scores(tau=zero, slip=zero, align=jnp.asarray(g["antipodal"]), total=jnp.asarray(g["total"]), scorer=name)
+    if name == "static":
+        s = baselines.static_scores(tool, task, grasps)
+        return Scores(tau=jnp.asarray(s["tau"]), slip=jnp.asarray(s["slip"]), align=jnp.asarray(s["align"]),
+                      total=jnp.asarray(s["total"]), scorer=name)
+    r = np.random.default_rng(seed).random(n)
+    return Scores(tau=zero, slip=zero, align=zero, total=jnp.asarray(r), scorer=name)
+
+
+#: Every name `score` accepts as `model` (besides a path or a Model).
+SCORERS = ("sdgnet", "analytic") + BASELINES
 
 
 def best_grasp(tool: Tool, task: Task, grasps: Grasps, model: Any = None, **kw) -> tuple[int, Grasps, Scores]:

@@ -14,7 +14,7 @@ Backends (same inputs, same outputs):
     friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
   * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
     when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
-    batch of 128 or more hangs: `rollout_mjx` refuses a per-device batch above 64 on CPU.
+    batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device.
 
 Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible` and not stepped in
 earnest; rollouts that blow up are flagged `diverged`. Neither is a label: `Labels.valid` is False.
@@ -253,17 +253,41 @@ def rollout_native(scene: Scene, p: Plan, physics: Physics, nthread: int | None 
     return np.abs(qvel).max(-1), sensordata
 
 
-def rollout_mjx(scene: Scene, p: Plan, physics: Physics) -> tuple[np.ndarray, np.ndarray]:
-    """Same outputs as `rollout_native`, from MJX: one jit of vmap(scan(step)) (built per scene)."""
-    n = len(p.qpos0)
-    if jax.default_backend() == "cpu" and n > MJX_CPU_MAX_BATCH * jax.device_count():
-        raise InputError(f"rollout_mjx: batch {n} > {MJX_CPU_MAX_BATCH} per CPU device hangs MJX (DESIGN.md); "
-                         "use the native backend on a CPU or shard over host devices")
+def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Same outputs as `rollout_native`, from MJX: one jit of vmap(scan(step)) (built per scene).
+
+    With several devices (default: all of JAX's default backend; e.g. a GPU machine's GPUs, or host
+    devices from XLA_FLAGS=--xla_force_host_platform_device_count=2) the batch is sharded over them
+    with `jax.sharding` (padded to a multiple of the device count by repeating the last rollout;
+    the padding is dropped from the outputs). `devices=[d]` runs unsharded on d. On a CPU the batch
+    runs in chunks of at most 64 rollouts per device.
+    """
+    devices = list(jax.devices()) if devices is None else list(devices)
+    if not devices:
+        raise InputError("rollout_mjx: devices is empty")
+    n, nd = len(p.qpos0), len(devices)
     fn = _mjx_rollout_fn(scene)
     dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
-    fields = [a.astype(dt) for a in mjx_model_fields(scene, physics)]
-    qvel_peak, sens = fn(*fields, p.qpos0.astype(dt), p.ctrl.astype(dt))
-    return np.asarray(qvel_peak, float), np.asarray(sens, float)
+    arrays = [a.astype(dt) for a in mjx_model_fields(scene, physics)] + [p.qpos0.astype(dt), p.ctrl.astype(dt)]
+    # on a CPU a device batch of 128 or more hangs MJX (DESIGN.md): run chunks of <= 64 per device,
+    # every chunk padded to the same shape (one compile)
+    per_device = -(-n // nd)
+    if devices[0].platform == "cpu":
+        per_device = min(per_device, MJX_CPU_MAX_BATCH)
+    chunk = per_device * nd
+    mesh = jax.sharding.Mesh(np.array(devices), ("batch",)) if nd > 1 else None
+    place = devices[0] if mesh is None else jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
+    qv_out, sens_out = [], []
+    for lo in range(0, n, chunk):
+        part = [a[lo:lo + chunk] for a in arrays]
+        pad = chunk - len(part[0])
+        if pad:
+            part = [np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]) for a in part]
+        qv, sens = fn(*[jax.device_put(a, place) for a in part], mesh=mesh)
+        keep = chunk - pad
+        qv_out.append(np.asarray(qv, float)[:keep])
+        sens_out.append(np.asarray(sens, float)[:keep])
+    return np.concatenate(qv_out), np.concatenate(sens_out)
 
 
 def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
@@ -309,10 +333,21 @@ def _mjx_rollout_fn(scene: Scene):
         _, (qv, sens) = jax.lax.scan(step, d, ctrl)
         return qv, sens
 
-    jitted = jax.jit(jax.vmap(one))  # the outer call: one jit for the whole batch
+    batched = jax.vmap(one)
+    jits: dict = {}
 
-    def fn(*args):
-        return jitted(*args)
+    def fn(*args, mesh: jax.sharding.Mesh | None = None):
+        """Unsharded: jit(vmap(one)). With a mesh: jit(shard_map(vmap(one))), so each device runs the
+        same per-device program on its slice of the batch as an unsharded call on that slice would."""
+        key = None if mesh is None else tuple(d.id for d in mesh.devices.flat)
+        if key not in jits:  # the outer call: one jit for the whole batch
+            if mesh is None:
+                jits[key] = jax.jit(batched)
+            else:
+                spec = jax.sharding.PartitionSpec("batch")
+                # check_vma off: MJX's solver mixes batch-varying and replicated values in lax.cond
+                jits[key] = jax.jit(jax.shard_map(batched, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
+        return jits[key](*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
     _MJX_CACHE[scene] = fn
@@ -517,7 +552,8 @@ def default_backend() -> str:
 
 def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = None, seed: int = 0,
              randomize: Randomization | None = Randomization(), config: SimConfig = SimConfig(),
-             traces: bool = False, nthread: int | None = None, scene: Scene | None = None) -> SimResult:
+             traces: bool = False, nthread: int | None = None, scene: Scene | None = None,
+             devices: list | None = None) -> SimResult:
     """Roll out every grasp along the task in MuJoCo and return its labels (arrays [N]).
 
     Args:
@@ -526,6 +562,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
       seed: seeds the domain randomisation.  randomize: spreads, or None for nominal physics.
       config: `SimConfig`.  traces: also return per-step sensor traces.  nthread: native threads.
       scene: a prebuilt `build_scene(tool, task)` to reuse.
+      devices: MJX only: the devices the batch is sharded over (default: all of JAX's default backend).
     """
     backend = backend or default_backend()
     if backend not in ("native", "mjx"):
@@ -536,7 +573,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
     physics = sample_physics(tool, len(grasps), seed, spread=randomize, grip_force=config.grip_force)
     if backend == "mjx":
         pl = plan(scene, task, grasps, physics, config)
-        qvel_peak, sensordata = rollout_mjx(scene, pl, physics)
+        qvel_peak, sensordata = rollout_mjx(scene, pl, physics, devices=devices)
         labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
     else:
         pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread, traces)

@@ -85,3 +85,15 @@ def test_failed_json_write_leaves_nothing_behind(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         main(["plan", "--task", "reach", "--n", "5", "--json", str(tmp_path / "x.json")])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_write_gives_the_mode_open_would(tmp_path):
+    import os
+
+    from itup_jax.atomic import atomic_write
+
+    p = tmp_path / "f.bin"
+    atomic_write(str(p), b"x")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert p.read_bytes() == b"x" and (p.stat().st_mode & 0o777) == (0o666 & ~umask)

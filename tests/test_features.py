@@ -1,12 +1,14 @@
 """SDG-Net features: shapes, invariance to world and tool-frame rigid transforms, sensitivity."""
 
 import jax
+import jax.numpy as jnp
 import jaxlie
 import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax.features import FeatureSpec, grasp_features, surface_sample
+from itup_jax.features import FeatureSpec, density_field, exact_occupancy, grasp_features, occupancy, surface_sample
+from itup_jax.grasp import rotation_matrix
 from itup_jax.grasp import make_grasps
 from itup_jax.wrench import task_loads
 from transforms import move_tool_frame as _move_tool_frame, move_world as _move_world
@@ -19,8 +21,14 @@ SPEC = FeatureSpec(num_points=256)
 
 def _features(tool_params, points, task, grasps):
     loads = task_loads(tool_params, task)
-    fn = jax.jit(jax.vmap(lambda g: grasp_features(points, loads, tool_params, g, SPEC)))  # the outer call
+    field = density_field(points, SPEC)
+    fn = jax.jit(jax.vmap(lambda g: grasp_features(field, loads, tool_params, g, SPEC)))  # the outer call
     return np.asarray(fn(grasps))
+
+
+def _exact_occupancy(points, grasps):
+    fn = jax.jit(jax.vmap(lambda p, q: exact_occupancy(points, p, rotation_matrix(q), SPEC)))
+    return np.asarray(fn(grasps.p_tool_grasp, grasps.q_tool_grasp))
 
 
 @pytest.fixture(scope="module")
@@ -50,9 +58,31 @@ def test_invariant_to_the_choice_of_tool_frame(hammer_case, rng):
     Q = np.asarray(jaxlie.SO3.sample_uniform(jax.random.key(int(rng.integers(1000)))).as_matrix())
     t = 0.1 * rng.normal(size=3)
     tp, task2, g2 = _move_tool_frame(tool.params, task, g, Q, t)
+    # exactly for the direct sum; to the interpolation error for the tabulated field (whose voxel grid
+    # is axis-aligned in each tool frame, so it samples D at other points)
+    np.testing.assert_allclose(_exact_occupancy(pts @ Q.T + t, g2), _exact_occupancy(pts, g), atol=INV_ATOL)
     f0 = _features(tool.params, pts, task, g)
     f1 = _features(tp, pts @ Q.T + t, task2, g2)
-    np.testing.assert_allclose(f1, f0, atol=INV_ATOL)
+    n_occ = SPEC.grid**3
+    np.testing.assert_allclose(f1[:, n_occ:], f0[:, n_occ:], atol=INV_ATOL)
+    np.testing.assert_allclose(f1[:, :n_occ], f0[:, :n_occ], atol=FIELD_ATOL)
+
+
+# trilinear interpolation of a Gaussian of sigma 30 mm on a 4 mm grid: error <= h^2/(8 sigma^2) of the
+# peak curvature scale, about 0.3% of the largest occupancy (0.25 here)
+FIELD_ATOL = 2e-3
+
+
+def test_tabulated_occupancy_matches_the_direct_sum(hammer_case):
+    tool, _, g, pts = hammer_case
+    field = density_field(pts, SPEC)
+    fast = jax.jit(jax.vmap(lambda p, q: occupancy(field, p, rotation_matrix(q), SPEC)))(g.p_tool_grasp, g.q_tool_grasp)
+    exact = _exact_occupancy(pts, g)
+    assert exact.max() > 0.05  # the comparison is not between zeros
+    np.testing.assert_allclose(np.asarray(fast), exact, atol=FIELD_ATOL)
+    # and the field is zero far from the tool, as the direct sum is
+    far = occupancy(field, g.p_tool_grasp[0] + 1.0, rotation_matrix(g.q_tool_grasp[0]), SPEC)
+    assert float(jnp.abs(far).max()) == 0.0
 
 
 def test_features_see_where_the_grasp_is(hammer_case):

@@ -1,0 +1,192 @@
+"""SDG-Net fidelity on held-out tools: does the predicted C_tau rank grasps as MuJoCo's measured
+peak wrist torque does, and how much torque does SDG-Net's pick give away to the best candidate?
+
+    python experiments/sdgnet_fidelity.py --train /tmp/sdg_train --test /tmp/sdg_test --out results/fidelity
+    python experiments/sdgnet_fidelity.py --quick --out /tmp/fid      # tiny datasets made here (tests)
+
+Train data: `itup generate --out /tmp/sdg_train --tools-per-task 6 --grasps 256 --seed 0`.
+Test data:  `itup generate --out /tmp/sdg_test --tools-per-task 4 --grasps 256 --seed 1`: its
+procedural variants (variant >= 1) are tools no training shard contains (the variant seeds derive
+from the run seed); variant 0 is the built-in tool, seen in training, reported apart.
+
+Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts only):
+  * Spearman rho between predicted C_tau and the measured peak torque (the training target, the
+    projected induced torque, and the raw peak torque), and the same for the analytic C_tau;
+  * top-1 regret = measured torque of the scorer's pick / the lowest measured torque among the
+    candidates - 1; for SDG-Net, the analytic cost, and a random pick (its expectation); and two
+    robust companions: the pick's percentile among the candidates' measured torques (0 = best)
+    and its torque over the candidates' 10th percentile.
+Also the wall time of training (`--train-model` retrains on --train and times it; otherwise the
+model given by --model, default the shipped checkpoint). Writes fidelity.json and fidelity.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from itup_jax.atomic import atomic_write
+from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard
+from itup_jax.sdgnet import TrainConfig, load_model, predict_costs, save_model, train
+
+MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
+GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
+
+
+def _rho(a, b) -> float:
+    if len(a) < 3 or np.ptp(a) == 0 or np.ptp(b) == 0:
+        return float("nan")
+    return float(spearmanr(a, b).statistic)
+
+
+def evaluate(model, test_dir: str) -> dict:
+    with open(os.path.join(test_dir, MANIFEST)) as fh:
+        manifest = json.load(fh)
+    rows = []
+    for entry in manifest["shards"]:
+        a = load_shard(test_dir, entry, valid_only=True)
+        if len(a["label_valid"]) < 3:
+            continue
+        pred = np.asarray(predict_costs(model, a["features"])["tau"], float)
+        ana = a["analytic_tau"]
+        row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": len(pred)}
+        for name, key in MEASURED.items():
+            y = a[key]
+            row[f"rho_sdgnet_{name}"] = _rho(pred, y)
+            row[f"rho_analytic_{name}"] = _rho(ana, y)
+            best = float(y.min())
+            row[f"regret_sdgnet_{name}"] = float(y[np.argmin(pred)] / best - 1)
+            row[f"regret_analytic_{name}"] = float(y[np.argmin(ana)] / best - 1)
+            row[f"regret_random_{name}"] = float(y.mean() / best - 1)
+            # robust companions: the pick's percentile among the candidates (0 = the best), and its
+            # torque over the candidates' 10th percentile (the minimum of ~100-250 rollouts under
+            # randomised physics is partly luck of the physics draw)
+            p10 = float(np.percentile(y, 10))
+            row[f"percentile_sdgnet_{name}"] = float((y < y[np.argmin(pred)]).mean())
+            row[f"percentile_analytic_{name}"] = float((y < y[np.argmin(ana)]).mean())
+            row[f"over_p10_sdgnet_{name}"] = float(y[np.argmin(pred)] / p10 - 1)
+            row[f"over_p10_analytic_{name}"] = float(y[np.argmin(ana)] / p10 - 1)
+        rows.append(row)
+    return {"rows": rows, "test_config": manifest["config"]}
+
+
+def summarise(rows: list[dict]) -> dict:
+    out = {}
+    for subset, keep in (("held_out", True), ("seen", False)):
+        sel = [r for r in rows if r["held_out"] == keep]
+        if not sel:
+            continue
+        s = {"tools": len(sel)}
+        for k in sel[0]:
+            if k.startswith(("rho_", "regret_", "percentile_", "over_p10_")):
+                v = np.array([r[k] for r in sel], float)
+                s[k] = {"median": float(np.nanmedian(v)), "mean": float(np.nanmean(v))}
+        by_task = {}
+        for t in sorted({r["task"] for r in sel}):
+            tr = [r for r in sel if r["task"] == t]
+            by_task[t] = {k: float(np.nanmean([r[k] for r in tr])) for k in
+                          ("rho_sdgnet_projected", "rho_analytic_projected", "regret_sdgnet_projected",
+                           "regret_analytic_projected", "regret_random_projected", "percentile_sdgnet_projected",
+                           "percentile_analytic_projected")}
+        s["by_task"] = by_task
+        out[subset] = s
+    return out
+
+
+def plot(rows: list[dict], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    held = [r for r in rows if r["held_out"]] or rows
+    tasks = sorted({r["task"] for r in held})
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    x = np.arange(len(tasks))
+    for j, (scorer, c) in enumerate((("sdgnet", "C0"), ("analytic", "C1"))):
+        v = [np.nanmean([r[f"rho_{scorer}_projected"] for r in held if r["task"] == t]) for t in tasks]
+        ax[0].bar(x + 0.38 * (j - 0.5), v, 0.38, label=scorer, color=c)
+    ax[0].axhline(GOALS["spearman"], color="k", ls="--", lw=0.8, label="goal")
+    ax[0].set_xticks(x, tasks)
+    ax[0].set_ylabel("Spearman rho (per tool, mean)")
+    ax[0].set_title("predicted C_tau vs measured torque")
+    ax[0].legend(fontsize=8)
+    for j, (scorer, c) in enumerate((("sdgnet", "C0"), ("analytic", "C1"), ("random", "C7"))):
+        v = [100 * np.nanmean([r[f"regret_{scorer}_projected"] for r in held if r["task"] == t]) for t in tasks]
+        ax[1].bar(x + 0.27 * (j - 1), v, 0.27, label=scorer, color=c)
+    ax[1].axhline(100 * GOALS["regret"], color="k", ls="--", lw=0.8, label="goal")
+    ax[1].set_xticks(x, tasks)
+    ax[1].set_ylabel("top-1 regret (%)")
+    ax[1].set_title("measured torque of the pick over the best")
+    ax[1].legend(fontsize=8)
+    fig.suptitle("SDG-Net fidelity on held-out tools (MuJoCo, randomised physics)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--train", default=None, help="training dataset folder (for --train-model)")
+    ap.add_argument("--test", default=None, help="test dataset folder (held-out tools)")
+    ap.add_argument("--model", default=None, help="checkpoint to evaluate (default: the shipped one)")
+    ap.add_argument("--train-model", action="store_true", help="retrain on --train, time it, evaluate that")
+    ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
+    ap.add_argument("--out", default="results/fidelity")
+    args = ap.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    if args.quick:
+        args.train = os.path.join(args.out, "train")
+        args.test = os.path.join(args.out, "test")
+        generate(args.train, GenerateConfig(tasks=("hammer",), tools_per_task=3, grasps=12, seed=0), progress=False)
+        generate(args.test, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
+        args.train_model = True
+    if not args.test or not os.path.exists(os.path.join(args.test, MANIFEST)):
+        print(f"sdgnet_fidelity: --test {args.test!r} holds no dataset manifest", file=sys.stderr)
+        raise SystemExit(2)
+    train_s = None
+    if args.train_model:
+        from itup_jax.dataset import load_dataset
+
+        with open(os.path.join(args.train, MANIFEST)) as fh:
+            spec = json.load(fh)["config"]["feature_spec"]
+        data = load_dataset(args.train)
+        cfg = TrainConfig(epochs=20, patience=5) if args.quick else TrainConfig()
+        t0 = time.perf_counter()
+        model = train(data, cfg, feature_spec=spec, progress=False, log=lambda *_: None)
+        train_s = time.perf_counter() - t0
+        save_model(os.path.join(args.out, "model.npz"), model)
+    else:
+        model = load_model(args.model)
+    res = evaluate(model, args.test)
+    summary = summarise(res["rows"])
+    out = {"experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
+           "retrained": bool(args.train_model), "train_wall_s": train_s, "goals": GOALS, "summary": summary,
+           "per_tool": res["rows"], "test_config": res["test_config"]}
+    from itup_jax.bench import machine_info
+
+    out["machine"] = machine_info()
+    atomic_write(os.path.join(args.out, "fidelity.json"), (json.dumps(out, indent=2) + "\n").encode())
+    plot(res["rows"], os.path.join(args.out, "fidelity.png"))
+    h = summary.get("held_out") or summary.get("seen")
+    print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, projected torque) median "
+          f"{h['rho_sdgnet_projected']['median']:.2f}, raw {h['rho_sdgnet_raw']['median']:.2f}; analytic "
+          f"{h['rho_analytic_projected']['median']:.2f}; top-1 regret SDG-Net {100 * h['regret_sdgnet_projected']['mean']:.0f}% "
+          f"analytic {100 * h['regret_analytic_projected']['mean']:.0f}% random {100 * h['regret_random_projected']['mean']:.0f}%"
+          + (f"; training {train_s:.1f} s" if train_s is not None else ""))
+    for t, v in h["by_task"].items():
+        print(f"  {t:7s} rho sdgnet {v['rho_sdgnet_projected']:+.2f} analytic {v['rho_analytic_projected']:+.2f} | regret "
+              f"sdgnet {100 * v['regret_sdgnet_projected']:.0f}% analytic {100 * v['regret_analytic_projected']:.0f}% "
+              f"random {100 * v['regret_random_projected']:.0f}% | pick percentile sdgnet "
+              f"{100 * v['percentile_sdgnet_projected']:.0f} analytic {100 * v['percentile_analytic_projected']:.0f}")
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,273 @@
+"""Rollout logs as MCAP with Foxglove schemas: open a rollout in Foxglove, or read it back in Python.
+
+    res = itup.simulate(tool, task, grasps, traces=True)
+    write_rollout_mcap("rollout.mcap", scene, task, res, index=0)
+    log = read_rollout_mcap("rollout.mcap")      # {topic: [decoded JSON messages]}, plus "metadata"
+
+Channels (JSON messages, each with a JSON Schema registered under the name Foxglove recognises):
+  /tf            foxglove.FrameTransforms  world -> gripper (the grasp frame), world -> tool,
+                                           world -> target/<body> for every task object, per step
+  /scene         foxglove.SceneUpdate      primitives attached to those frames (tool capsules/boxes,
+                                           the two pads, the task objects), once, frame-locked
+  /wrist_wrench  itup.WristWrench          force (N) and torque (N m) at the wrist F/T site, per step
+  /pad_contact   itup.PadContact           normal force of each pad's strongest contact (N), per step
+  /labels        itup.RolloutLabels        the rollout's labels, once at the end
+and an MCAP metadata record `itup.rollout` (task, tool, grasp, physics). Times are simulation time
+from the first recorded step, in nanoseconds. Files are written atomically; uncompressed (the
+`mcap` package's compressors need extra dependencies), about 0.5 MB per rollout at the default
+decimation.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+from typing import Any
+
+import mujoco
+import numpy as np
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+from itup_jax.atomic import atomic_write
+from itup_jax.errors import InputError
+from itup_jax.scene import TARGET_BODIES, Scene
+from itup_jax.task import Task
+
+_VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
+_QUAT = {"type": "object", "properties": {k: {"type": "number"} for k in "xyzw"}}
+_TIME = {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 0},
+                                          "nsec": {"type": "integer", "minimum": 0}}}
+_POSE = {"type": "object", "properties": {"position": _VEC3, "orientation": _QUAT}}
+_COLOR = {"type": "object", "properties": {k: {"type": "number"} for k in "rgba"}}
+
+#: JSON Schemas of the channels (foxglove.* follow Foxglove's published message definitions).
+SCHEMAS: dict[str, dict] = {
+    "foxglove.FrameTransforms": {
+        "title": "foxglove.FrameTransforms", "type": "object",
+        "properties": {"transforms": {"type": "array", "items": {
+            "type": "object",
+            "properties": {"timestamp": _TIME, "parent_frame_id": {"type": "string"},
+                           "child_frame_id": {"type": "string"}, "translation": _VEC3, "rotation": _QUAT}}}}},
+    "foxglove.SceneUpdate": {
+        "title": "foxglove.SceneUpdate", "type": "object",
+        "properties": {
+            "deletions": {"type": "array", "items": {"type": "object"}},
+            "entities": {"type": "array", "items": {
+                "type": "object",
+                "properties": {
+                    "timestamp": _TIME, "frame_id": {"type": "string"}, "id": {"type": "string"},
+                    "lifetime": _TIME, "frame_locked": {"type": "boolean"},
+                    "cubes": {"type": "array", "items": {"type": "object", "properties": {
+                        "pose": _POSE, "size": _VEC3, "color": _COLOR}}},
+                    "cylinders": {"type": "array", "items": {"type": "object", "properties": {
+                        "pose": _POSE, "size": _VEC3, "bottom_scale": {"type": "number"},
+                        "top_scale": {"type": "number"}, "color": _COLOR}}},
+                    "spheres": {"type": "array", "items": {"type": "object", "properties": {
+                        "pose": _POSE, "size": _VEC3, "color": _COLOR}}}}}}}},
+    "itup.WristWrench": {
+        "title": "itup.WristWrench", "type": "object",
+        "properties": {"timestamp": _TIME, "frame_id": {"type": "string"}, "force": _VEC3, "torque": _VEC3,
+                       "torque_norm": {"type": "number"}}},
+    "itup.PadContact": {
+        "title": "itup.PadContact", "type": "object",
+        "properties": {"timestamp": _TIME, "neg_normal_force": {"type": "number"},
+                       "pos_normal_force": {"type": "number"}, "neg_found": {"type": "boolean"},
+                       "pos_found": {"type": "boolean"}}},
+    "itup.RolloutLabels": {"title": "itup.RolloutLabels", "type": "object",
+                           "additionalProperties": {"type": ["number", "boolean"]}},
+}
+TOPICS = {"/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate",
+          "/wrist_wrench": "itup.WristWrench", "/pad_contact": "itup.PadContact", "/labels": "itup.RolloutLabels"}
+
+
+def _time(ns: int) -> dict:
+    return {"sec": int(ns // 1_000_000_000), "nsec": int(ns % 1_000_000_000)}
+
+
+def _v(p) -> dict:
+    return {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])}
+
+
+def _q(q_wxyz) -> dict:
+    return {"x": float(q_wxyz[1]), "y": float(q_wxyz[2]), "z": float(q_wxyz[3]), "w": float(q_wxyz[0])}
+
+
+def _tf(ns: int, parent: str, child: str, p, q_wxyz) -> dict:
+    return {"timestamp": _time(ns), "parent_frame_id": parent, "child_frame_id": child,
+            "translation": _v(p), "rotation": _q(q_wxyz)}
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
+    return out
+
+
+def _grasp_pose_world(p_tool: np.ndarray, q_tool: np.ndarray, p_tool_g: np.ndarray, q_tool_g: np.ndarray):
+    """World pose of the grasp frame from the tool's world pose and its pose in the grasp frame:
+    T_wg = T_wt T_gt^-1."""
+    q_gt_inv = np.array([q_tool_g[0], -q_tool_g[1], -q_tool_g[2], -q_tool_g[3]])
+    q_wg = _quat_mul(q_tool, q_gt_inv)
+    R_wg = np.empty(9)
+    mujoco.mju_quat2Mat(R_wg, q_wg)
+    p_wg = p_tool - R_wg.reshape(3, 3) @ p_tool_g
+    return p_wg, q_wg
+
+
+def _pose(p=(0, 0, 0), q_wxyz=(1, 0, 0, 0)) -> dict:
+    return {"position": _v(p), "orientation": _q(q_wxyz)}
+
+
+def _rgba(r, g, b, a=1.0) -> dict:
+    return {"r": r, "g": g, "b": b, "a": a}
+
+
+def _capsule_entities(p0, p1, radius, color) -> tuple[list, list]:
+    """A capsule as a cylinder between p0 and p1 plus two end spheres (Foxglove has no capsule)."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    axis = p1 - p0
+    length = float(np.linalg.norm(axis))
+    q = np.array([1.0, 0, 0, 0])
+    if length > 0:
+        mujoco.mju_quatZ2Vec(q, axis / length)
+    d = 2 * radius
+    cyl = {"pose": _pose((p0 + p1) / 2, q), "size": {"x": d, "y": d, "z": length}, "bottom_scale": 1.0,
+           "top_scale": 1.0, "color": color}
+    sph = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": color} for p in (p0, p1)]
+    return [cyl], sph
+
+
+def _scene_update(scene: Scene, task: Task, width: float) -> dict:
+    """Frame-locked primitives: the tool's collision primitives, the pads, the task objects' geoms."""
+    m = scene.model
+    entities = []
+    cyls, sphs, cubes = [], [], []
+    wood = _rgba(0.55, 0.4, 0.25)
+    for prim in scene.tool.primitives:
+        if prim[0] == "capsule":
+            c, s = _capsule_entities(prim[1], prim[2], prim[3], wood)
+            cyls += c
+            sphs += s
+        else:
+            lo, hi = np.asarray(prim[1]), np.asarray(prim[2])
+            cubes.append({"pose": _pose((lo + hi) / 2), "size": _v(hi - lo), "color": _rgba(0.5, 0.5, 0.55)})
+    entities.append({"timestamp": _time(0), "frame_id": "tool", "id": "tool", "lifetime": _time(0),
+                     "frame_locked": True, "cubes": cubes, "cylinders": cyls, "spheres": sphs})
+    pad = m.geom("gripper/pad_neg")
+    half = np.asarray(m.geom_size[pad.id], float)
+    pads = [{"pose": _pose((0, s * (width / 2 + half[1]), 0)), "size": _v(2 * half), "color": _rgba(0.2, 0.2, 0.2)}
+            for s in (-1.0, 1.0)]
+    entities.append({"timestamp": _time(0), "frame_id": "gripper", "id": "pads", "lifetime": _time(0),
+                     "frame_locked": True, "cubes": pads})
+    for body in TARGET_BODIES[task.kind]:
+        b = m.body(body).id
+        cubes, cyls = [], []
+        for g in range(m.ngeom):
+            if m.geom_bodyid[g] != b:
+                continue
+            size, pos, quat = m.geom_size[g], m.geom_pos[g], m.geom_quat[g]
+            color = _rgba(*map(float, m.geom_rgba[g]))
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+                cubes.append({"pose": _pose(pos, quat), "size": _v(2 * size), "color": color})
+            elif m.geom_type[g] in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE):
+                d = 2 * float(size[0])
+                cyls.append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": 2 * float(size[1])},
+                             "bottom_scale": 1.0, "top_scale": 1.0, "color": color})
+        entities.append({"timestamp": _time(0), "frame_id": f"target/{body}", "id": body, "lifetime": _time(0),
+                         "frame_locked": True, "cubes": cubes, "cylinders": cyls})
+    return {"deletions": [], "entities": entities}
+
+
+def _jsonable(v) -> Any:
+    v = np.asarray(v)
+    if v.dtype == bool:
+        return bool(v)
+    x = float(v)
+    return x if math.isfinite(x) else None
+
+
+def rollout_mcap_bytes(scene: Scene, task: Task, result: Any, index: int, *, every: int = 2,
+                       grasp: Any = None) -> bytes:
+    """The MCAP of rollout `index` of a `SimResult` made with traces=True (every `every`-th step)."""
+    tr = result.traces
+    if tr is None:
+        raise InputError("write_rollout_mcap: the SimResult has no traces; call simulate(..., traces=True)")
+    n = len(result.labels.valid)
+    if not 0 <= index < n:
+        raise InputError(f"write_rollout_mcap: index {index} out of range for {n} rollouts")
+    if every < 1:
+        raise InputError(f"write_rollout_mcap: every must be >= 1, got {every}")
+    t = np.asarray(tr["t"], float)
+    t_ns = np.round((t - t[0]) * 1e9).astype(np.int64)
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.NONE)
+    w.start(profile="", library="itup-jax")
+    chan = {}
+    for topic, name in TOPICS.items():
+        sid = w.register_schema(name=name, encoding="jsonschema", data=json.dumps(SCHEMAS[name]).encode())
+        chan[topic] = w.register_channel(topic=topic, message_encoding="json", schema_id=sid)
+
+    def put(topic: str, ns: int, msg: dict, seq: int) -> None:
+        w.add_message(chan[topic], log_time=int(ns), publish_time=int(ns), sequence=seq,
+                      data=json.dumps(msg, separators=(",", ":")).encode())
+
+    width = float(result.plan.qpos0[index, scene.finger_qpos].sum()) if grasp is None else float(grasp.width)
+    width = abs(width)
+    put("/scene", 0, _scene_update(scene, task, width), 0)
+    p_t, q_t = tr["tool_pos"][index], tr["tool_quat"][index]
+    p_tg, q_tg = tr["tool_pos_grasp"][index], tr["tool_quat_grasp"][index]
+    force, torque = tr["gripper/wrist_force"][index], tr["gripper/wrist_torque"][index]
+    pad = {s: tr[f"pad_{s}_contact"][index] for s in ("neg", "pos")}
+    targets = [(b, tr[f"target/{b}_pos"][index], tr[f"target/{b}_quat"][index]) for b in TARGET_BODIES[task.kind]]
+    for seq, k in enumerate(range(0, len(t), every)):
+        ns = int(t_ns[k])
+        p_g, q_g = _grasp_pose_world(p_t[k], q_t[k], p_tg[k], q_tg[k])
+        tfs = [_tf(ns, "world", "gripper", p_g, q_g), _tf(ns, "world", "tool", p_t[k], q_t[k])]
+        tfs += [_tf(ns, "world", f"target/{b}", p[k], q[k]) for b, p, q in targets]
+        put("/tf", ns, {"transforms": tfs}, seq)
+        put("/wrist_wrench", ns, {"timestamp": _time(ns), "frame_id": "gripper/ft_site", "force": _v(force[k]),
+                                  "torque": _v(torque[k]), "torque_norm": float(np.linalg.norm(torque[k]))}, seq)
+        # contact sensor layout per pad: (found, force in the contact frame: normal first)
+        put("/pad_contact", ns, {"timestamp": _time(ns), "neg_found": bool(pad["neg"][k, 0] > 0),
+                                 "pos_found": bool(pad["pos"][k, 0] > 0),
+                                 "neg_normal_force": abs(float(pad["neg"][k, 1])), "pos_normal_force": abs(float(pad["pos"][k, 1]))}, seq)
+    labels = {f: _jsonable(v[index]) for f, v in result.labels.as_dict().items()}
+    put("/labels", int(t_ns[-1]), labels, 0)
+    ph = {f: float(getattr(result.physics, f)[index]) for f in
+          ("mass_scale", "mu", "restitution", "contact_duration", "grip_force")}
+    meta = {"task": task.kind, "tool": scene.tool.name, "index": str(index), "backend": result.backend,
+            "physics": json.dumps(ph), "every_nth_step": str(every)}
+    if grasp is not None:
+        meta["grasp"] = json.dumps({"p_tool_grasp_m": np.asarray(grasp.p_tool_grasp, float).tolist(),
+                                    "q_tool_grasp_wxyz": np.asarray(grasp.q_tool_grasp, float).tolist(),
+                                    "width_m": float(grasp.width)})
+    w.add_metadata("itup.rollout", meta)
+    w.finish()
+    return buf.getvalue()
+
+
+def write_rollout_mcap(path: str, scene: Scene, task: Task, result: Any, index: int, *, every: int = 2,
+                       grasp: Any = None) -> str:
+    """Write rollout `index` of `result` (simulate(..., traces=True)) to `path` atomically; returns path."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"write_rollout_mcap: folder {folder!r} does not exist")
+    atomic_write(path, rollout_mcap_bytes(scene, task, result, index, every=every, grasp=grasp))
+    return path
+
+
+def read_rollout_mcap(path: str) -> dict[str, Any]:
+    """{topic: [messages as dicts], 'schemas': {topic: schema name}, 'metadata': {name: dict}}."""
+    out: dict[str, Any] = {"schemas": {}, "metadata": {}}
+    with open(path, "rb") as fh:
+        reader = make_reader(fh)
+        for schema, channel, message in reader.iter_messages():
+            out["schemas"][channel.topic] = schema.name if schema else None
+            out.setdefault(channel.topic, []).append(json.loads(message.data))
+        fh.seek(0)
+        for rec in make_reader(fh).iter_metadata():
+            out["metadata"][rec.name] = dict(rec.metadata)
+    return out

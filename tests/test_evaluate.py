@@ -1,0 +1,183 @@
+"""Baselines (Ferrari-Canny, geometric, static, random), the evaluation harness, the CLI commands that
+use them, the experiments' quick modes, and every JSON output against its documented schema."""
+
+import json
+import os
+import runpy
+import sys
+
+import jsonschema
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax.baselines import ferrari_canny, force_closure_scores, geometric_scores, static_scores
+from itup_jax.cli import main
+from itup_jax.evaluate import evaluate
+from itup_jax.grasp import make_grasps
+from itup_jax.mcap_log import read_rollout_mcap
+from itup_jax.schemas import load_schema
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _rot(rng):
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+# ------------------------------------------------------------------ Ferrari-Canny
+def _pinch(d=0.02):
+    pts = np.array([[0.0, -d, 0.0], [0.0, d, 0.0]])
+    nrm = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
+    return pts, nrm
+
+
+def test_ferrari_canny_is_invariant_to_a_rigid_motion(rng):
+    pts, nrm = _pinch()
+    com = np.array([0.0, 0.0, 0.05])
+    e0 = ferrari_canny(pts, nrm, com, 0.8, 0.3)
+    Q, t = _rot(rng), rng.normal(size=3)
+    e1 = ferrari_canny(pts @ Q.T + t, nrm @ Q.T, Q @ com + t, 0.8, 0.3)
+    # the linearised cone's edges turn about each normal with the tangent basis: an 8-edge polygon lies
+    # between cos(pi/8) = 0.92 and 1 of the true cone, so epsilon is invariant to that much
+    assert e0 > 0 and e1 == pytest.approx(e0, rel=1 - np.cos(np.pi / 8))
+    # a motion that keeps each normal's tangent basis (a translation) leaves it exactly unchanged
+    assert ferrari_canny(pts + t, nrm, com + t, 0.8, 0.3) == pytest.approx(e0, rel=1e-9)
+
+
+def test_ferrari_canny_laws():
+    pts, nrm = _pinch()
+    com = np.zeros(3)
+    # no friction, no torsion: pure normal forces span no 6-D neighbourhood of the origin
+    assert ferrari_canny(pts, nrm, com, 0.0, 0.3, torsion=0.0) == 0.0
+    # more friction, a larger wrench ball
+    assert ferrari_canny(pts, nrm, com, 0.3, 0.3) < ferrari_canny(pts, nrm, com, 0.8, 0.3)
+    # both contacts on the same side: every force pushes the same way, no closure
+    same = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    assert ferrari_canny(pts, same, com, 0.5, 0.3) == 0.0
+    # a pinch far from the centre of mass resists less (torque per unit force grows)
+    assert ferrari_canny(pts, nrm, np.array([0.0, 0.0, 0.2]), 0.8, 0.3) < ferrari_canny(pts, nrm, com, 0.8, 0.3)
+
+
+def test_baseline_scores_on_the_hammer(tasks, hammer_grasps):
+    tool, task = tasks["hammer"]
+    g = hammer_grasps[:40]
+    eps = force_closure_scores(tool, g)
+    assert eps.shape == (40,) and np.all(eps >= 0) and eps.max() > 0
+    geo = geometric_scores(tool, g)
+    # sampled grasps are antipodal within the friction cone atan(mu) (+ mesh facets)
+    assert np.all(geo["antipodal"] <= np.arctan(float(tool.params.mu)) + 0.2)
+    for name in ("force_closure", "geometric", "static", "random", "analytic", "sdgnet"):
+        s = itup.score(tool, task, g, model=name)
+        assert np.asarray(s.total).shape == (40,) and np.all(np.isfinite(np.asarray(s.total)))
+    with pytest.raises(itup.InputError):
+        itup.score(tool, task, g, model="dexnet")
+
+
+def test_static_torque_is_the_weight_times_the_lever_arm(tasks):
+    tool, task = tasks["hammer"]
+    com = np.asarray(tool.params.com, float)
+    R = np.eye(3)
+    u = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)  # an offset direction neither along the weight nor closure
+    g = make_grasps([com, com + 0.05 * u, com + 0.10 * u], np.stack([R] * 3), [0.03] * 3)
+    s = static_scores(tool, task, g)
+    assert s["tau"][0] == pytest.approx(0.0, abs=1e-9)
+    # torque grows linearly with the offset from the centre of mass (a law of the lever), at most m g d
+    assert s["tau"][2] == pytest.approx(2 * s["tau"][1], rel=1e-9) and s["tau"][1] > 0
+    assert s["tau"][1] <= float(tool.params.mass) * 9.81 * 0.05 + 1e-9
+
+
+# ------------------------------------------------------------------ evaluation harness
+@pytest.fixture(scope="module")
+def small_eval(tasks):
+    tool, task = tasks["hammer"]
+    return evaluate(tool, task, ("sdgnet", "force_closure", "random"), n=8, seeds=2, seed=0)
+
+
+def test_every_method_picks_from_the_same_candidates(small_eval):
+    r = small_eval
+    assert r["candidates"]["used"] <= 8 and set(r["methods"]) == {"sdgnet", "force_closure", "random"}
+    for m in r["methods"].values():
+        assert 0 <= m["index"] < r["candidates"]["used"]
+        assert len(m["rollouts"]["peak_torque"]) == 2
+        assert m["valid_rollouts"] == 0 or m["measured"]["peak_torque"]["mean"] > 0
+    jsonschema.validate({"schema": "itup.evaluate/1", **r}, load_schema("evaluate"))
+
+
+def test_evaluate_refuses_unknown_methods(tasks):
+    tool, task = tasks["hammer"]
+    with pytest.raises(itup.InputError, match="methods"):
+        evaluate(tool, task, ("dexnet",), n=4, seeds=1)
+
+
+# ------------------------------------------------------------------ CLI
+def test_cli_evaluate_writes_a_valid_document(tmp_path, capsys):
+    out = tmp_path / "e.json"
+    assert main(["evaluate", "--task", "hammer", "--n", "6", "--seeds", "1", "--methods", "sdgnet,geometric",
+                 "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    jsonschema.validate(doc, load_schema("evaluate"))
+    assert "tau_proj" in capsys.readouterr().out
+
+
+def test_cli_demo_writes_png_mcap_and_json(tmp_path):
+    out = tmp_path / "demo"
+    assert main(["demo", "--n", "6", "--seeds", "1", "--out", str(out)]) == 0
+    doc = json.loads((out / "demo.json").read_text())
+    jsonschema.validate(doc, load_schema("demo"))
+    assert (out / "picks.png").stat().st_size > 10_000
+    log = read_rollout_mcap(str(out / "sdgnet.mcap"))
+    assert log["schemas"]["/tf"] == "foxglove.FrameTransforms" and log["/wrist_wrench"]
+
+
+@pytest.mark.parametrize("scorer", ["sdgnet", "analytic", "force_closure"])
+def test_cli_plan_json_matches_its_schema(tmp_path, scorer):
+    out = tmp_path / "p.json"
+    assert main(["plan", "--n", "50", "--scorer", scorer, "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    jsonschema.validate(doc, load_schema("plan"))
+    assert doc["scorer"] == scorer
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["evaluate", "--methods", "dexnet"], "--methods"),
+    (["evaluate", "--seeds", "0"], "--seeds"),
+    (["evaluate", "--json", "/no/such/folder/x.json"], "does not exist"),
+    (["demo", "--n", "1"], "--n"),
+])
+def test_cli_bad_input_exits_nonzero_with_a_message(argv, words, capsys):
+    assert main(argv) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_cli_demo_refuses_a_file_as_out_folder(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("x")
+    assert main(["demo", "--out", str(f)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ experiments (quick modes)
+def _run_experiment(name, argv, monkeypatch):
+    monkeypatch.setattr(sys, "argv", [name] + argv)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    runpy.run_path(os.path.join(ROOT, "experiments", name), run_name="__main__")
+
+
+def test_table1_quick(tmp_path, monkeypatch):
+    _run_experiment("table1.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "table1.json").read_text())
+    jsonschema.validate(doc, load_schema("table1"))
+    cell = doc["table"]["hammer"]["sdgnet"]
+    assert cell["peak_torque_projected"]["n"] >= 0 and "force_closure" in doc["table"]["hammer"]["sdgnet_torque_reduction_pct"]
+    assert (tmp_path / "table1.png").stat().st_size > 5_000 and (tmp_path / "table1.csv").read_text().count("\n") == 4
+
+
+def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
+    _run_experiment("sdgnet_fidelity.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "fidelity.json").read_text())
+    rows = doc["per_tool"]
+    assert rows and all(-1 <= r["rho_sdgnet_projected"] <= 1 or np.isnan(r["rho_sdgnet_projected"]) for r in rows)
+    assert all(r["regret_sdgnet_projected"] >= 0 and 0 <= r["percentile_sdgnet_projected"] <= 1 for r in rows)
+    assert doc["train_wall_s"] > 0 and (tmp_path / "fidelity.png").exists()

@@ -1,0 +1,79 @@
+"""MCAP rollout logs: Foxglove schemas, readable back, the logged wrench is the simulated one."""
+
+import os
+
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax.dataset import GenerateConfig, generate
+from itup_jax.mcap_log import SCHEMAS, read_rollout_mcap, write_rollout_mcap
+from itup_jax.scene import build_scene
+
+
+@pytest.fixture(scope="module")
+def logged(tasks, tmp_path_factory):
+    tool, task = tasks["hammer"]
+    scene = build_scene(tool, task)
+    g = itup.sample_grasps(tool, 4, seed=0)
+    res = itup.simulate(tool, task, g, scene=scene, traces=True, randomize=None)
+    i = int(np.argmax(res.labels.valid))
+    path = str(tmp_path_factory.mktemp("mcap") / "r.mcap")
+    write_rollout_mcap(path, scene, task, res, i, every=1, grasp=g[i])
+    return res, i, read_rollout_mcap(path)
+
+
+def test_channels_carry_the_foxglove_schemas(logged):
+    _, _, log = logged
+    assert log["schemas"]["/tf"] == "foxglove.FrameTransforms"
+    assert log["schemas"]["/scene"] == "foxglove.SceneUpdate"
+    assert set(log["schemas"].values()) <= set(SCHEMAS)
+    frames = {t["child_frame_id"] for t in log["/tf"][0]["transforms"]}
+    assert frames == {"gripper", "tool", "target/nail"}
+    t0 = log["/tf"][0]["transforms"][0]
+    assert set(t0) == {"timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"}
+    q = t0["rotation"]
+    assert abs(np.linalg.norm([q["x"], q["y"], q["z"], q["w"]]) - 1) < 1e-6
+    ents = {e["id"]: e for e in log["/scene"][0]["entities"]}
+    assert {"tool", "pads", "nail"} <= set(ents) and ents["tool"]["cylinders"]
+
+
+def test_logged_wrench_is_the_simulated_one(logged):
+    res, i, log = logged
+    tau = res.traces["gripper/wrist_torque"][i]
+    logged_tau = np.array([[m["torque"][k] for k in "xyz"] for m in log["/wrist_wrench"]])
+    np.testing.assert_allclose(logged_tau, tau, rtol=0, atol=1e-12)
+    # the grasp frame's logged world pose holds the tool where the grasp-frame sensor says
+    tf = log["/tf"][-1]["transforms"]
+    g, t = tf[0], tf[1]
+    assert g["child_frame_id"] == "gripper" and t["child_frame_id"] == "tool"
+    p_g = np.array([g["translation"][k] for k in "xyz"])
+    p_t = np.array([t["translation"][k] for k in "xyz"])
+    assert np.isclose(np.linalg.norm(p_t - p_g), np.linalg.norm(res.traces["tool_pos_grasp"][i, -1]), atol=1e-9)
+    lab = log["/labels"][0]
+    assert lab["peak_torque"] == pytest.approx(float(res.labels.peak_torque[i]))
+    times = [m["timestamp"]["sec"] * 10**9 + m["timestamp"]["nsec"] for m in log["/wrist_wrench"]]
+    assert times[0] == 0 and np.all(np.diff(times) > 0)
+    assert "grasp" in log["metadata"]["itup.rollout"]
+
+
+def test_a_result_without_traces_is_refused(tasks, tmp_path):
+    tool, task = tasks["hammer"]
+    scene = build_scene(tool, task)
+    g = itup.sample_grasps(tool, 1, seed=0)
+    res = itup.simulate(tool, task, g, scene=scene, randomize=None)
+    with pytest.raises(itup.InputError, match="traces"):
+        write_rollout_mcap(str(tmp_path / "x.mcap"), scene, task, res, 0)
+    assert not os.listdir(tmp_path)
+
+
+def test_generate_logs_mcap_without_changing_the_shards(tmp_path):
+    cfg = GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=6, seed=1)
+    a = generate(str(tmp_path / "a"), cfg, progress=False)
+    b = generate(str(tmp_path / "b"), cfg, progress=False, mcap_dir=str(tmp_path / "logs"), mcap_per_shard=1)
+    assert [s["sha256"] for s in a["shards"]] == [s["sha256"] for s in b["shards"]]
+    logs = os.listdir(tmp_path / "logs")
+    assert len(logs) == min(1, a["totals"]["valid"]) and all(f.startswith("reach_000_") for f in logs)
+    if logs:
+        log = read_rollout_mcap(str(tmp_path / "logs" / logs[0]))
+        assert log["/wrist_wrench"] and log["schemas"]["/tf"] == "foxglove.FrameTransforms"
