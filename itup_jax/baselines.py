@@ -42,6 +42,12 @@ CONE_EDGES = 8
 PAD_HALF_WIDTH = 0.011
 
 
+def tool_length(tool: Tool) -> float:
+    """L (m): the tool's largest distance from its centre of mass, the scale of torques and offsets."""
+    com = np.asarray(tool.params.com, float)
+    return float(np.max(np.linalg.norm(np.asarray(tool.mesh.vertices) - com, axis=1)))
+
+
 def pad_contacts(tool: Tool, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
     """Where the two pads meet the tool: surface points [N, 2, 3] and inward surface normals [N, 2, 3]
     (tool frame), the points of the surface nearest each pad centre."""
@@ -90,7 +96,7 @@ def force_closure_scores(tool: Tool, grasps: Grasps) -> np.ndarray:
     """Ferrari-Canny epsilon [N] of each grasp (higher is better)."""
     pts, nrm = pad_contacts(tool, grasps)
     com = np.asarray(tool.params.com, float)
-    length = float(np.max(np.linalg.norm(np.asarray(tool.mesh.vertices) - com, axis=1)))
+    length = tool_length(tool)
     mu = float(tool.params.mu)
     return np.array([ferrari_canny(pts[i], nrm[i], com, mu, length) for i in range(len(grasps))])
 
@@ -106,8 +112,7 @@ def geometric_scores(tool: Tool, grasps: Grasps) -> dict[str, np.ndarray]:
     antipodal = 0.5 * (np.arccos(cos0) + np.arccos(cos1))
     approach = np.abs(R[:, 2, 2])  # |approach . tool z| (tool z: the handle axis of every built-in tool)
     com = np.asarray(tool.params.com, float)
-    length = float(np.max(np.linalg.norm(np.asarray(tool.mesh.vertices) - com, axis=1)))
-    dist = np.linalg.norm(np.asarray(grasps.p_tool_grasp, float) - com, axis=1) / length
+    dist = np.linalg.norm(np.asarray(grasps.p_tool_grasp, float) - com, axis=1) / tool_length(tool)
     return {"antipodal": antipodal, "approach": approach, "com_distance": dist,
             "total": antipodal + approach + dist}
 

@@ -43,9 +43,7 @@ def _atomic_write_json(path: str, obj: Any) -> None:
     """Write JSON atomically (`atomic.atomic_write`): never half-written."""
     from itup_jax.atomic import atomic_write
 
-    folder = os.path.dirname(os.path.abspath(path)) or "."
-    if not os.path.isdir(folder):
-        raise_input(f"--json {path!r}: folder {folder!r} does not exist")
+    _check_out_folder("--json", path)
     atomic_write(path, (json.dumps(obj, indent=2) + "\n").encode())
 
 
@@ -113,7 +111,9 @@ def cmd_plan(args) -> int:
     }
     print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {result['regime']} | "
           f"{args.n} antipodal candidates (seed {args.seed}) | scorer {args.scorer}")
-    units = ("N·m", "N", "rad") if args.scorer in ("analytic",) else ("N·m", "m", "rad") if args.scorer == "sdgnet" else ("", "", "")
+    # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
+    # (N m, m, rad); the baselines' scores are dimensionless
+    units = {"analytic": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad")}.get(args.scorer, ("", "", ""))
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} {'C':>9}  "
           "grasp origin (tool frame, m)")
     for rank, i in enumerate(order):

@@ -214,8 +214,8 @@ def rollout_mcap_bytes(scene: Scene, task: Task, result: Any, index: int, *, eve
         w.add_message(chan[topic], log_time=int(ns), publish_time=int(ns), sequence=seq,
                       data=json.dumps(msg, separators=(",", ":")).encode())
 
+    # without the grasp, the planned finger openings (each half the width less the initial squeeze)
     width = float(result.plan.qpos0[index, scene.finger_qpos].sum()) if grasp is None else float(grasp.width)
-    width = abs(width)
     put("/scene", 0, _scene_update(scene, task, width), 0)
     p_t, q_t = tr["tool_pos"][index], tr["tool_quat"][index]
     p_tg, q_tg = tr["tool_pos_grasp"][index], tr["tool_quat_grasp"][index]

@@ -121,8 +121,9 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     """The tool with each method's picked grasp (gripper wireframe), and (with `traces`) each pick's
     measured wrist-torque norm over time. grasps: {method: Grasps of one}; traces: {method: (t [S],
     torque [S, 3])}. Writes a PNG (atomically) and returns the path."""
-    from itup_jax.atomic import atomic_write
     import io
+
+    from itup_jax.atomic import atomic_write
 
     colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
     ncol = 2 if traces else 1

@@ -67,14 +67,14 @@ _FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  
 def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
     """Arguments of `sdgnet_scores_jit` (float32; the tool's density field cached per tool and spec)."""
     spec = model.feature_spec
-    per_tool = _FIELDS.setdefault(tool, {})
-    if spec not in per_tool:
-        per_tool[spec] = tool_field(tool, spec)
-    f = per_tool[spec]
-    s = model.spec
     dt = jnp.float32
+    per_tool = _FIELDS.setdefault(tool, {})
+    if spec not in per_tool:  # cached already in the scorer's dtype: no conversion per call
+        f = tool_field(tool, spec)
+        per_tool[spec] = DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing)
+    s = model.spec
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
-    args = (DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing), tool.params, task, grasps, params,
+    args = (per_tool[spec], tool.params, task, grasps, params,
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
             jnp.asarray(s["y_std"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt))
     return args, {"spec": spec}

@@ -73,7 +73,7 @@ def test_generate_logs_mcap_without_changing_the_shards(tmp_path):
     b = generate(str(tmp_path / "b"), cfg, progress=False, mcap_dir=str(tmp_path / "logs"), mcap_per_shard=1)
     assert [s["sha256"] for s in a["shards"]] == [s["sha256"] for s in b["shards"]]
     logs = os.listdir(tmp_path / "logs")
-    assert len(logs) == min(1, a["totals"]["valid"]) and all(f.startswith("reach_000_") for f in logs)
-    if logs:
-        log = read_rollout_mcap(str(tmp_path / "logs" / logs[0]))
-        assert log["/wrist_wrench"] and log["schemas"]["/tf"] == "foxglove.FrameTransforms"
+    assert a["totals"]["valid"] >= 1  # this config has a valid rollout to log
+    assert len(logs) == 1 and logs[0].startswith("reach_000_")
+    log = read_rollout_mcap(str(tmp_path / "logs" / logs[0]))
+    assert log["/wrist_wrench"] and log["schemas"]["/tf"] == "foxglove.FrameTransforms"
