@@ -29,20 +29,14 @@ import sys
 import time
 
 import numpy as np
-from scipy.stats import spearmanr
 
-from itup_jax.atomic import atomic_write
+from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard
+from itup_jax.stats import spearman
 from itup_jax.sdgnet import TrainConfig, load_model, predict_costs, save_model, train
 
 MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
 GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
-
-
-def _rho(a, b) -> float:
-    if len(a) < 3 or np.ptp(a) == 0 or np.ptp(b) == 0:
-        return float("nan")
-    return float(spearmanr(a, b).statistic)
 
 
 def evaluate(model, test_dir: str) -> dict:
@@ -58,8 +52,8 @@ def evaluate(model, test_dir: str) -> dict:
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": len(pred)}
         for name, key in MEASURED.items():
             y = a[key]
-            row[f"rho_sdgnet_{name}"] = _rho(pred, y)
-            row[f"rho_analytic_{name}"] = _rho(ana, y)
+            row[f"rho_sdgnet_{name}"] = spearman(pred, y)
+            row[f"rho_analytic_{name}"] = spearman(ana, y)
             best = float(y.min())
             row[f"regret_sdgnet_{name}"] = float(y[np.argmin(pred)] / best - 1)
             row[f"regret_analytic_{name}"] = float(y[np.argmin(ana)] / best - 1)
@@ -166,13 +160,13 @@ def main(argv=None) -> dict:
         model = load_model(args.model)
     res = evaluate(model, args.test)
     summary = summarise(res["rows"])
-    out = {"experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
+    out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
            "retrained": bool(args.train_model), "train_wall_s": train_s, "goals": GOALS, "summary": summary,
            "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
     out["machine"] = machine_info()
-    atomic_write(os.path.join(args.out, "fidelity.json"), (json.dumps(out, indent=2) + "\n").encode())
+    atomic_write_json(os.path.join(args.out, "fidelity.json"), out, indent=2)
     plot(res["rows"], os.path.join(args.out, "fidelity.png"))
     h = summary.get("held_out") or summary.get("seen")
     print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, projected torque) median "

@@ -19,14 +19,13 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 import os
 import time
 import warnings
 
 import numpy as np
 
-from itup_jax.atomic import atomic_write
+from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import vary_tool
 from itup_jax.evaluate import DEFAULT_METHODS, MEASURED, evaluate, reduction
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
@@ -140,7 +139,7 @@ def main(argv=None) -> dict:
                       "methods": list(methods), "seed": a.seed, "measured": list(MEASURED)},
            "paper": None, "paper_note": "the paper's Table I values are not in this repository",
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info(), **res}
-    atomic_write(os.path.join(a.out, "table1.json"), (json.dumps(out, indent=1) + "\n").encode())
+    atomic_write_json(os.path.join(a.out, "table1.json"), out, indent=1)
     atomic_write(os.path.join(a.out, "table1.csv"), to_csv(res["table"]).encode())
     plot(res["table"], methods, os.path.join(a.out, "table1.png"))
     print(f"\n{'task':7s} {'method':>14s} {'tau_proj N m':>14s} {'tau_raw N m':>13s} {'slip mm':>11s} "

@@ -40,11 +40,11 @@ EXAMPLES = """examples:
 
 
 def _atomic_write_json(path: str, obj: Any) -> None:
-    """Write JSON atomically (`atomic.atomic_write`): never half-written."""
-    from itup_jax.atomic import atomic_write
+    """Write strict JSON atomically (`atomic.atomic_write_json`): never half-written, NaN as null."""
+    from itup_jax.atomic import atomic_write_json
 
     _check_out_folder("--json", path)
-    atomic_write(path, (json.dumps(obj, indent=2) + "\n").encode())
+    atomic_write_json(path, obj, indent=2)
 
 
 def raise_input(msg: str) -> None:

@@ -36,7 +36,7 @@ from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import build_scene
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
-from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
+from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
 from itup_jax.wrench import task_loads
 
@@ -117,6 +117,14 @@ class GenerateConfig:
     def to_json(self) -> dict:
         return dict(dataclasses.asdict(self), tasks=list(self.tasks))
 
+    @classmethod
+    def from_json(cls, d: dict) -> "GenerateConfig":
+        """The config a manifest records (`to_json`'s inverse); unknown keys are refused."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        if set(d) - names:
+            raise InputError(f"generate config: unknown keys {sorted(set(d) - names)}")
+        return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS))))
+
 
 def shard_units(config: GenerateConfig) -> list[tuple[str, int]]:
     """(task, variant index) of every shard, in generation order."""
@@ -133,6 +141,18 @@ def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
     return int.from_bytes(h[:4], "little")
 
 
+def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Tool, Task]:
+    """The tool and task of a shard: variant 0 is the task's built-in tool, variant v >= 1 the
+    procedural variant seeded from the run seed (the same tool every time, so experiments can
+    rebuild a shard's tool from its manifest entry)."""
+    base = load_tool(DEFAULT_TOOL[task_kind])
+    tool = base if variant == 0 else vary_tool(base, _unit_seed(config, task_kind, variant))
+    with warnings.catch_warnings():  # a stretched tool may swing a little over the speed limit: flagged per rollout
+        warnings.simplefilter("ignore", UserWarning)
+        task = make_task(task_kind, tool)
+    return tool, task
+
+
 def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir: str | None = None,
                mcap_per_shard: int = 2) -> dict[str, np.ndarray]:
     """Arrays of one shard (host side; the features and costs run jitted at their outer calls).
@@ -141,11 +161,7 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
     (`mcap_log`), named `<task>_<variant>_<index>.mcap`; the shard's bytes do not change.
     """
     seed = _unit_seed(config, task_kind, variant)
-    base = load_tool(DEFAULT_TOOL[task_kind])
-    tool = base if variant == 0 else vary_tool(base, seed)
-    with warnings.catch_warnings():  # a stretched tool may swing a little over the speed limit: flagged per rollout
-        warnings.simplefilter("ignore", UserWarning)
-        task = make_task(task_kind, tool)
+    tool, task = unit_tool(config, task_kind, variant)
     grasps = sample_grasps(tool, config.grasps, seed=seed)
     scene = build_scene(tool, task)
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,

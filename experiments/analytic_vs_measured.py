@@ -1,0 +1,183 @@
+"""Analytic costs against MuJoCo: which lever arm and which torque projection of DESIGN.md predict the
+measured wrist torque, and does the slip cost predict measured slip?
+
+    python experiments/analytic_vs_measured.py --out results/analytic_vs_measured        # generates its data
+    python experiments/analytic_vs_measured.py --data /tmp/sdg_test --out results/avm_rand  # an `itup generate` set
+    python experiments/analytic_vs_measured.py --quick --out /tmp/avm                     # tests
+
+Variants of C_tau (`costs.CostParams`): lever arm about the grasp (`grasp`, the default: r = c_contact -
+p_grasp) or about the tool's centre of mass (`com`, the seed's formula), each with the torque projected
+off the jaw-closure axis (`perp`, the seed's choice) or in full (`full`). Slip: the seed's form
+(grip_force 0) and the form that adds the pads' squeeze (grip_force = the simulator's nominal 100 N).
+
+Per tool (a dataset shard: one tool, one task, its sampled grasps; valid rollouts only) the Spearman rank
+correlation between each variant and each measured label; reported as the median over tools, per task
+and pooled. A variant that gives every grasp of a tool the same cost (the `com` lever arm with the full
+torque does not depend on the grasp) has no ranking: its rho is NaN and it is reported as such.
+
+By default the data is generated here with nominal physics (no randomisation: the analytic cost uses the
+nominal priors, so this isolates the model from the prior's spread); `--data` takes any dataset, e.g. a
+randomised one. Writes analytic_vs_measured.json and analytic_vs_measured.png into --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+from itup_jax.atomic import atomic_write, atomic_write_json
+from itup_jax.costs import CostParams, wrench_costs
+from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
+from itup_jax.grasp import Grasps
+from itup_jax.simulate import SimConfig
+from itup_jax.stats import spearman
+from itup_jax.task import TASK_KINDS
+
+TORQUE_VARIANTS = {f"{lever}/{proj}": CostParams(lever_arm=lever, torque_projection=proj)
+                   for lever in ("grasp", "com") for proj in ("perp", "full")}
+SLIP_VARIANTS = {"seed": CostParams(grip_force=0.0), "squeeze": CostParams(grip_force=SimConfig().grip_force)}
+TORQUE_LABELS = ("peak_torque", "peak_torque_induced", "peak_torque_projected")
+SLIP_LABELS = ("slip_translation", "slip_rotation")
+
+
+def per_tool(data_dir: str) -> tuple[list[dict], dict]:
+    """One row per shard: Spearman of every (variant, label) pair."""
+    with open(os.path.join(data_dir, MANIFEST)) as fh:
+        manifest = json.load(fh)
+    config = GenerateConfig.from_json(manifest["config"])
+    rows = []
+    for entry in manifest["shards"]:
+        a = load_shard(data_dir, entry)  # every row: one batch shape per dataset, one compile per variant
+        ok = a["label_valid"]
+        if ok.sum() < 3:
+            continue
+        tool, task = unit_tool(config, entry["task"], entry["variant"])
+        grasps = Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
+        row = {"task": entry["task"], "variant": entry["variant"], "tool": tool.name, "n": int(ok.sum())}
+        for name, params in TORQUE_VARIANTS.items():
+            c = np.asarray(wrench_costs(tool, task, grasps, params).tau, float)[ok]
+            for lab in TORQUE_LABELS:
+                row[f"tau[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
+        for name, params in SLIP_VARIANTS.items():
+            c = np.asarray(wrench_costs(tool, task, grasps, params).slip, float)[ok]
+            for lab in SLIP_LABELS:
+                row[f"slip[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
+        rows.append(row)
+    return rows, manifest["config"]
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Median rho over tools (and how many tools had a defined rho), per task and pooled."""
+    keys = [k for k in rows[0] if "~" in k]
+    out = {}
+    for task in sorted({r["task"] for r in rows}) + ["all"]:
+        sel = [r for r in rows if task == "all" or r["task"] == task]
+        out[task] = {}
+        for k in keys:
+            v = np.array([r[k] for r in sel], float)
+            ok = np.isfinite(v)
+            out[task][k] = {"median": float(np.median(v[ok])) if ok.any() else None, "tools": int(ok.sum())}
+    return out
+
+
+def verdict(summary: dict, n_tools: int) -> dict:
+    """For each measured label, the variant with the highest pooled median rho among the variants that
+    rank the grasps of at least half of the tools (a variant constant on most tools is no predictor;
+    its median over the few others would not compare like with like). None if no variant qualifies."""
+    out = {}
+    for lab in TORQUE_LABELS + SLIP_LABELS:
+        fam = "tau" if lab in TORQUE_LABELS else "slip"
+        cands = {k: v["median"] for k, v in summary["all"].items() if k.startswith(fam) and k.endswith("~" + lab)
+                 and v["median"] is not None and 2 * v["tools"] >= n_tools}
+        if cands:
+            best = max(cands, key=cands.get)
+            out[lab] = {"variant": best[best.index("[") + 1:best.index("]")], "median_rho": cands[best],
+                        "tools": summary["all"][best]["tools"]}
+        else:
+            out[lab] = None
+    return out
+
+
+def plot(summary: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = [t for t in summary if t != "all"] + ["all"]
+    panels = (("tau", TORQUE_VARIANTS, TORQUE_LABELS), ("slip", SLIP_VARIANTS, SLIP_LABELS))
+    fig, axes = plt.subplots(2, 1, figsize=(8.5, 8.5), gridspec_kw={"height_ratios": [12, 4]})
+    for ax, (fam, variants, labels) in zip(axes, panels):
+        rowsk = [f"{fam}[{v}]~{lab}" for lab in labels for v in variants]
+        m = np.array([[summary[t][k]["median"] if summary[t][k]["median"] is not None else np.nan for t in tasks]
+                      for k in rowsk], float)
+        im = ax.imshow(m, vmin=-1, vmax=1, cmap="RdBu_r", aspect="auto")
+        for i in range(m.shape[0]):
+            for j in range(m.shape[1]):
+                ax.text(j, i, "n/a" if np.isnan(m[i, j]) else f"{m[i, j]:+.2f}", ha="center", va="center", fontsize=7)
+        ax.set_xticks(range(len(tasks)), tasks)
+        ax.set_yticks(range(len(rowsk)), [k.replace("~", "  vs  ") for k in rowsk], fontsize=7)
+    axes[0].set_title("C_tau variant (lever/projection) vs measured torque")
+    axes[1].set_title("C_s variant vs measured slip")
+    fig.colorbar(im, ax=axes, shrink=0.8, label="Spearman rho (median over tools)")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", default=None, help="an `itup generate` folder (default: generate one in OUT/data)")
+    ap.add_argument("--tasks", default=",".join(TASK_KINDS))
+    ap.add_argument("--tools-per-task", type=int, default=3)
+    ap.add_argument("--grasps", type=int, default=128)
+    ap.add_argument("--randomize", action="store_true", help="generate with randomised physics (default: nominal)")
+    ap.add_argument("--seed", type=int, default=2)
+    ap.add_argument("--quick", action="store_true", help="hammer, 2 tools, 16 grasps (tests)")
+    ap.add_argument("--out", default="results/analytic_vs_measured")
+    a = ap.parse_args(argv)
+    if a.quick:
+        a.tasks, a.tools_per_task, a.grasps = "hammer", 2, 16
+    os.makedirs(a.out, exist_ok=True)
+    t0 = time.perf_counter()
+    if a.data is None:
+        a.data = os.path.join(a.out, "data")
+        tasks = tuple(t for t in a.tasks.split(",") if t)
+        generate(a.data, GenerateConfig(tasks=tasks, tools_per_task=a.tools_per_task, grasps=a.grasps, seed=a.seed,
+                                        randomize=a.randomize), progress=not a.quick)
+    elif not os.path.exists(os.path.join(a.data, MANIFEST)):
+        print(f"analytic_vs_measured: --data {a.data!r} holds no dataset manifest", file=sys.stderr)
+        raise SystemExit(2)
+    rows, config = per_tool(a.data)
+    if not rows:
+        print(f"analytic_vs_measured: no shard of {a.data!r} has 3 or more valid rollouts", file=sys.stderr)
+        raise SystemExit(2)
+    summary = summarise(rows)
+    best = verdict(summary, len(rows))
+    from itup_jax.bench import machine_info
+
+    out = {"schema": "itup.analytic_vs_measured/1", "experiment": "analytic_vs_measured", "quick": a.quick, "data": a.data, "data_config": config,
+           "summary": summary, "verdict": best, "per_tool": rows, "wall_s": round(time.perf_counter() - t0, 1),
+           "machine": machine_info()}
+    atomic_write_json(os.path.join(a.out, "analytic_vs_measured.json"), out, indent=1)
+    plot(summary, os.path.join(a.out, "analytic_vs_measured.png"))
+    tasks = [t for t in summary if t != "all"] + ["all"]
+    print(f"{'variant vs measured':48s}" + "".join(f"{t:>8s}" for t in tasks))
+    for k in summary["all"]:
+        print(f"{k:48s}" + "".join(
+            f"{summary[t][k]['median']:+8.2f}" if summary[t][k]["median"] is not None else f"{'n/a':>8s}" for t in tasks))
+    for lab, v in best.items():
+        print(f"best for {lab}: " + ("none defined" if v is None else f"{v['variant']} (median rho {v['median_rho']:+.2f})"))
+    print(f"wrote {a.out}/analytic_vs_measured.json, analytic_vs_measured.png ({out['wall_s']} s)")
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,105 @@
+"""Statistics the experiments share (host-side NumPy/SciPy; nothing here is differentiated).
+
+    spearman(a, b)                        rank correlation, NaN when either side has no ranking
+    failure_threshold(torque, failed)     logistic fit of P(fail | peak torque); the 50 % torque
+    binned_rate(x, flag, bins)            empirical rate per equal-count bin with Wilson intervals
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.special import expit, log_expit
+from scipy.stats import spearmanr
+
+from itup_jax.errors import InputError
+
+
+def spearman(a, b) -> float:
+    """Spearman rank correlation of two [N] samples; NaN when N < 3 or either side is constant
+    (a cost that gives every candidate the same value does not rank them)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape or a.ndim != 1:
+        raise InputError(f"spearman: need two [N] arrays of one length, got {a.shape} and {b.shape}")
+    if len(a) < 3 or np.ptp(a) <= 1e-12 * max(1.0, np.abs(a).max()) or np.ptp(b) <= 1e-12 * max(1.0, np.abs(b).max()):
+        return float("nan")
+    return float(spearmanr(a, b).statistic)
+
+
+def _logistic_mle(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(a, b) maximising sum log sigma(+-(a + b x)) on standardised x (BFGS, analytic gradient)."""
+    mu, sd = x.mean(), x.std() or 1.0
+    z = (x - mu) / sd
+    s = 2.0 * y - 1.0
+
+    def nll(th):
+        t = s * (th[0] + th[1] * z)
+        w = expit(-t) * s  # d(-log sigma(t))/d(a + b z) = -sigma(-t) s
+        return -log_expit(t).sum(), np.array([-w.sum(), -(w * z).sum()])
+
+    th = minimize(nll, np.zeros(2), jac=True, method="BFGS").x
+    return np.array([th[0] - th[1] * mu / sd, th[1] / sd])
+
+
+def failure_threshold(torque, failed, *, bootstrap: int = 200, seed: int = 0) -> dict:
+    """Logistic model P(failed | tau) = sigma(a + b tau) fitted by maximum likelihood.
+
+    torque: [N] peak torque (N m); failed: [N] bool. Returns {"tau50": -a/b (N m, the torque at which
+    failure is as likely as not), "slope": b (1/(N m)), "a", "ci95": [lo, hi] of tau50 from a
+    percentile bootstrap over rollouts, "n", "failures", "note"}. tau50 is None (with a note) when one
+    class is absent, when failure does not rise with torque (b <= 0), or when tau50 lies outside the
+    measured torque range (an extrapolation, not a threshold the data shows).
+    """
+    x, y = np.asarray(torque, float), np.asarray(failed, bool)
+    if x.shape != y.shape or x.ndim != 1:
+        raise InputError(f"failure_threshold: torque and failed must be [N] of one length, got {x.shape}, {y.shape}")
+    keep = np.isfinite(x)
+    x, y = x[keep], y[keep].astype(float)
+    out = {"n": int(len(x)), "failures": int(y.sum()), "tau50": None, "slope": None, "a": None, "ci95": None, "note": ""}
+    if len(x) < 4 or y.min() == y.max():
+        out["note"] = "one class only (all failed or none failed): no threshold"
+        return out
+    a, b = _logistic_mle(x, y)
+    out.update(a=float(a), slope=float(b))
+    if b <= 0:
+        out["note"] = "failure does not rise with torque here (slope <= 0)"
+        return out
+    t50 = -a / b
+    if not x.min() <= t50 <= x.max():
+        out["note"] = f"the 50% point {t50:.2f} N m lies outside the measured torques [{x.min():.2f}, {x.max():.2f}]"
+        return out
+    out["tau50"] = float(t50)
+    rng = np.random.default_rng(seed)
+    bs = []
+    for _ in range(bootstrap):
+        i = rng.integers(0, len(x), len(x))
+        if y[i].min() == y[i].max():
+            continue
+        ab, bb = _logistic_mle(x[i], y[i])
+        if bb > 0:
+            bs.append(-ab / bb)
+    if len(bs) >= 10:
+        out["ci95"] = [float(np.percentile(bs, 2.5)), float(np.percentile(bs, 97.5))]
+    return out
+
+
+def binned_rate(x, flag, bins: int = 10) -> dict:
+    """Rate of `flag` in `bins` equal-count bins of x: {"x_mid" (median x per bin), "rate", "lo", "hi"
+    (Wilson 95 % interval), "n"}, each a list of length <= bins (empty bins dropped)."""
+    x, f = np.asarray(x, float), np.asarray(flag, bool)
+    keep = np.isfinite(x)
+    x, f = x[keep], f[keep]
+    if len(x) == 0:
+        raise InputError("binned_rate: no finite values")
+    order = np.argsort(x, kind="stable")
+    out = {"x_mid": [], "rate": [], "lo": [], "hi": [], "n": []}
+    z = 1.959963984540054
+    for idx in np.array_split(order, min(bins, len(x))):
+        n, k = len(idx), f[idx].sum()
+        p = k / n
+        c = (p + z * z / (2 * n)) / (1 + z * z / n)
+        h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+        lo, hi = min(max(c - h, 0.0), p), max(min(c + h, 1.0), p)  # exact at p = 0 or 1 up to rounding
+        for key, v in (("x_mid", np.median(x[idx])), ("rate", p), ("lo", lo), ("hi", hi), ("n", n)):
+            out[key].append(float(v) if key != "n" else int(v))
+    return out
