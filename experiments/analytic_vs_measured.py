@@ -87,7 +87,8 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def verdict(summary: dict, n_tools: int) -> dict:
-    """For each measured label, the variant with the highest pooled median rho among the variants that
+    """For each measured label, the variant with the highest pooled median rho (`positive` says whether it
+    is above 0 at all) among the variants that
     rank the grasps of at least half of the tools (a variant constant on most tools is no predictor;
     its median over the few others would not compare like with like). None if no variant qualifies."""
     out = {}
@@ -98,7 +99,7 @@ def verdict(summary: dict, n_tools: int) -> dict:
         if cands:
             best = max(cands, key=cands.get)
             out[lab] = {"variant": best[best.index("[") + 1:best.index("]")], "median_rho": cands[best],
-                        "tools": summary["all"][best]["tools"]}
+                        "tools": summary["all"][best]["tools"], "positive": cands[best] > 0}
         else:
             out[lab] = None
     return out
@@ -174,7 +175,8 @@ def main(argv=None) -> dict:
         print(f"{k:48s}" + "".join(
             f"{summary[t][k]['median']:+8.2f}" if summary[t][k]["median"] is not None else f"{'n/a':>8s}" for t in tasks))
     for lab, v in best.items():
-        print(f"best for {lab}: " + ("none defined" if v is None else f"{v['variant']} (median rho {v['median_rho']:+.2f})"))
+        print(f"best for {lab}: " + ("none defined" if v is None else f"{v['variant']} (median rho {v['median_rho']:+.2f})"
+                                     + ("" if v["positive"] else ": no variant ranks positively, none predicts it")))
     print(f"wrote {a.out}/analytic_vs_measured.json, analytic_vs_measured.png ({out['wall_s']} s)")
     return out
 

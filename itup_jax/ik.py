@@ -85,14 +85,14 @@ def inverse_kinematics(T06: np.ndarray) -> np.ndarray:
                 c3 = (rr - a2**2 - a3**2) / (2 * a2 * a3)
                 valid3 = np.abs(c3) <= 1 + 1e-12
                 t3_base = np.arccos(np.clip(c3, -1, 1))
+                # joints 2-4 have parallel axes (alpha_1 = alpha_2 = 0): R14 = Rz(t2 + t3 + t4) Rx(alpha_3),
+                # whose first column is (cos, sin, 0) of the sum, so t4 follows without forming T34
+                t234 = np.arctan2(T14[..., 1, 0], T14[..., 0, 0])
                 for s3 in (1.0, -1.0):
                     t3 = s3 * t3_base
                     # (px, py) = Rz(t2) (a2 + a3 cos t3, a3 sin t3)
                     t2 = np.arctan2(py, px) - np.arctan2(a3 * np.sin(t3), a2 + a3 * np.cos(t3))
-                    T12 = dh_transform(t2, 1)
-                    T23 = dh_transform(t3, 2)
-                    T34 = _inv(T12 @ T23) @ T14
-                    t4 = np.arctan2(T34[..., 1, 0], T34[..., 0, 0])
+                    t4 = t234 - t2 - t3
                     sol = np.stack([t1, t2, t3, t4, t5, t6], axis=-1)
                     ok = valid5 & valid3 & np.isfinite(phi)
                     out[..., k, :] = np.where(ok[..., None], _wrap(sol), np.nan)
@@ -107,10 +107,12 @@ def _wrap(q: np.ndarray) -> np.ndarray:
 def nearest_branch(solutions: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     """[..., 8, 6] solutions -> [..., 6] the branch nearest to q_ref [..., 6] (2 pi-unwrapped to it)."""
     diff = _wrap(solutions - q_ref[..., None, :])
-    dist = np.where(np.isnan(diff).any(-1), np.inf, np.abs(diff).sum(-1))
+    dist = np.abs(diff).sum(-1)  # NaN where the branch is unreachable
+    dist[np.isnan(dist)] = np.inf
     best = np.argmin(dist, axis=-1)
     chosen = np.take_along_axis(diff, best[..., None, None], axis=-2)[..., 0, :] + q_ref
-    return np.where(np.isfinite(np.take_along_axis(dist, best[..., None], -1)), chosen, np.nan)
+    chosen[np.isinf(np.take_along_axis(dist, best[..., None], -1)[..., 0])] = np.nan
+    return chosen
 
 
 def joint_heights(q: np.ndarray) -> np.ndarray:

@@ -97,3 +97,17 @@ def test_atomic_write_gives_the_mode_open_would(tmp_path):
     umask = os.umask(0)
     os.umask(umask)
     assert p.read_bytes() == b"x" and (p.stat().st_mode & 0o777) == (0o666 & ~umask)
+
+
+def test_atomic_write_json_is_strict_json(tmp_path):
+    import json
+
+    import numpy as np
+
+    from itup_jax.atomic import atomic_write_json
+
+    p = tmp_path / "f.json"
+    atomic_write_json(str(p), {"a": float("nan"), "b": [1.5, np.float32(np.inf), np.int64(3)], "c": (np.nan,)})
+    text = p.read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    assert json.loads(text) == {"a": None, "b": [1.5, None, 3], "c": [None]}

@@ -100,3 +100,23 @@ def test_generate_cli(tmp_path, capsys):
     assert main(["generate", "--out", out, "--tasks", "reach", "--tools-per-task", "1", "--grasps", "4", "--quiet"]) == 0
     assert "1 shards, 4 rollouts" in capsys.readouterr().out
     assert main(["generate", "--out", out, "--tasks", "drill", "--quiet"]) == 2
+
+
+def test_config_round_trips_through_the_manifest_and_rebuilds_a_shards_tool(full_run):
+    from itup_jax.dataset import unit_tool
+    from itup_jax.errors import InputError
+
+    out, _ = full_run
+    with open(os.path.join(out, "manifest.json")) as fh:
+        manifest = json.load(fh)
+    config = GenerateConfig.from_json(manifest["config"])
+    assert config == SMALL
+    with pytest.raises(InputError, match="unknown keys"):
+        GenerateConfig.from_json(dict(manifest["config"], typo=1))
+    # the tool rebuilt from the manifest is the shard's tool: its analytic costs match the stored ones
+    entry = manifest["shards"][1]
+    a = load_shard(out, entry)
+    tool, task = unit_tool(config, entry["task"], entry["variant"])
+    assert tool.name == json.loads(bytes(a["meta_json"]))["tool"]
+    g = itup.Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
+    np.testing.assert_allclose(np.asarray(itup.wrench_costs(tool, task, g).tau), a["analytic_tau"], rtol=1e-5)
