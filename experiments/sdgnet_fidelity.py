@@ -67,7 +67,7 @@ def evaluate(model, test_dir: str, redraws: int = 0) -> dict:
         ok = a["label_valid"].astype(bool)
         if ok.sum() < 3:
             continue
-        pred_all = np.asarray(predict_costs(model, a["features"])["tau"], float)
+        pred_all = np.asarray(predict_costs(model, a["features"], entry["task"])["tau"], float)
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}
         if redraws:

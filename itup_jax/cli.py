@@ -171,7 +171,7 @@ def cmd_train(args) -> int:
     data = load_dataset(args.data)
     hidden = tuple(int(h) for h in args.hidden.split(",") if h)
     cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
-                      patience=args.patience)
+                      patience=args.patience, per_task=args.per_task)
     model = train(data, cfg, feature_spec=manifest["config"]["feature_spec"], progress=not args.quiet)
     model.spec["dataset"] = {"folder": os.path.abspath(args.data), "config": manifest["config"],
                              "totals": manifest.get("totals"), "code_version": manifest["code_version"]}
@@ -415,6 +415,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--lr", type=float, default=2e-3)
     tr.add_argument("--patience", type=int, default=25)
     tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--per-task", action="store_true",
+                    help="one MLP per task (own normalisation, split and early stopping), one checkpoint")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 

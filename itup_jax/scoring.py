@@ -66,6 +66,7 @@ _FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  
 
 def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
     """Arguments of `sdgnet_scores_jit` (float32; the tool's density field cached per tool and spec)."""
+    model = model.for_task(task.kind)
     spec = model.feature_spec
     dt = jnp.float32
     per_tool = _FIELDS.setdefault(tool, {})

@@ -45,6 +45,7 @@ class TrainConfig:
     patience: int = 25
     val_fraction: float = 0.25  # of the tools (task x variant), held out
     seed: int = 0
+    per_task: bool = False  # one MLP per task, each trained (and early-stopped) on its task's rows alone
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,6 +58,25 @@ class Model:
     @property
     def feature_spec(self) -> FeatureSpec:
         return FeatureSpec(**self.spec["feature_spec"])
+
+    @property
+    def tasks(self) -> list[str] | None:
+        """The tasks of a per-task model (one MLP each), or None for one shared MLP."""
+        return list(self.spec["by_task"]) if "by_task" in self.spec else None
+
+    def for_task(self, kind: str | None) -> "Model":
+        """The network that scores task `kind`: the model itself when one MLP serves every task, else
+        that task's MLP with its own normalisation (a plain single-network Model)."""
+        by_task = self.spec.get("by_task")
+        if by_task is None:
+            return self
+        if kind not in by_task:
+            raise InputError(f"SDG-Net model: trained per task for {list(by_task)}; no network for task {kind!r}")
+        e = by_task[kind]
+        lo, hi = e["layers"]
+        spec = {k: v for k, v in self.spec.items() if k != "by_task"}
+        spec.update({k: e[k] for k in ("x_mean", "x_std", "y_mean", "y_std")})
+        return Model(params=self.params[lo:hi], spec=spec)
 
 
 def _split_by_tool(data: dict, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -71,7 +91,43 @@ def _split_by_tool(data: dict, fraction: float, seed: int) -> tuple[np.ndarray, 
 
 def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict | None = None,
           progress: bool = True, log=print) -> Model:
-    """Fit SDG-Net on a loaded dataset (valid rows only; see `dataset.load_dataset`)."""
+    """Fit SDG-Net on a loaded dataset (valid rows only; see `dataset.load_dataset`).
+
+    With `config.per_task`, one MLP per task in `data["task"]`, each with its own normalisation, split
+    and early stopping, stored in one Model (`Model.for_task` picks the task's network)."""
+    if config.per_task:
+        return _train_per_task(data, config, feature_spec=feature_spec, progress=progress, log=log)
+    return _train_one(data, config, feature_spec=feature_spec, progress=progress, log=log)
+
+
+def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log) -> Model:
+    task = np.asarray(data["task"])
+    one = dataclasses.replace(config, per_task=False)
+    params, by_task = [], {}
+    t0 = time.perf_counter()
+    for kind in sorted(set(task.tolist())):
+        rows = task == kind
+        sub = {k: (np.asarray(v)[rows] if np.ndim(v) and len(v) == len(rows) else v) for k, v in data.items()}
+        m = _train_one(sub, one, feature_spec=feature_spec, progress=progress,
+                       log=lambda msg, kind=kind: log(f"{kind}: {msg}"))
+        by_task[kind] = {"layers": [len(params), len(params) + len(m.params)],
+                         **{k: m.spec[k] for k in ("x_mean", "x_std", "y_mean", "y_std", "best_epoch",
+                                                   "best_val_loss", "n_train", "n_val", "history")}}
+        params += m.params
+    n_val = sum(e["n_val"] for e in by_task.values())
+    spec = {
+        "feature_spec": feature_spec or {}, "targets": list(TARGETS), "cost_names": list(COST_NAMES),
+        "target_scales": list(TARGET_SCALES), "config": dataclasses.asdict(config), "by_task": by_task,
+        # the validation rows' mean loss over all tasks (each task's best epoch), comparable to a shared model's
+        "best_val_loss": (sum(e["best_val_loss"] * e["n_val"] for e in by_task.values()) / n_val if n_val
+                          else float("nan")),
+        "n_train": sum(e["n_train"] for e in by_task.values()), "n_val": n_val,
+        "train_seconds": time.perf_counter() - t0,
+    }
+    return Model(params=params, spec=spec)
+
+
+def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log) -> Model:
     X = np.asarray(data["features"], np.float64)
     Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(TARGET_SCALES))
     keep = np.isfinite(X).all(1) & np.isfinite(Y).all(1)
@@ -172,8 +228,9 @@ def predict_from_features(params, x_mean, x_std, y_mean, y_std, feats):
 predict = jax.jit(predict_from_features)
 
 
-def predict_costs(model: Model, feats: Any) -> dict[str, jax.Array]:
-    """{tau, slip, align}: each [N], from features [N, F]."""
+def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:
+    """{tau, slip, align}: each [N], from features [N, F] of grasps for `task` (required by a per-task model)."""
+    model = model.for_task(task)
     s = model.spec
     out = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                   jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),

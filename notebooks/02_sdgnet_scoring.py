@@ -46,8 +46,10 @@ N = 256 if QUICK else 4096
 
 # %%
 model = load_model()  # the shipped default; pass a path for your own (`itup train --out ...`)
-print("layers:", [tuple(np.shape(w)) for w, _ in model.params])
-print("targets:", model.spec["targets"], "| features per candidate:", np.shape(model.params[0][0])[0])
+print("one MLP per task:" if model.tasks else "one MLP for every task", model.tasks or "")
+net = model.for_task("hammer")  # the network that scores hammer grasps (the model itself if shared)
+print("hammer network layers:", [tuple(np.shape(w)) for w, _ in net.params])
+print("targets:", model.spec["targets"], "| features per candidate:", np.shape(net.params[0][0])[0])
 
 # %% [markdown]
 # ## Score the hammer's candidates

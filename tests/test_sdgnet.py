@@ -59,3 +59,33 @@ def test_bad_model_argument(tasks, tmp_path):
         itup.score(tool, task, g, model=3)
     with pytest.raises(itup.InputError, match="not found"):
         itup.score(tool, task, g, model=str(tmp_path / "none.npz"))
+
+
+def test_per_task_model_keeps_one_network_per_task(tmp_path):
+    a, b = _synthetic(seed=1), _synthetic(seed=2)
+    b["task"] = np.array(["reach"] * len(b["task"]))
+    b[TARGETS[0]] = 5.0 * b[TARGETS[0]]  # another scale: each task gets its own normalisation
+    data = {k: np.concatenate([a[k], b[k]]) for k in a}
+    cfg = TrainConfig(hidden=(16,), epochs=30, patience=30, per_task=True)
+    model = train(data, cfg, feature_spec={"num_points": 8}, progress=False, log=lambda *_: None)
+    assert model.tasks == ["hammer", "reach"] and len(model.params) == 4  # 2 layers per task
+    only = {k: (v[: len(a["task"])] if np.ndim(v) else v) for k, v in data.items()}
+    alone = train(only, TrainConfig(hidden=(16,), epochs=30, patience=30), feature_spec={"num_points": 8},
+                  progress=False, log=lambda *_: None)
+    ham = model.for_task("hammer")  # the hammer network is exactly the one trained on hammer rows alone
+    for (W, bb), (W2, b2) in zip(ham.params, alone.params):
+        np.testing.assert_array_equal(W, W2)
+        np.testing.assert_array_equal(bb, b2)
+    assert ham.spec["y_mean"] == alone.spec["y_mean"]
+    assert model.for_task("reach").spec["y_mean"] != ham.spec["y_mean"]
+    save_model(str(tmp_path / "m.npz"), model)
+    back = load_model(str(tmp_path / "m.npz"))
+    assert back.tasks == model.tasks and back.spec["by_task"]["reach"]["layers"] == [2, 4]
+    from itup_jax.sdgnet import predict_costs
+
+    with pytest.raises(itup.InputError, match="per task"):
+        predict_costs(back, a["features"][:5])  # which task's network? it must be said
+    with pytest.raises(itup.InputError, match="knock"):
+        back.for_task("knock")
+    out = predict_costs(back, a["features"][:5], "hammer")
+    assert np.asarray(out["tau"]).shape == (5,)
