@@ -23,7 +23,6 @@ randomised one. Writes analytic_vs_measured.json and analytic_vs_measured.png in
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import os
 import sys
@@ -31,7 +30,7 @@ import time
 
 import numpy as np
 
-from itup_jax.atomic import atomic_write, atomic_write_json
+from itup_jax.atomic import atomic_write_json
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
@@ -111,6 +110,8 @@ def plot(summary: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from itup_jax.plotting import save_figure
+
     tasks = [t for t in summary if t != "all"] + ["all"]
     panels = (("tau", TORQUE_VARIANTS, TORQUE_LABELS), ("slip", SLIP_VARIANTS, SLIP_LABELS))
     fig, axes = plt.subplots(2, 1, figsize=(8.5, 8.5), gridspec_kw={"height_ratios": [12, 4]})
@@ -127,10 +128,7 @@ def plot(summary: dict, path: str) -> None:
     axes[0].set_title("C_tau variant (lever/projection) vs measured torque")
     axes[1].set_title("C_s variant vs measured slip")
     fig.colorbar(im, ax=axes, shrink=0.8, label="Spearman rho (median over tools)")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
+    save_figure(fig, path, dpi=110, bbox_inches="tight")
 
 
 def main(argv=None) -> dict:

@@ -134,6 +134,8 @@ def plot(rows: list[dict], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from itup_jax.plotting import save_figure
+
     held = [r for r in rows if r["held_out"]] or rows
     tasks = sorted({r["task"] for r in held})
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -156,8 +158,7 @@ def plot(rows: list[dict], path: str) -> None:
     ax[1].legend(fontsize=8)
     fig.suptitle("SDG-Net fidelity on held-out tools (MuJoCo, randomised physics)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def main(argv=None) -> dict:

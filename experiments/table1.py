@@ -105,6 +105,8 @@ def plot(table: dict, methods, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from itup_jax.plotting import save_figure
+
     tasks = list(table)
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     x = np.arange(len(tasks))
@@ -121,10 +123,7 @@ def plot(table: dict, methods, path: str) -> None:
     axes[0].legend(fontsize=7, ncol=2)
     fig.suptitle("Table I in MuJoCo: each method's pick, mean ± std over seeds and tools")
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
+    save_figure(fig, path, dpi=110)
 
 
 def main(argv=None) -> dict:

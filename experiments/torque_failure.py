@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import io
 import json
 import os
 import sys
@@ -30,7 +29,7 @@ import time
 
 import numpy as np
 
-from itup_jax.atomic import atomic_write, atomic_write_json
+from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset
 from itup_jax.evaluate import reduction
 from itup_jax.stats import binned_rate, failure_threshold
@@ -92,6 +91,8 @@ def plot(d: dict, thr: dict, sup: list[dict], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from itup_jax.plotting import save_figure
+
     fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
     tasks = sorted(set(d["task"]))
     tau, slip, failed = d["label_peak_torque"], 1e3 * np.maximum(d["label_slip_translation"], 1e-5), d["label_failed"]
@@ -138,10 +139,7 @@ def plot(d: dict, thr: dict, sup: list[dict], path: str) -> None:
     ax[2].set_ylabel("failure-rate reduction (%)")
     ax[2].set_title("per task: suppression vs failure reduction")
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
+    save_figure(fig, path, dpi=110)
 
 
 def main(argv=None) -> dict:

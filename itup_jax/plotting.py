@@ -73,6 +73,20 @@ def plot_frame_convention(ax, width: float = 0.03) -> None:
     ax.view_init(elev=20, azim=-60)
 
 
+def save_figure(fig, path: str, *, dpi: int = 100, **savefig_kw: Any) -> str:
+    """Render `fig` to PNG, close it, and write it to `path` atomically (folders made as needed)."""
+    import io
+
+    from itup_jax.atomic import atomic_write
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, **savefig_kw)
+    plt.close(fig)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    atomic_write(path, buf.getvalue())
+    return path
+
+
 def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *, label: str = "C_tau (N m)",
                           title: str | None = None, best: int | None = None) -> str:
     """Three panels: the tool with grasp origins coloured by `values` [N] and the best grasp's gripper;
@@ -111,20 +125,13 @@ def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *,
     ax2.set_title("shorter lever arm to the contact, lower torque", fontsize=9)
     plot_frame_convention(fig.add_subplot(1, 3, 3, projection="3d"))
     fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = None, title: str | None = None) -> str:
     """The tool with each method's picked grasp (gripper wireframe), and (with `traces`) each pick's
     measured wrist-torque norm over time. grasps: {method: Grasps of one}; traces: {method: (t [S],
     torque [S, 3])}. Writes a PNG (atomically) and returns the path."""
-    import io
-
-    from itup_jax.atomic import atomic_write
-
     colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
     ncol = 2 if traces else 1
     fig = plt.figure(figsize=(6.5 * ncol, 5.0))
@@ -147,9 +154,4 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
         ax2.legend(fontsize=8)
         ax2.set_title("measured in MuJoCo", fontsize=9)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    atomic_write(path, buf.getvalue())
-    return path
+    return save_figure(fig, path, dpi=100)
