@@ -16,8 +16,9 @@ Backends (same inputs, same outputs):
     when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
     batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device.
 
-Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible` and not stepped in
-earnest; rollouts that blow up are flagged `diverged`. Neither is a label: `Labels.valid` is False.
+Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible`:
+the native path does not step them at all, and for both backends their measured labels are NaN (flags False,
+their traces NaN). Rollouts that blow up are flagged `diverged`. Neither is a label: `Labels.valid` is False.
 """
 
 from __future__ import annotations
@@ -143,6 +144,15 @@ def _pose_matrix(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     return T
 
 
+def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """[..., 4] quaternions (w, x, y, z; normalised here) -> [..., 3, 3], host side in float64
+    (`grasp.rotation_matrix` is the jittable one; as a host call its dispatch costs more than this)."""
+    w, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                     2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                     2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1).reshape(q.shape[:-1] + (3, 3))
+
+
 def _quat_from_matrix(R: np.ndarray) -> np.ndarray:
     q = np.zeros(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(R).ravel())
@@ -164,7 +174,8 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
     n = len(grasps)
     tr = task.traj
     T_world_tool = _pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))  # [T]
-    T_tool_grasp = _pose_matrix(np.asarray(grasps.rotation, float), np.asarray(grasps.p_tool_grasp, float))  # [N]
+    T_tool_grasp = _pose_matrix(_quat_to_matrix(np.asarray(grasps.q_tool_grasp, float)),
+                                np.asarray(grasps.p_tool_grasp, float))  # [N]
     T_grasp_flange = _pose_matrix(np.eye(3), np.array([0.0, 0.0, -FLANGE_TO_GRASP]))
     T06 = T_world_tool[None] @ T_tool_grasp[:, None] @ T_grasp_flange  # [N, T, 4, 4]
     q_traj = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
@@ -185,9 +196,12 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
     # linear interpolation of the IK samples at each step's end (one time grid for every rollout)
     hi = np.clip(np.searchsorted(t_traj, t_clip, side="right"), 1, len(t_traj) - 1)
     w = ((t_clip - t_traj[hi - 1]) / (t_traj[hi] - t_traj[hi - 1]))[None, :, None]
-    lo_q, lo_qd = q_safe[:, hi - 1], qd_safe[:, hi - 1]
-    ctrl[:, :, _as_slice(scene.arm_actuators)] = lo_q + w * (q_safe[:, hi] - lo_q)
-    ctrl[:, :, _as_slice(scene.arm_vel_actuators)] = moving[None, :, None] * (lo_qd + w * (qd_safe[:, hi] - lo_qd))
+    # (gathers of the samples and of their differences: two temporaries fewer than q[hi - 1] + w (q[hi] - q[hi - 1]),
+    # the same numbers)
+    seg = hi - 1
+    ctrl[:, :, _as_slice(scene.arm_actuators)] = np.take(q_safe, seg, axis=1) + w * np.take(np.diff(q_safe, axis=1), seg, axis=1)
+    ctrl[:, :, _as_slice(scene.arm_vel_actuators)] = moving[None, :, None] * (
+        np.take(qd_safe, seg, axis=1) + w * np.take(np.diff(qd_safe, axis=1), seg, axis=1))
     ctrl[:, :, scene.grip_actuator] = physics.grip_force[:, None]
 
     # initial state: arm at the first IK sample, tool where the (actual) grasp frame holds it
@@ -212,13 +226,14 @@ def randomized_model(scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
 _MODEL_POOL: "weakref.WeakKeyDictionary[Scene, list]" = weakref.WeakKeyDictionary()
 
 
-def _pooled_models(scene: Scene, physics: Physics, idx: range) -> list[mujoco.MjModel]:
-    """Models for rollouts `idx`, from a per-scene pool of copies (slot i serves rollout i), with each
-    rollout's physics written in place: copying a model per rollout costs more than setting 5 fields."""
+def _pooled_models(scene: Scene, physics: Physics, idx) -> list[mujoco.MjModel]:
+    """Models for rollouts `idx` (a sequence of indices into `physics`), from a per-scene pool of copies
+    (slot j serves idx[j]), with each rollout's physics written in place: copying a model per rollout
+    costs more than setting 5 fields."""
     pool = _MODEL_POOL.setdefault(scene, [])
-    while len(pool) < idx.stop:
+    while len(pool) < len(idx):
         pool.append(copy.copy(scene.model))
-    return [_set_physics(pool[i], scene, physics, i) for i in idx]
+    return [_set_physics(pool[j], scene, physics, int(i)) for j, i in enumerate(idx)]
 
 
 def _set_physics(m: mujoco.MjModel, scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
@@ -447,28 +462,31 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     tau_static = tau[:, settle].mean(1)
     F_static = force[:, settle].mean(1)
     d_tau = tau[:, motion] - tau_static[:, None]
-    y = np.array([0.0, 1.0, 0.0])  # closure axis in the sensor (gripper base) frame
-    closure = d_tau @ y
-    perp = d_tau - closure[..., None] * y
+    # closure axis: y of the sensor (gripper base) frame; the projected torque is the rest, (x, z)
+    closure = d_tau[..., 1]
+    d_tau_sq = np.einsum("...i,...i->...", d_tau, d_tau)
+    perp_sq = d_tau[..., 0] * d_tau[..., 0] + d_tau[..., 2] * d_tau[..., 2]
     pos_g, quat_g = s("tool_pos_grasp"), s("tool_quat_grasp")
     ref_p, ref_q = pos_g[:, p.n_settle - 1], quat_g[:, p.n_settle - 1]
     slip_t = _peak_norm(pos_g[:, motion] - ref_p[:, None])
     slip_r = _quat_angle(quat_g[:, motion], ref_q[:, None]).max(1)
     # alignment drift: the tool's z axis against the trajectory's, while in contact
-    active = np.asarray(np.maximum(task.impact, task.drag).max(1) > 0)
+    # (the task's arrays are JAX arrays: converted once, host indexing of a JAX array dispatches an op)
+    impact, drag = np.asarray(task.impact), np.asarray(task.drag)
+    active = np.maximum(impact, drag).max(1) > 0
     idx = p.traj_index[motion]
     in_contact = np.where(idx >= 0, active[np.clip(idx, 0, None)], False)
-    impacts = np.nonzero(np.asarray(task.impact).max(1) > 0)[0]
+    t_traj = np.asarray(task.traj.t, float)
     t_m = p.sim_t[motion]
-    for k in impacts:
-        t_k = float(task.traj.t[k])
-        in_contact |= (t_m >= t_k - dt) & (t_m <= t_k + config.impact_window)
-    z_sim = _quat_z_axis(s("tool_quat")[:, motion])
-    z_ref = np.asarray(task.traj.R_world_tool, float)[np.clip(idx, 0, None), :, 2]
-    angle = np.arccos(np.clip(np.sum(z_sim * z_ref[None], -1), -1.0, 1.0))
-    drift = np.where(in_contact[None], angle, 0.0).max(1)
-    pads = np.stack([s(f"pad_{side}_contact")[:, motion] for side in ("neg", "pos")])  # [2, N, steps, 4]
-    pad_normal = np.where(pads[..., 0] > 0, np.abs(pads[..., 1]), 0.0)  # found, then normal force
+    for k in np.nonzero(impact.max(1) > 0)[0]:
+        in_contact |= (t_m >= t_traj[k] - dt) & (t_m <= t_traj[k] + config.impact_window)
+    # the angle is only needed while in contact: the tool's z axis at those steps against the trajectory's
+    z_ref = np.asarray(task.traj.R_world_tool, float)[np.clip(idx[in_contact], 0, None), :, 2]  # [C, 3]
+    cos_angle = np.einsum("nci,ci->nc", _quat_z_axis(s("tool_quat")[:, motion][:, in_contact]), z_ref)
+    drift = np.arccos(np.clip(cos_angle, -1.0, 1.0)).max(1) if in_contact.any() else np.zeros(len(sensordata))
+    # pads: peak normal force of either pad over the motion, counted where a contact is found
+    pad_peak = np.max([np.where(pad[..., 0] > 0, np.abs(pad[..., 1]), 0.0).max(1)
+                       for pad in (s(f"pad_{side}_contact")[:, motion] for side in ("neg", "pos"))], axis=0)
     lost = slip_t > config.lost_distance
     qvel_peak = np.nan_to_num(np.asarray(qvel_peak), nan=np.inf).reshape(len(sensordata), -1).max(1)
     diverged = ~np.isfinite(sensordata).all(axis=(1, 2)) | (qvel_peak > config.diverged_qvel)
@@ -477,12 +495,12 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     nan0 = lambda a: np.nan_to_num(a, nan=np.inf)  # noqa: E731
     return Labels(
         peak_torque=nan0(_peak_norm(tau[:, motion])),
-        peak_torque_induced=nan0(_peak_norm(d_tau)),
-        peak_torque_projected=nan0(_peak_norm(perp)),
+        peak_torque_induced=nan0(np.sqrt(d_tau_sq.max(1))),
+        peak_torque_projected=nan0(np.sqrt(perp_sq.max(1))),
         peak_torque_closure=nan0(np.abs(closure).max(1)),
         static_torque=np.linalg.norm(tau_static, axis=-1),
         peak_force_induced=nan0(_peak_norm(force[:, motion] - F_static[:, None])),
-        peak_pad_force=nan0(pad_normal.max(axis=(0, 2))),
+        peak_pad_force=nan0(pad_peak),
         slip_translation=nan0(slip_t), slip_rotation=nan0(slip_r), alignment_drift=nan0(drift),
         failed=failed | diverged, success=success & ~diverged, task_metric=metric,
         diverged=diverged, infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy(),
@@ -542,8 +560,30 @@ class SimResult:
 NATIVE_BLOCK = 256
 
 
+def _take_plan(p: Plan, idx: np.ndarray) -> Plan:
+    """The plan of rollouts `idx` only."""
+    return dataclasses.replace(p, qpos0=p.qpos0[idx], ctrl=p.ctrl[idx], q_traj=p.q_traj[idx],
+                               infeasible=p.infeasible[idx], over_speed=p.over_speed[idx])
+
+
+def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, qvel_peak: np.ndarray | None,
+                     sensordata: np.ndarray | None, config: SimConfig) -> Labels:
+    """Labels [N] of a plan whose rollouts `run` (the feasible ones) were stepped, with their qvel peaks and
+    sensors (leading axis len(run)); the others (infeasible, not stepped) get NaN measurements, flags False."""
+    n = len(p.infeasible)
+    full = {f: np.full(n, np.nan) for f in LABEL_FIELDS}
+    full.update({f: np.zeros(n, bool) for f in ("failed", "success", "diverged", "valid")})
+    full.update(infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy())
+    if len(run):
+        sub = compute_labels(scene, task, _take_plan(p, run), qvel_peak, sensordata, config)
+        for f in LABEL_FIELDS:
+            full[f][run] = getattr(sub, f)
+    return Labels(**full)
+
+
 def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig,
                      nthread: int | None, keep_sensordata: bool = False) -> tuple[Plan, Labels, np.ndarray | None]:
+    """Plan, step (feasible rollouts only) and label block by block (`NATIVE_BLOCK`)."""
     n = len(grasps)
     nthread = max(1, min(nthread or os.cpu_count() or 1, n))
     plans, labels, sens = [], [], []
@@ -551,12 +591,18 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
         hi = min(n, lo + NATIVE_BLOCK)
         ph = _slice_physics(physics, slice(lo, hi))
         p = plan(scene, task, grasps[lo:hi], ph, config)
-        qvel_peak, sensordata = _step(scene, p.qpos0, p.ctrl, p.nstep, _pooled_models(scene, physics, range(lo, hi)),
-                                      nthread)
-        labels.append(compute_labels(scene, task, p, qvel_peak, sensordata, config))
+        run = np.nonzero(~p.infeasible)[0]
+        qvel_peak = sensordata = None
+        if len(run):
+            qvel_peak, sensordata = _step(scene, p.qpos0[run], p.ctrl[run], p.nstep,
+                                          _pooled_models(scene, physics, lo + run), min(nthread, len(run)))
+        labels.append(_feasible_labels(scene, task, p, run, qvel_peak, sensordata, config))
         plans.append(p)
         if keep_sensordata:
-            sens.append(sensordata)
+            full = np.full((hi - lo, p.nstep, scene.model.nsensordata), np.nan)
+            if len(run):
+                full[run] = sensordata
+            sens.append(full)
     merged = Labels(**{f: np.concatenate([getattr(lab, f) for lab in labels]) for f in LABEL_FIELDS})
     return _concat_plans(plans), merged, (np.concatenate(sens) if keep_sensordata else None)
 
@@ -589,8 +635,11 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
     physics = sample_physics(tool, len(grasps), seed, spread=randomize, grip_force=config.grip_force)
     if backend == "mjx":
         pl = plan(scene, task, grasps, physics, config)
-        qvel_peak, sensordata = rollout_mjx(scene, pl, physics, devices=devices)
-        labels = compute_labels(scene, task, pl, qvel_peak, sensordata, config)
+        qvel_peak, sensordata = rollout_mjx(scene, pl, physics, devices=devices)  # every row: fixed shapes
+        run = np.nonzero(~pl.infeasible)[0]
+        labels = _feasible_labels(scene, task, pl, run, qvel_peak[run], sensordata[run], config)
+        if traces:
+            sensordata = np.where(pl.infeasible[:, None, None], np.nan, sensordata)
     else:
         pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread, traces)
     tr = None

@@ -61,3 +61,45 @@ def test_unreachable_pose_has_no_solution():
     T = np.eye(4)
     T[:3, 3] = [2.0, 0.0, 0.3]  # beyond the UR5e's 0.85 m reach
     assert np.isnan(ik.inverse_kinematics(T)).all()
+
+
+def _track_one_step_at_a_time(T06, q_ref):
+    """The nearest-branch rule stepped naively (the reference `ik.track` vectorises): [B, T, 4, 4] -> [B, T, 6]."""
+    sols = ik.inverse_kinematics(T06)
+    q = np.empty(sols.shape[:-2] + (6,))
+    prev = np.broadcast_to(q_ref, sols.shape[:1] + (6,))
+    for t in range(sols.shape[1]):
+        q[:, t] = ik.nearest_branch(sols[:, t], prev)
+        prev = np.where(np.isnan(q[:, t]), prev, q[:, t])
+    return q
+
+
+def test_track_equals_the_step_by_step_rule(rng):
+    """Smooth joint paths (one branch throughout), paths through an unreachable stretch (NaN, then the
+    nearest branch again) and paths that wrap past +-pi: the vectorised track equals the naive loop."""
+    B, T = 60, 40
+    qa = rng.uniform(-np.pi, np.pi, (B, 1, 6))
+    q = qa + rng.normal(0.0, 0.6, (B, 1, 6)) * np.linspace(0.0, 1.0, T)[None, :, None]
+    T06 = ik.forward_kinematics(q)
+    T06[:10, 15:25, :3, 3] *= 4.0  # out of reach for a stretch, then back
+    T06[10:15, :5, :3, 3] *= 4.0  # unreachable at the start
+    home = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
+    ref = _track_one_step_at_a_time(T06, home)
+    got = ik.track(T06, home)
+    # ties between two branches (a straight elbow or wrist) are decided by rounding in either; keep clear of them
+    sols = ik.inverse_kinematics(T06)
+    clear = (np.nan_to_num(np.abs(np.sin(sols[..., [2, 4]])), nan=1.0) > 1e-3).all(axis=(-1, -2, -3))
+    assert clear[:10].sum() >= 5 and clear[10:15].sum() >= 2 and clear.sum() > B // 2
+    np.testing.assert_array_equal(np.isnan(got[clear]), np.isnan(ref[clear]))
+    np.testing.assert_allclose(got[clear], ref[clear], atol=1e-9, equal_nan=True)
+    assert np.isnan(got[:10, 15:25]).all() and np.isfinite(got[:10, 25:]).all()
+
+
+def test_joint_heights_equal_the_dh_chain(rng):
+    q = rng.uniform(-np.pi, np.pi, (50, 6))
+    T = ik.dh_transform(q[:, 0], 0)
+    z = [T[:, 2, 3]]
+    for j in range(1, 5):
+        T = T @ ik.dh_transform(q[:, j], j)
+        z.append(T[:, 2, 3])
+    np.testing.assert_allclose(ik.joint_heights(q), np.stack(z, -1), atol=1e-14)

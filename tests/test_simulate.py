@@ -119,6 +119,20 @@ def test_unreachable_grasps_are_flagged_infeasible(hammer):
     assert L.infeasible.all() and not L.valid.any()
 
 
+def test_infeasible_rollouts_are_not_stepped_and_measure_nothing(hammer, hammer_native):
+    """In a mixed batch the unreachable rows carry NaN measurements, no failure or success, and the
+    reachable rows are labelled exactly as when they are rolled out alone."""
+    (tool, task, scene), (g, res) = hammer, hammer_native
+    L, bad = res.labels, res.labels.infeasible
+    assert bad.any() and (~bad).any()
+    for f in ("peak_torque", "peak_torque_projected", "static_torque", "slip_translation", "alignment_drift",
+              "task_metric"):
+        assert np.isnan(getattr(L, f)[bad]).all() and np.isfinite(getattr(L, f)[~bad & L.valid]).all(), f
+    assert not (L.failed | L.success | L.diverged)[bad].any()
+    alone = simulate(tool, task, g[np.nonzero(~bad)[0]], randomize=None, scene=scene).labels
+    np.testing.assert_array_equal(alone.peak_torque_projected, L.peak_torque_projected[~bad])
+
+
 def test_same_seed_same_labels_and_randomisation_within_its_spread(hammer):
     tool, task, scene = hammer
     g = itup.sample_grasps(tool, 6, seed=2)
@@ -151,3 +165,15 @@ def test_mjx_agrees_with_native_mujoco(hammer):
     np.testing.assert_allclose(mjx.static_torque[firm], native.static_torque[firm], rtol=MJX_TORQUE_RTOL)
     np.testing.assert_allclose(mjx.slip_translation[firm], native.slip_translation[firm], atol=MJX_SLIP_ATOL)
     np.testing.assert_allclose(mjx.alignment_drift[firm], native.alignment_drift[firm], atol=MJX_DRIFT_ATOL)
+
+
+def test_host_quaternion_matrix_equals_the_jax_one(rng):
+    """The planner's float64 host conversion is the grasp module's rotation (x64 in the tests)."""
+    import sys
+
+    from itup_jax.grasp import rotation_matrix
+
+    q = rng.normal(size=(40, 4))
+    R = sys.modules["itup_jax.simulate"]._quat_to_matrix(q)
+    np.testing.assert_allclose(R, np.asarray(rotation_matrix(q)), atol=1e-14)
+    np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
