@@ -10,8 +10,8 @@ and seed give the same bytes. The manifest (JSON, also written atomically after 
 config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
 rollouts. A run killed at any point and started again skips the shards whose checksum matches and
 makes the rest: nothing lost, nothing duplicated. Diverged and infeasible rollouts are stored with
-their flags (and counted) so that nothing is dropped silently; `load_shard(valid_only=True)` gives
-the labels.
+their flags (and counted) so that nothing is dropped silently (an infeasible rollout is not stepped: its
+measured labels are NaN); `load_shard(valid_only=True)` gives the labels.
 """
 
 from __future__ import annotations

@@ -342,11 +342,22 @@ def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
 _MJX_CACHE: "weakref.WeakKeyDictionary[Scene, Any]" = weakref.WeakKeyDictionary()
 
 
+def import_mjx():
+    """`mujoco.mjx`, imported with its stdout sent to stderr: without the optional Warp backend the import
+    prints "Failed to import warp" to stdout, which would corrupt `--json` outputs."""
+    import contextlib
+    import sys
+
+    with contextlib.redirect_stdout(sys.stderr):
+        from mujoco import mjx
+    return mjx
+
+
 def _mjx_rollout_fn(scene: Scene):
     """The jitted batched rollout for a scene's model (compiled once per scene and batch shape)."""
     if scene in _MJX_CACHE:
         return _MJX_CACHE[scene]
-    from mujoco import mjx
+    mjx = import_mjx()
 
     mx = mjx.put_model(scene.model)
 
@@ -575,7 +586,7 @@ def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, qvel_pe
     full.update({f: np.zeros(n, bool) for f in ("failed", "success", "diverged", "valid")})
     full.update(infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy())
     if len(run):
-        sub = compute_labels(scene, task, _take_plan(p, run), qvel_peak, sensordata, config)
+        sub = compute_labels(scene, task, p if len(run) == n else _take_plan(p, run), qvel_peak, sensordata, config)
         for f in LABEL_FIELDS:
             full[f][run] = getattr(sub, f)
     return Labels(**full)
@@ -594,8 +605,9 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
         run = np.nonzero(~p.infeasible)[0]
         qvel_peak = sensordata = None
         if len(run):
-            qvel_peak, sensordata = _step(scene, p.qpos0[run], p.ctrl[run], p.nstep,
-                                          _pooled_models(scene, physics, lo + run), min(nthread, len(run)))
+            every = len(run) == hi - lo  # then no copy of the controls
+            qvel_peak, sensordata = _step(scene, p.qpos0 if every else p.qpos0[run], p.ctrl if every else p.ctrl[run],
+                                          p.nstep, _pooled_models(scene, physics, lo + run), min(nthread, len(run)))
         labels.append(_feasible_labels(scene, task, p, run, qvel_peak, sensordata, config))
         plans.append(p)
         if keep_sensordata:

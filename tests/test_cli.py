@@ -52,9 +52,18 @@ def test_bench_costs_prints_one_json_object():
     proc = subprocess.run([sys.executable, "-m", "itup_jax.cli", "bench", "costs", "--n", "500", "--t", "16",
                            "--repeats", "2", "--json"], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    res = json.loads(proc.stdout)  # stdout is the JSON object and nothing else
     assert BENCH_KEYS <= set(res) and res["n"] == 500 and res["t"] == 16
     assert res["max_rel_diff_vs_numpy"] < 1e-3 and res["warm_ms"] > 0
+
+
+def test_importing_mjx_prints_nothing_to_stdout():
+    """MJX's import reports a missing optional Warp backend on stdout; `import_mjx` keeps stdout clean for
+    `itup bench rollout --json` and the other JSON printers."""
+    proc = subprocess.run([sys.executable, "-c", "from itup_jax.simulate import import_mjx; import_mjx()"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == ""
 
 
 @pytest.mark.parametrize("argv,match", [

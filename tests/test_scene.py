@@ -19,8 +19,9 @@ def scenes(tasks):
 
 @pytest.mark.parametrize("kind", itup.TASK_KINDS)
 def test_scene_compiles_with_the_tools_physics_in_mujoco_and_mjx(scenes, tasks, kind):
-    from mujoco import mjx
+    from itup_jax.simulate import import_mjx
 
+    mjx = import_mjx()
     sc = scenes[kind]
     m = sc.model
     tool = tasks[kind][0]
