@@ -177,3 +177,24 @@ def test_host_quaternion_matrix_equals_the_jax_one(rng):
     R = sys.modules["itup_jax.simulate"]._quat_to_matrix(q)
     np.testing.assert_allclose(R, np.asarray(rotation_matrix(q)), atol=1e-14)
     np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
+
+
+def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_native, monkeypatch):
+    """The MJX branch steps every row (fixed shapes) but labels only the feasible ones: with its stepping
+    replaced by native MuJoCo (no MJX compile here), its labels equal the native path's, NaN included."""
+    import sys
+
+    sim = sys.modules["itup_jax.simulate"]
+    (tool, task, scene), (g, res) = hammer, hammer_native
+
+    def stepped_natively(scene, p, physics, devices=None):
+        models = [sim.randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
+        qv, sd = sim._step(scene, p.qpos0, p.ctrl, p.nstep, models, 2)
+        return np.repeat(qv[:, None], p.nstep, axis=1), sd  # MJX reports the peak per step
+
+    monkeypatch.setattr(sim, "rollout_mjx", stepped_natively)
+    out = simulate(tool, task, g, scene=scene, randomize=None, backend="mjx", traces=True)
+    assert out.labels.infeasible.any()
+    for f in LABEL_FIELDS:
+        np.testing.assert_array_equal(getattr(out.labels, f), getattr(res.labels, f), err_msg=f)
+    assert np.isnan(out.traces["gripper/wrist_torque"][out.labels.infeasible]).all()
