@@ -15,6 +15,13 @@ correlation between each variant and each measured label; reported as the median
 and pooled. A variant that gives every grasp of a tool the same cost (the `com` lever arm with the full
 torque does not depend on the grasp) has no ranking: its rho is NaN and it is reported as such.
 
+Beside the costs, three plain descriptors of the grasp are ranked against the measured torques the same
+way (`geom[...]`), to show what the measurement follows: `along_handle` (the grasp origin's height along
+the tool's +z, the handle axis of every tool here), `com_distance` (|p_grasp - com|, the lever-arm
+argument), and `closure_along_swing` (|closure axis . w|, w the unit axis of the tool's peak angular
+velocity in the tool frame: a swing about the jaw axis loads the pads in torsion, one across it loads
+them in bending; undefined, hence NaN, for tasks that do not turn the tool).
+
 By default the data is generated here with nominal physics (no randomisation: the analytic cost uses the
 nominal priors, so this isolates the model from the prior's spread); `--data` takes any dataset, e.g. a
 randomised one. Writes analytic_vs_measured.json and analytic_vs_measured.png into --out.
@@ -42,6 +49,7 @@ TORQUE_VARIANTS = {f"{lever}/{proj}": CostParams(lever_arm=lever, torque_project
                    for lever in ("grasp", "com") for proj in ("perp", "full")}
 SLIP_VARIANTS = {"seed": CostParams(grip_force=0.0), "squeeze": CostParams(grip_force=SimConfig().grip_force)}
 TORQUE_LABELS = ("peak_torque", "peak_torque_induced", "peak_torque_projected")
+GEOMETRY = ("along_handle", "com_distance", "closure_along_swing")
 SLIP_LABELS = ("slip_translation", "slip_rotation")
 
 
@@ -74,8 +82,26 @@ def per_tool(data_dir: str) -> tuple[list[dict], dict]:
             c = np.asarray(costs(params).slip, float)[ok]
             for lab in SLIP_LABELS:
                 row[f"slip[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
+        for name, d in grasp_descriptors(tool, task, a).items():
+            for lab in TORQUE_LABELS:
+                row[f"geom[{name}]~{lab}"] = spearman(d[ok], a[f"label_{lab}"][ok])
         rows.append(row)
     return rows, manifest["config"]
+
+
+def grasp_descriptors(tool, task, a: dict) -> dict[str, np.ndarray]:
+    """`GEOMETRY` descriptors [N] of a shard's grasps (tool frame; see the module docstring)."""
+    from itup_jax.grasp import rotation_matrix
+
+    R = np.asarray(rotation_matrix(np.asarray(a["grasp_q"], float)), float)  # [N, 3, 3] tool <- grasp
+    p = np.asarray(a["grasp_p"], float)
+    R_wt = np.asarray(task.traj.R_world_tool, float)
+    w_body = np.einsum("tji,tj->ti", R_wt, np.asarray(task.traj.w_world, float))  # [T, 3] tool frame
+    k = int(np.argmax(np.linalg.norm(w_body, axis=-1)))
+    speed = float(np.linalg.norm(w_body[k]))
+    swing = np.abs(R[:, :, 1] @ (w_body[k] / speed)) if speed > 1e-6 else np.full(len(p), np.nan)
+    return {"along_handle": p[:, 2], "com_distance": np.linalg.norm(p - np.asarray(tool.params.com, float), axis=-1),
+            "closure_along_swing": swing}
 
 
 def summarise(rows: list[dict]) -> dict:
