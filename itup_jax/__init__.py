@@ -40,7 +40,7 @@ from itup_jax.tool import Tool, ToolParams, load_tool
 from itup_jax.trajectory import Trajectory
 from itup_jax.wrench import Loads, task_loads
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "CostParams", "Costs", "Grasps", "InputError", "Loads", "Regime", "SamplerConfig", "SamplingError",

@@ -226,7 +226,7 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     `mcap_dir`: also log `mcap_per_shard` valid rollouts of every shard made in this call as MCAP.
 
     Resumes: shards already listed in the manifest whose file has the recorded checksum are kept; a
-    manifest made with another config is refused. `after_shard(k)` is called after the k-th shard
+    manifest made with another config or by another code version is refused. `after_shard(k)` is called after the k-th shard
     is written (tests use it to interrupt a run).
     """
     config.validate()
@@ -243,6 +243,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
             old = json.load(fh)
         if old.get("config") != manifest["config"]:
             raise InputError(f"generate: {mpath} was made with another config; use a new folder")
+        if old.get("code_version") != __version__:  # labels may mean something else across versions
+            raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "
+                             f"{__version__}; resuming would mix their shards: use a new folder")
         manifest["shards"] = [s for s in old["shards"]
                               if os.path.exists(os.path.join(out_dir, s["file"]))
                               and sha256_file(os.path.join(out_dir, s["file"])) == s["sha256"]]

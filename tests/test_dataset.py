@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.dataset import GenerateConfig, generate, load_dataset, load_shard, vary_tool
+from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset, load_shard, vary_tool
 from itup_jax.cli import main
 
 SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1)
@@ -75,6 +75,18 @@ def test_another_config_in_the_same_folder_is_refused(full_run, tmp_path):
     shutil.copytree(out, copy)
     with pytest.raises(itup.InputError, match="another config"):
         generate(copy, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=7, seed=1), progress=False)
+
+
+def test_resuming_a_dataset_of_another_code_version_is_refused(full_run, tmp_path):
+    out, _ = full_run
+    copy = str(tmp_path / "copy3")
+    shutil.copytree(out, copy)
+    path = os.path.join(copy, MANIFEST)
+    m = json.load(open(path))
+    m["code_version"] = "0.0.1"
+    json.dump(m, open(path, "w"))
+    with pytest.raises(itup.InputError, match="made by itup-jax 0.0.1"):
+        generate(copy, SMALL, progress=False)
 
 
 def test_variant_mass_properties_are_exact_for_a_box(tmp_path):
