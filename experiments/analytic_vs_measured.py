@@ -67,19 +67,15 @@ def per_tool(data_dir: str) -> tuple[list[dict], dict]:
         tool, task = unit_tool(config, entry["task"], entry["variant"])
         grasps = Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
         row = {"task": entry["task"], "variant": entry["variant"], "tool": tool.name, "n": int(ok.sum())}
-        cache: dict = {}  # a torque variant and a slip variant may share their parameters: evaluate once
-
-        def costs(params, tool=tool, task=task, grasps=grasps, cache=cache):
-            if params not in cache:
-                cache[params] = wrench_costs(tool, task, grasps, params)
-            return cache[params]
-
+        # each distinct parameter set once (a torque variant and a slip variant may share theirs)
+        costs = {params: wrench_costs(tool, task, grasps, params)
+                 for params in {*TORQUE_VARIANTS.values(), *SLIP_VARIANTS.values()}}
         for name, params in TORQUE_VARIANTS.items():
-            c = np.asarray(costs(params).tau, float)[ok]
+            c = np.asarray(costs[params].tau, float)[ok]
             for lab in TORQUE_LABELS:
                 row[f"tau[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
         for name, params in SLIP_VARIANTS.items():
-            c = np.asarray(costs(params).slip, float)[ok]
+            c = np.asarray(costs[params].slip, float)[ok]
             for lab in SLIP_LABELS:
                 row[f"slip[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
         for name, d in grasp_descriptors(tool, task, a).items():

@@ -577,16 +577,17 @@ def _take_plan(p: Plan, idx: np.ndarray) -> Plan:
                                infeasible=p.infeasible[idx], over_speed=p.over_speed[idx])
 
 
-def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, qvel_peak: np.ndarray | None,
+def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, run_plan: Plan, qvel_peak: np.ndarray | None,
                      sensordata: np.ndarray | None, config: SimConfig) -> Labels:
-    """Labels [N] of a plan whose rollouts `run` (the feasible ones) were stepped, with their qvel peaks and
-    sensors (leading axis len(run)); the others (infeasible, not stepped) get NaN measurements, flags False."""
+    """Labels [N] of a plan whose rollouts `run` (the feasible ones; `run_plan` = their plan) were stepped,
+    with their qvel peaks and sensors (leading axis len(run)); the others (infeasible, not stepped) get NaN
+    measurements, flags False."""
     n = len(p.infeasible)
     full = {f: np.full(n, np.nan) for f in LABEL_FIELDS}
     full.update({f: np.zeros(n, bool) for f in ("failed", "success", "diverged", "valid")})
     full.update(infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy())
     if len(run):
-        sub = compute_labels(scene, task, p if len(run) == n else _take_plan(p, run), qvel_peak, sensordata, config)
+        sub = compute_labels(scene, task, run_plan, qvel_peak, sensordata, config)
         for f in LABEL_FIELDS:
             full[f][run] = getattr(sub, f)
     return Labels(**full)
@@ -603,12 +604,12 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
         ph = _slice_physics(physics, slice(lo, hi))
         p = plan(scene, task, grasps[lo:hi], ph, config)
         run = np.nonzero(~p.infeasible)[0]
+        run_plan = p if len(run) == hi - lo else _take_plan(p, run)  # one copy of the controls, or none
         qvel_peak = sensordata = None
         if len(run):
-            every = len(run) == hi - lo  # then no copy of the controls
-            qvel_peak, sensordata = _step(scene, p.qpos0 if every else p.qpos0[run], p.ctrl if every else p.ctrl[run],
-                                          p.nstep, _pooled_models(scene, physics, lo + run), min(nthread, len(run)))
-        labels.append(_feasible_labels(scene, task, p, run, qvel_peak, sensordata, config))
+            qvel_peak, sensordata = _step(scene, run_plan.qpos0, run_plan.ctrl, p.nstep,
+                                          _pooled_models(scene, physics, lo + run), min(nthread, len(run)))
+        labels.append(_feasible_labels(scene, task, p, run, run_plan, qvel_peak, sensordata, config))
         plans.append(p)
         if keep_sensordata:
             full = np.full((hi - lo, p.nstep, scene.model.nsensordata), np.nan)
@@ -649,7 +650,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
         pl = plan(scene, task, grasps, physics, config)
         qvel_peak, sensordata = rollout_mjx(scene, pl, physics, devices=devices)  # every row: fixed shapes
         run = np.nonzero(~pl.infeasible)[0]
-        labels = _feasible_labels(scene, task, pl, run, qvel_peak[run], sensordata[run], config)
+        labels = _feasible_labels(scene, task, pl, run, _take_plan(pl, run), qvel_peak[run], sensordata[run], config)
         if traces:
             sensordata = np.where(pl.infeasible[:, None, None], np.nan, sensordata)
     else:
