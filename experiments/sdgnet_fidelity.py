@@ -163,7 +163,8 @@ def plot(rows: list[dict], path: str) -> None:
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--train", default=None, help="training dataset folder (for --train-model)")
+    ap.add_argument("--train", default=None, nargs="+", metavar="DIR",
+                    help="training dataset folder(s) (for --train-model; several are trained on as one)")
     ap.add_argument("--test", default=None, help="test dataset folder (held-out tools)")
     ap.add_argument("--model", default=None, help="checkpoint to evaluate (default: the shipped one)")
     ap.add_argument("--train-model", action="store_true", help="retrain on --train, time it, evaluate that")
@@ -174,9 +175,9 @@ def main(argv=None) -> dict:
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     if args.quick:
-        args.train = os.path.join(args.out, "train")
+        args.train = [os.path.join(args.out, "train")]
         args.test = os.path.join(args.out, "test")
-        generate(args.train, GenerateConfig(tasks=("hammer",), tools_per_task=3, grasps=12, seed=0), progress=False)
+        generate(args.train[0], GenerateConfig(tasks=("hammer",), tools_per_task=3, grasps=12, seed=0), progress=False)
         generate(args.test, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
         args.train_model, args.redraws = True, 1
     if args.redraws < 0:
@@ -187,11 +188,13 @@ def main(argv=None) -> dict:
         raise SystemExit(2)
     train_s = None
     if args.train_model:
-        from itup_jax.dataset import load_dataset
+        from itup_jax.dataset import load_datasets
 
-        with open(os.path.join(args.train, MANIFEST)) as fh:
-            spec = json.load(fh)["config"]["feature_spec"]
-        data = load_dataset(args.train)
+        if not args.train:
+            print("sdgnet_fidelity: --train-model needs --train DIR [DIR ...]", file=sys.stderr)
+            raise SystemExit(2)
+        data, manifests = load_datasets(args.train)
+        spec = manifests[0]["config"]["feature_spec"]
         cfg = TrainConfig(epochs=20, patience=5) if args.quick else TrainConfig()
         t0 = time.perf_counter()
         model = train(data, cfg, feature_spec=spec, progress=False, log=lambda *_: None)

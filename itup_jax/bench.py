@@ -208,18 +208,19 @@ def matmul_rate(size: int = 2048, repeats: int = 5, dtype=jnp.float32) -> dict[s
 
 def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", model: Any = None) -> dict[str, Any]:
     """Time SDG-Net scoring (`scoring.sdgnet_scores_jit`: loads + features + MLP, one jit) of n candidates.
+    `model`: a `Model`, a checkpoint path, or None (the shipped checkpoint).
 
     Reports XLA's flop count of the compiled scorer divided by the warm time (`flops_per_s`), a large
     `jnp.dot` in the same run (`matmul_flops_per_s`, what this device does at best), and the analytic
     cost path on the same candidates as a second reference.
     """
     from itup_jax import scoring
-    from itup_jax.sdgnet import load_model
+    from itup_jax.sdgnet import Model, load_model
 
     tool = load_tool(DEFAULT_TOOL[task_kind])
     task = make_task(task_kind, tool)
     grasps = random_grasps(tool, n)
-    m = model if model is not None else load_model(None)
+    m = model if isinstance(model, Model) else load_model(model)  # None: the shipped checkpoint; str: a path
     args, kw = scoring._sdgnet_args(tool, task, grasps, m, scoring.ScoreWeights())
     t0 = time.perf_counter()
     compiled = scoring.sdgnet_scores_jit.lower(*args, **kw).compile()

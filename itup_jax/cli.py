@@ -159,22 +159,17 @@ def cmd_generate(args) -> int:
 
 
 def cmd_train(args) -> int:
-    import json as _json
-
-    from itup_jax.dataset import MANIFEST, load_dataset
+    from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
-    mpath = os.path.join(args.data, MANIFEST)
-    if not os.path.exists(mpath):
-        raise_input(f"--data {args.data!r}: no {MANIFEST} there (make one with `itup generate`)")
-    manifest = _json.load(open(mpath))
-    data = load_dataset(args.data)
+    data, manifests = load_datasets(args.data)
     hidden = tuple(int(h) for h in args.hidden.split(",") if h)
     cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                       patience=args.patience, per_task=args.per_task)
-    model = train(data, cfg, feature_spec=manifest["config"]["feature_spec"], progress=not args.quiet)
-    model.spec["dataset"] = {"folder": os.path.abspath(args.data), "config": manifest["config"],
-                             "totals": manifest.get("totals"), "code_version": manifest["code_version"]}
+    model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
+    datasets = [{"folder": os.path.abspath(d), "config": m["config"], "totals": m.get("totals"),
+                 "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
+    model.spec["datasets"] = datasets
     model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE), "
@@ -407,7 +402,8 @@ def build_parser() -> argparse.ArgumentParser:
     gen.set_defaults(fn=cmd_generate)
 
     tr = sub.add_parser("train", help="train SDG-Net on a dataset from `itup generate`")
-    tr.add_argument("--data", required=True, help="dataset folder")
+    tr.add_argument("--data", required=True, nargs="+", metavar="DIR",
+                    help="dataset folder(s); several (e.g. generated with different seeds) are trained on as one")
     tr.add_argument("--out", required=True, help="checkpoint to write (.npz, arrays only)")
     tr.add_argument("--hidden", default="128,128")
     tr.add_argument("--epochs", type=int, default=200)

@@ -292,7 +292,8 @@ def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: b
 
 
 def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-    """All shards of a dataset (verified), concatenated; adds `task` [N] (str) per row."""
+    """All shards of a dataset (verified), concatenated; adds `task` [N] (str) and `tool` [N] (str, the
+    tool's name: unique per procedural variant, the same for a built-in tool in every dataset) per row."""
     with open(os.path.join(out_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     parts = []
@@ -300,9 +301,48 @@ def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] 
         if tasks is not None and entry["task"] not in tasks:
             continue
         a = load_shard(out_dir, entry, valid_only=valid_only)
-        a.pop("meta_json")
+        meta = json.loads(bytes(a.pop("meta_json")))
         a["task"] = np.array([entry["task"]] * len(a["label_valid"]))
+        a["tool"] = np.array([meta["tool"]] * len(a["label_valid"]))
         parts.append(a)
     if not parts:
         raise InputError(f"dataset {out_dir!r}: no shards{' for ' + ','.join(tasks) if tasks else ''}")
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
+                  tasks: Sequence[str] | None = None) -> tuple[dict[str, np.ndarray], list[dict]]:
+    """Several datasets (e.g. `itup generate` runs with different seeds, whose procedural tools differ)
+    as one: rows concatenated, plus the manifests. Refused: a folder given twice (its rows would count
+    twice) and datasets whose features were made with different `FeatureSpec`s (their columns would
+    mean different things). `tool_id` is renumbered so that it names one tool across the datasets (the
+    first keeps its ids; a tool name seen before, such as a built-in tool, keeps its id; every other tool
+    gets a new one), so a split by tool stays a split by tool."""
+    if not out_dirs:
+        raise InputError("load_datasets: no dataset folder given")
+    real = [os.path.realpath(d) for d in out_dirs]
+    if len(set(real)) != len(real):
+        raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
+    manifests = []
+    for d in out_dirs:
+        mpath = os.path.join(d, MANIFEST)
+        if not os.path.exists(mpath):
+            raise InputError(f"dataset {d!r}: no {MANIFEST} there (make one with `itup generate`)")
+        with open(mpath) as fh:
+            manifests.append(json.load(fh))
+    for d, m in zip(out_dirs[1:], manifests[1:]):
+        if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
+            raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
+                             f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
+    parts = [load_dataset(d, valid_only=valid_only, tasks=tasks) for d in out_dirs]
+    ids: dict[tuple[str, str], int] = {}
+    for p in parts:
+        new_ids = p["tool_id"].copy()
+        for key in dict.fromkeys(zip(p["task"].tolist(), p["tool"].tolist())):
+            rows = (p["task"] == key[0]) & (p["tool"] == key[1])
+            if key not in ids:
+                own = int(p["tool_id"][rows][0])
+                ids[key] = own if p is parts[0] else max(ids.values(), default=-1) + 1
+            new_ids[rows] = ids[key]
+        p["tool_id"] = new_ids
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, manifests

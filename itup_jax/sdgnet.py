@@ -136,7 +136,10 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     if len(X) < 8:
         raise InputError(f"train: need at least 8 valid examples, got {len(X)}")
     tr, va = _split_by_tool(sub, config.val_fraction, config.seed)
-    x_mean, x_std = X[tr].mean(0), X[tr].std(0) + 1e-8
+    x_mean, x_std = X[tr].mean(0), X[tr].std(0)
+    # a feature constant over the training rows (a tool-level prior when one tool is trained on) is
+    # centred, not scaled: dividing by its ~0 spread would blow up every other tool's value of it
+    x_std = np.where(x_std > 1e-6 * np.maximum(1.0, np.abs(x_mean)), x_std + 1e-8, 1.0)
     y_mean, y_std = Y[tr].mean(0), Y[tr].std(0) + 1e-8
     Xn, Yn = (X - x_mean) / x_std, (Y - y_mean) / y_std
     f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731

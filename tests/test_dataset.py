@@ -132,3 +132,41 @@ def test_config_round_trips_through_the_manifest_and_rebuilds_a_shards_tool(full
     assert tool.name == json.loads(bytes(a["meta_json"]))["tool"]
     g = itup.Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
     np.testing.assert_allclose(np.asarray(itup.wrench_costs(tool, task, g).tau), a["analytic_tau"], rtol=1e-5)
+
+
+def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
+    from itup_jax.checkpoint import load
+    from itup_jax.dataset import load_datasets
+
+    out, manifest = full_run
+    other = str(tmp_path / "seed2")
+    generate(other, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=2), progress=False)
+    a, b = load_dataset(out), load_dataset(other)
+    both, manifests = load_datasets([out, other])
+    assert [m["seed"] for m in manifests] == [1, 2]
+    assert len(both["features"]) == len(a["features"]) + len(b["features"])
+    np.testing.assert_array_equal(both["features"], np.concatenate([a["features"], b["features"]]))
+    # one id per tool across the datasets: the built-in tool (variant 0) shares its id, variants do not
+    names = {}
+    for name, i in zip(both["tool"], both["tool_id"]):
+        assert names.setdefault(name, i) == i
+    assert len(set(names.values())) == len(names) == len(set(a["tool"]) | set(b["tool"]))
+    builtin = [n for n in names if "~" not in n]
+    assert len(builtin) == 1 and set(a["tool"]) & set(b["tool"]) == set(builtin)
+    np.testing.assert_array_equal(both["tool_id"][: len(a["tool_id"])], a["tool_id"])  # the first keeps its ids
+
+    with pytest.raises(itup.InputError, match="given twice"):
+        load_datasets([out, out + "/"])
+    odd = str(tmp_path / "odd")
+    shutil.copytree(other, odd)
+    m = json.load(open(os.path.join(odd, MANIFEST)))
+    m["config"]["feature_spec"]["grid"] = 5
+    json.dump(m, open(os.path.join(odd, MANIFEST), "w"))
+    with pytest.raises(itup.InputError, match="cannot be mixed"):
+        load_datasets([out, odd])
+
+    ckpt = str(tmp_path / "m.npz")
+    assert main(["train", "--data", out, other, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--quiet"]) == 0
+    spec = load(ckpt)[1]
+    assert [d["config"]["seed"] for d in spec["datasets"]] == [1, 2]
+    assert spec["n_train"] + spec["n_val"] == len(both["features"])

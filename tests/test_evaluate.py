@@ -215,3 +215,29 @@ def test_experiments_refuse_a_missing_dataset(tmp_path, monkeypatch, capsys):
         with pytest.raises(SystemExit) as e:
             _run_experiment(script, ["--data", str(tmp_path / "nope"), "--out", str(tmp_path / "o")], monkeypatch)
         assert e.value.code == 2 and "no dataset manifest" in capsys.readouterr().err
+
+
+def test_sdgnet_scaling_quick(tmp_path, monkeypatch):
+    _run_experiment("sdgnet_scaling.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "scaling.json").read_text())
+    jsonschema.validate(doc, load_schema("scaling"))
+    sizes = doc["sizes"]
+    assert [s["tools_per_task"] for s in sizes] == [2, 4]  # '2,all' on 4 tools
+    assert sizes[0]["rows"] < sizes[1]["rows"]  # the smaller size trains on a subset of the rows
+    assert (tmp_path / "scaling.png").stat().st_size > 5_000
+
+
+def test_scaling_subsets_and_fit():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("sdgnet_scaling", os.path.join(ROOT, "experiments", "sdgnet_scaling.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    data = {"task": np.array(["a"] * 6 + ["b"] * 4), "tool_id": np.array([0, 0, 1, 2, 2, 3, 0, 1, 5, 5])}
+    np.testing.assert_array_equal(mod.first_tools(data, 2), [1, 1, 1, 0, 0, 0, 1, 1, 0, 0])
+    assert mod.first_tools(data, None).all() and mod.tools_per_task(data) == 3
+    fit = mod.fit_log2([4, 8, 16], [0.5, 0.6, 0.7], 0.9)  # +0.1 per doubling from 0.5 at 4: 0.9 at 64
+    assert fit["per_doubling"] == pytest.approx(0.1) and fit["tools_per_task_at_goal"] == pytest.approx(64.0)
+    assert mod.fit_log2([4, 8], [0.6, 0.5], 0.9)["tools_per_task_at_goal"] is None
+    assert mod.fit_log2([4, 8, 16], [float("nan"), 0.5, 0.6], 0.9)["per_doubling"] == pytest.approx(0.1)
+    assert mod.fit_log2([4, 8], [float("nan"), 0.5], 0.9)["per_doubling"] is None

@@ -89,3 +89,27 @@ def test_per_task_model_keeps_one_network_per_task(tmp_path):
         back.for_task("knock")
     out = predict_costs(back, a["features"][:5], "hammer")
     assert np.asarray(out["tau"]).shape == (5,)
+
+
+def test_bench_score_takes_a_checkpoint_path(tmp_path):
+    """`itup bench score --model PATH` times that checkpoint (it used to pass the path on as a Model)."""
+    from itup_jax.bench import bench_score
+    from itup_jax.features import FeatureSpec
+
+    spec = FeatureSpec()
+    model = train(_synthetic(f=spec.size), TrainConfig(hidden=(16,), epochs=2), feature_spec=spec.to_dict(),
+                  progress=False, log=lambda *_: None)
+    path = str(tmp_path / "m.npz")
+    save_model(path, model)
+    res = bench_score(n=64, repeats=1, task_kind="reach", model=path)
+    assert res["hidden"] == [16] and res["n"] == 64 and res["warm_ms"] > 0
+
+
+def test_a_feature_constant_in_training_is_not_blown_up():
+    """Trained on tools that share a prior (a constant column), another value of it stays O(1) after
+    normalisation instead of being divided by a ~1e-8 spread."""
+    data = _synthetic()
+    data["features"][:, 5] = 3.0
+    model = train(data, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *_: None)
+    assert model.spec["x_std"][5] == 1.0 and model.spec["x_mean"][5] == pytest.approx(3.0)
+    assert all(s > 0.5 for i, s in enumerate(model.spec["x_std"]) if i != 5)  # the others are scaled by their spread

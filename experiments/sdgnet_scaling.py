@@ -1,0 +1,189 @@
+"""Is data what limits SDG-Net? Held-out fidelity against the number of training tools per task.
+
+    python experiments/sdgnet_scaling.py --train /tmp/sdg_train32 /tmp/sdg_train64s2 /tmp/sdg_train128s3 \\
+        --test /tmp/sdg_test8 --tools 8,16,32,64,128,all --seeds 3 --out results/scaling
+    python experiments/sdgnet_scaling.py --quick --out /tmp/scaling     # tiny datasets made here (tests)
+
+For each size k (tools per task) and seed, SDG-Net is trained with the shipped checkpoint's recipe
+(`--hidden`, `--weight-decay` override it) on the first k tools of every task (tool ids in dataset
+order: the first dataset's built-in tool and variants first), and scored on the held-out tools of
+--test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau and the measured
+projected peak torque; median over tools, and per task). A straight line of the median rho (mean over
+seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
+the line would reach the issue's 0.9 goal. That is an extrapolation, and the labels' own retest
+correlation (`sdgnet_fidelity.py --redraws`) bounds any prior-blind scorer below it. Writes
+scaling.json (`itup.scaling/1`) and scaling.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from sdgnet_fidelity import GOALS, evaluate  # noqa: E402  (the same per-tool scoring as the fidelity experiment)
+
+from itup_jax.atomic import atomic_write_json  # noqa: E402
+from itup_jax.dataset import GenerateConfig, generate, load_datasets  # noqa: E402
+from itup_jax.sdgnet import TrainConfig, load_model, train  # noqa: E402
+
+
+def first_tools(data: dict, k: int | None) -> np.ndarray:
+    """[N] bool: the rows of the first k tools (by tool id) of every task; None: all rows."""
+    keep = np.zeros(len(data["task"]), bool)
+    for task in np.unique(data["task"]):
+        rows = data["task"] == task
+        ids = np.unique(data["tool_id"][rows])
+        keep |= rows & np.isin(data["tool_id"], ids if k is None else ids[:k])
+    return keep
+
+
+def tools_per_task(data: dict) -> int:
+    """The smallest number of distinct tools over the tasks of `data`."""
+    return min(len(np.unique(data["tool_id"][data["task"] == t])) for t in np.unique(data["task"]))
+
+
+def fit_log2(k: np.ndarray, rho: np.ndarray, goal: float) -> dict:
+    """rho ~ a + b log2(k) by least squares over the finite rho; `tools_per_task_at_goal`: where the line
+    reaches `goal` (None if it does not rise; all None with fewer than two sizes)."""
+    x, rho = np.log2(np.asarray(k, float)), np.asarray(rho, float)
+    ok = np.isfinite(rho)  # a size whose held-out tools gave no rank correlation does not count
+    x, rho = x[ok], rho[ok]
+    if len(x) < 2 or np.ptp(x) == 0:
+        return {"intercept": None, "per_doubling": None, "tools_per_task_at_goal": None}
+    b, a = np.polyfit(x, rho, 1)
+    at = float(np.exp2(min((goal - a) / b, 1000.0))) if b > 0 else None  # capped: no inf in strict JSON
+    return {"intercept": float(a), "per_doubling": float(b), "tools_per_task_at_goal": at}
+
+
+def plot(out: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from itup_jax.plotting import save_figure
+
+    sizes = out["sizes"]
+    k = [s["tools_per_task"] for s in sizes]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for t in out["tasks"]:
+        ax.plot(k, [s["by_task"][t]["mean"] for s in sizes], "o-", lw=1, ms=3, label=t)
+    med = [s["median_rho"]["mean"] for s in sizes]
+    err = [s["median_rho"]["std"] for s in sizes]
+    ax.errorbar(k, med, yerr=err, fmt="ks-", lw=2, ms=5, capsize=3, label="median over tools")
+    f = out["fit"]
+    if f["per_doubling"] is not None:
+        xs = np.geomspace(min(k), max(k), 50)
+        ax.plot(xs, f["intercept"] + f["per_doubling"] * np.log2(xs), "k:", lw=1, label="log2 fit")
+    ax.axhline(GOALS["spearman"], color="r", ls="--", lw=0.8, label="goal")
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("training tools per task")
+    ax.set_ylabel("held-out Spearman (pred C_tau vs measured)")
+    ax.set_title("SDG-Net fidelity against training data")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--train", nargs="+", metavar="DIR", help="training dataset folder(s), trained on as one")
+    ap.add_argument("--test", help="test dataset folder (its procedural variants are the held-out tools)")
+    ap.add_argument("--tools", default="8,16,32,all", help="comma-separated tools per task; 'all' for every tool")
+    ap.add_argument("--seeds", type=int, default=3, help="training seeds per size (split and initialisation)")
+    ap.add_argument("--hidden", default=None, help="hidden widths, e.g. 128,128,128 (default: the shipped recipe)")
+    ap.add_argument("--weight-decay", type=float, default=None, help="default: the shipped recipe")
+    ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
+    ap.add_argument("--out", default="results/scaling")
+    args = ap.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    shipped = load_model().spec["config"]
+    base = TrainConfig(**{**shipped, "hidden": tuple(shipped["hidden"])})
+    if args.quick:
+        args.train = [os.path.join(args.out, "train")]
+        args.test = os.path.join(args.out, "test")
+        generate(args.train[0], GenerateConfig(tasks=("reach",), tools_per_task=4, grasps=24, seed=0), progress=False)
+        generate(args.test, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=1), progress=False)
+        args.tools, args.seeds = "2,all", 1
+        base = dataclasses.replace(base, hidden=(16,), epochs=30, patience=10)
+    if args.hidden:
+        base = dataclasses.replace(base, hidden=tuple(int(h) for h in args.hidden.split(",") if h))
+    if args.weight_decay is not None:
+        base = dataclasses.replace(base, weight_decay=args.weight_decay)
+    if not args.train or not args.test:
+        print("sdgnet_scaling: --train DIR [DIR ...] and --test DIR are required (or --quick)", file=sys.stderr)
+        raise SystemExit(2)
+    if args.seeds < 1:
+        print(f"sdgnet_scaling: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
+        raise SystemExit(2)
+    data, manifests = load_datasets(args.train)
+    available = tools_per_task(data)
+    sizes = []
+    for s in args.tools.split(","):
+        k = available if s.strip() == "all" else int(s)
+        if not 1 <= k <= available:
+            print(f"sdgnet_scaling: --tools {s!r}: need 1..{available} (tools per task in --train)", file=sys.stderr)
+            raise SystemExit(2)
+        if k not in sizes:
+            sizes.append(k)
+    feature_spec = manifests[0]["config"]["feature_spec"]
+    results = []
+    for k in sorted(sizes):
+        keep = first_tools(data, k)
+        sub = {key: v[keep] for key, v in data.items()}
+        runs = []
+        for seed in range(args.seeds):
+            t0 = time.perf_counter()
+            model = train(sub, dataclasses.replace(base, seed=seed), feature_spec=feature_spec, progress=False,
+                          log=lambda *_: None)
+            wall = time.perf_counter() - t0
+            rows = [r for r in evaluate(model, args.test)["rows"] if r["held_out"]]
+            rho = np.array([r["rho_sdgnet_projected"] for r in rows], float)
+            runs.append({"seed": seed, "train_wall_s": wall, "best_val_loss": model.spec["best_val_loss"],
+                         "median_rho": float(np.nanmedian(rho)),
+                         "by_task": {t: float(np.nanmean([r["rho_sdgnet_projected"] for r in rows if r["task"] == t]))
+                                     for t in sorted({r["task"] for r in rows})}})
+            print(f"{k:4d} tools/task seed {seed}: {int(keep.sum())} rows, {wall:.1f} s, val loss "
+                  f"{model.spec['best_val_loss']:.3f}, held-out Spearman median {runs[-1]['median_rho']:.3f}  "
+                  + " ".join(f"{t} {v:.2f}" for t, v in runs[-1]["by_task"].items()), flush=True)
+        med = np.array([r["median_rho"] for r in runs])
+        tasks = list(runs[0]["by_task"])
+        results.append({
+            "tools_per_task": k, "rows": int(keep.sum()), "runs": runs,
+            "median_rho": {"mean": float(med.mean()), "std": float(med.std()), "min": float(med.min()),
+                           "max": float(med.max())},
+            "by_task": {t: {"mean": float(np.mean([r["by_task"][t] for r in runs]))} for t in tasks},
+            "train_wall_s": {"mean": float(np.mean([r["train_wall_s"] for r in runs]))},
+        })
+    fit = fit_log2([r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results],
+                   GOALS["spearman"])
+    grasps = manifests[0]["config"]["grasps"]
+    n_tasks = len(results[0]["by_task"])
+    if fit["tools_per_task_at_goal"] is not None:
+        fit["rollouts_at_goal"] = fit["tools_per_task_at_goal"] * grasps * n_tasks
+    from itup_jax.bench import machine_info
+
+    out = {"schema": "itup.scaling/1", "experiment": "sdgnet_scaling", "quick": args.quick,
+           "train": [os.path.abspath(d) for d in args.train], "test": os.path.abspath(args.test),
+           "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)}, "tasks": list(results[0]["by_task"]), "goals": GOALS, "sizes": results, "fit": fit, "machine": machine_info()}
+    atomic_write_json(os.path.join(args.out, "scaling.json"), out, indent=2)
+    plot(out, os.path.join(args.out, "scaling.png"))
+    if fit["per_doubling"] is None:
+        print("fit: fewer than two sizes gave a held-out rank correlation; no line")
+    else:
+        at = fit["tools_per_task_at_goal"]
+        print(f"fit: median rho = {fit['intercept']:.3f} + {fit['per_doubling']:.3f} log2(tools per task)"
+              + (f"; the line reaches {GOALS['spearman']} at ~{at:.0f} tools per task (~{fit['rollouts_at_goal']:.0f}"
+                 " rollouts; an extrapolation)" if at is not None else "; it does not rise"))
+    return out
+
+
+if __name__ == "__main__":
+    main()
