@@ -163,8 +163,9 @@ def cmd_train(args) -> int:
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
     data, manifests = load_datasets(args.data)
-    hidden = tuple(int(h) for h in args.hidden.split(",") if h)
-    cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
+    hidden = TrainConfig.hidden if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
+    wd = TrainConfig.weight_decay if args.weight_decay is None else args.weight_decay
+    cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, weight_decay=wd,
                       patience=args.patience, per_task=args.per_task)
     model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
     datasets = [{"folder": os.path.abspath(d), "config": m["config"], "totals": m.get("totals"),
@@ -405,7 +406,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--data", required=True, nargs="+", metavar="DIR",
                     help="dataset folder(s); several (e.g. generated with different seeds) are trained on as one")
     tr.add_argument("--out", required=True, help="checkpoint to write (.npz, arrays only)")
-    tr.add_argument("--hidden", default="128,128")
+    tr.add_argument("--hidden", default=None, help="hidden layer widths, e.g. 128,128,128 (default: TrainConfig's)")
+    tr.add_argument("--weight-decay", type=float, default=None,
+                    help="AdamW's decoupled weight decay, per step w -= lr * wd * w (default: TrainConfig's)")
     tr.add_argument("--epochs", type=int, default=200)
     tr.add_argument("--batch", type=int, default=128)
     tr.add_argument("--lr", type=float, default=2e-3)
