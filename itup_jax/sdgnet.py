@@ -41,7 +41,7 @@ class TrainConfig:
     epochs: int = 200
     batch: int = 128
     lr: float = 2e-3
-    weight_decay: float = 0.1  # decoupled (AdamW); chosen by validation loss on 96 tools per task
+    weight_decay: float = 0.1  # decoupled (AdamW); width, depth and decay chosen by validation loss (models/README.md)
     patience: int = 25
     val_fraction: float = 0.25  # of the tools (task x variant), held out
     seed: int = 0
