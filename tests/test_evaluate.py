@@ -185,6 +185,12 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert rows and all(r["rho_sdgnet_projected"] is None or -1 <= r["rho_sdgnet_projected"] <= 1 for r in rows)
     assert all(r["regret_sdgnet_projected"] >= 0 and 0 <= r["percentile_sdgnet_projected"] <= 1 for r in rows)
     assert doc["train_wall_s"] > 0 and (tmp_path / "fidelity.png").exists()
+    # the ceiling against single-draw labels is sqrt(retest rho) (additive-noise model), not the retest rho
+    for r in rows:
+        if r.get("retest_rho") is not None and r["retest_rho"] > 0:
+            assert r["retest_ceiling_rho"] == pytest.approx(np.sqrt(r["retest_rho"]))
+        else:
+            assert r.get("retest_ceiling_rho") is None
 
 
 def test_torque_failure_quick(tmp_path, monkeypatch):
