@@ -10,9 +10,9 @@ order: the first dataset's built-in tool and variants first), and scored on the 
 --test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau and the measured
 projected peak torque; median over tools, and per task). A straight line of the median rho (mean over
 seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
-the line would reach the issue's 0.9 goal. That is an extrapolation, and the labels' own retest
-correlation (`sdgnet_fidelity.py --redraws`) bounds any prior-blind scorer below it. Writes
-scaling.json (`itup.scaling/1`) and scaling.png.
+the line would reach the issue's 0.9 goal. That is an extrapolation; what bounds any prior-blind
+scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of the retest
+correlation). Writes scaling.json (`itup.scaling/1`) and scaling.png.
 """
 
 from __future__ import annotations
@@ -172,7 +172,9 @@ def main(argv=None) -> dict:
 
     out = {"schema": "itup.scaling/1", "experiment": "sdgnet_scaling", "quick": args.quick,
            "train": [os.path.abspath(d) for d in args.train], "test": os.path.abspath(args.test),
-           "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)}, "tasks": list(results[0]["by_task"]), "goals": GOALS, "sizes": results, "fit": fit, "machine": machine_info()}
+           "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)},
+           "tasks": list(results[0]["by_task"]), "goals": GOALS, "sizes": results, "fit": fit,
+           "machine": machine_info()}
     atomic_write_json(os.path.join(args.out, "scaling.json"), out, indent=2)
     plot(out, os.path.join(args.out, "scaling.png"))
     if fit["per_doubling"] is None:

@@ -291,11 +291,21 @@ def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: b
     return arrays
 
 
-def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+def read_manifest(out_dir: str) -> dict[str, Any]:
+    """The manifest of the dataset in `out_dir`; InputError if there is none."""
+    mpath = os.path.join(out_dir, MANIFEST)
+    if not os.path.exists(mpath):
+        raise InputError(f"dataset {out_dir!r}: no {MANIFEST} there (make one with `itup generate`)")
+    with open(mpath) as fh:
+        return json.load(fh)
+
+
+def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None,
+                 manifest: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
     """All shards of a dataset (verified), concatenated; adds `task` [N] (str) and `tool` [N] (str, the
-    tool's name: unique per procedural variant, the same for a built-in tool in every dataset) per row."""
-    with open(os.path.join(out_dir, MANIFEST)) as fh:
-        manifest = json.load(fh)
+    tool's name: unique per procedural variant, the same for a built-in tool in every dataset) per row.
+    `manifest`: the folder's manifest if already read (`read_manifest`)."""
+    manifest = read_manifest(out_dir) if manifest is None else manifest
     parts = []
     for entry in manifest["shards"]:
         if tasks is not None and entry["task"] not in tasks:
@@ -323,26 +333,19 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     real = [os.path.realpath(d) for d in out_dirs]
     if len(set(real)) != len(real):
         raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
-    manifests = []
-    for d in out_dirs:
-        mpath = os.path.join(d, MANIFEST)
-        if not os.path.exists(mpath):
-            raise InputError(f"dataset {d!r}: no {MANIFEST} there (make one with `itup generate`)")
-        with open(mpath) as fh:
-            manifests.append(json.load(fh))
+    manifests = [read_manifest(d) for d in out_dirs]
     for d, m in zip(out_dirs[1:], manifests[1:]):
         if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
-    parts = [load_dataset(d, valid_only=valid_only, tasks=tasks) for d in out_dirs]
+    parts = [load_dataset(d, valid_only=valid_only, tasks=tasks, manifest=m) for d, m in zip(out_dirs, manifests)]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:
         new_ids = p["tool_id"].copy()
         for key in dict.fromkeys(zip(p["task"].tolist(), p["tool"].tolist())):
             rows = (p["task"] == key[0]) & (p["tool"] == key[1])
             if key not in ids:
-                own = int(p["tool_id"][rows][0])
-                ids[key] = own if p is parts[0] else max(ids.values(), default=-1) + 1
+                ids[key] = int(p["tool_id"][rows][0]) if p is parts[0] else max(ids.values(), default=-1) + 1
             new_ids[rows] = ids[key]
         p["tool_id"] = new_ids
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, manifests

@@ -157,6 +157,10 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
 
     with pytest.raises(itup.InputError, match="given twice"):
         load_datasets([out, out + "/"])
+    with pytest.raises(itup.InputError, match="no manifest.json there"):
+        load_datasets([out, str(tmp_path / "missing")])
+    with pytest.raises(itup.InputError, match="no manifest.json there"):
+        load_dataset(str(tmp_path / "missing"))
     odd = str(tmp_path / "odd")
     shutil.copytree(other, odd)
     m = json.load(open(os.path.join(odd, MANIFEST)))
