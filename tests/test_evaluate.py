@@ -191,6 +191,20 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
             assert r["retest_ceiling_rho"] == pytest.approx(np.sqrt(r["retest_rho"]))
         else:
             assert r.get("retest_ceiling_rho") is None
+    # a scorer that simulated every candidate once more: a pick among the same rows, scored on draw 0
+    retest = [r for r in rows if "regret_retest_projected" in r]
+    assert retest and all(r["regret_retest_projected"] >= 0 and 0 <= r["percentile_retest_projected"] <= 1
+                          and r["regret_sdgnet_same_rows_projected"] >= 0 for r in retest)
+
+
+def test_fidelity_pick_stats_closed_form():
+    pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["pick_stats"]
+    y = np.array([4.0, 1.0, 2.0, 8.0, 3.0, 5.0, 6.0, 7.0, 9.0, 10.0])
+    s = pick_stats(y, np.array([0.5, 0.9, 0.8, 0.7, 0.6, 0.4, 0.95, 0.99, 0.3, 0.97]))  # picks y = 9
+    assert s["regret"] == pytest.approx(8.0) and s["percentile"] == pytest.approx(0.8)
+    assert s["over_p10"] == pytest.approx(9.0 / np.percentile(y, 10) - 1)
+    best = pick_stats(y, y)  # a scorer that knows the draw picks its minimum: no regret, percentile 0
+    assert best["regret"] == 0 and best["percentile"] == 0
 
 
 def test_torque_failure_quick(tmp_path, monkeypatch):
