@@ -10,7 +10,9 @@ order: the first dataset's built-in tool and variants first), and scored on the 
 --test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau and the measured
 projected peak torque; median over tools, and per task). A straight line of the median rho (mean over
 seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
-the line would reach the issue's 0.9 goal. That is an extrapolation; what bounds any prior-blind
+the line would reach the issue's 0.9 goal. That is an extrapolation, and the curve bends: the script
+also fits the three largest sizes alone (the local rate) and names any measured size past the line's
+crossing that is still below the goal; what bounds any prior-blind
 scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of the retest
 correlation). Writes scaling.json (`itup.scaling/1`) and scaling.png.
 """
@@ -62,6 +64,14 @@ def fit_log2(k: np.ndarray, rho: np.ndarray, goal: float) -> dict:
     return {"intercept": float(a), "per_doubling": float(b), "tools_per_task_at_goal": at}
 
 
+def measured_past_goal(k, rho, at: float | None, goal: float) -> list[int]:
+    """The measured sizes at or beyond the line's crossing `at` whose median rho is still below `goal`:
+    where the straight line is contradicted by a measurement (empty if none, or no crossing)."""
+    if at is None:
+        return []
+    return [int(ki) for ki, r in zip(k, rho) if ki >= at and np.isfinite(r) and r < goal]
+
+
 def plot(out: dict, path: str) -> None:
     import matplotlib
 
@@ -100,6 +110,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--seeds", type=int, default=3, help="training seeds per size (split and initialisation)")
     ap.add_argument("--hidden", default=None, help="hidden widths, e.g. 128,128,128 (default: the shipped recipe)")
     ap.add_argument("--weight-decay", type=float, default=None, help="default: the shipped recipe")
+    ap.add_argument("--torque-scale", type=float, default=None, help="N m, log1p(tau / scale) target (default: the shipped recipe)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
     ap.add_argument("--out", default="results/scaling")
     args = ap.parse_args(argv)
@@ -117,6 +128,8 @@ def main(argv=None) -> dict:
         base = dataclasses.replace(base, hidden=tuple(int(h) for h in args.hidden.split(",") if h))
     if args.weight_decay is not None:
         base = dataclasses.replace(base, weight_decay=args.weight_decay)
+    if args.torque_scale is not None:
+        base = dataclasses.replace(base, torque_scale=args.torque_scale)
     if not args.train or not args.test:
         print("sdgnet_scaling: --train DIR [DIR ...] and --test DIR are required (or --quick)", file=sys.stderr)
         raise SystemExit(2)
@@ -168,6 +181,15 @@ def main(argv=None) -> dict:
     n_tasks = len(results[0]["by_task"])
     if fit["tools_per_task_at_goal"] is not None:
         fit["rollouts_at_goal"] = fit["tools_per_task_at_goal"] * grasps * n_tasks
+    # the curve bends: the line through every size can cross the goal where a size already measured
+    # is below it; the line through the three largest sizes is the local rate
+    ks, meds = [r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results]
+    fit["contradicted_by"] = measured_past_goal(ks, meds, fit["tools_per_task_at_goal"], GOALS["spearman"])
+    if len(results) >= 3:
+        fit["tail"] = fit_log2(ks[-3:], meds[-3:], GOALS["spearman"])
+        fit["tail"]["sizes"] = ks[-3:]
+        if fit["tail"]["tools_per_task_at_goal"] is not None:
+            fit["tail"]["rollouts_at_goal"] = fit["tail"]["tools_per_task_at_goal"] * grasps * n_tasks
     from itup_jax.bench import machine_info
 
     out = {"schema": "itup.scaling/1", "experiment": "sdgnet_scaling", "quick": args.quick,
@@ -184,6 +206,14 @@ def main(argv=None) -> dict:
         print(f"fit: median rho = {fit['intercept']:.3f} + {fit['per_doubling']:.3f} log2(tools per task)"
               + (f"; the line reaches {GOALS['spearman']} at ~{at:.0f} tools per task (~{fit['rollouts_at_goal']:.0f}"
                  " rollouts; an extrapolation)" if at is not None else "; it does not rise"))
+        if fit["contradicted_by"]:
+            print(f"  contradicted: measured below {GOALS['spearman']} at {fit['contradicted_by']} tools per task, past that crossing")
+        tail = fit.get("tail")
+        if tail and tail["per_doubling"] is not None:
+            at = tail["tools_per_task_at_goal"]
+            print(f"  the three largest sizes {tail['sizes']}: {tail['per_doubling']:+.3f} per doubling"
+                  + (f"; at that rate {GOALS['spearman']} at ~{at:.0f} tools per task (~{tail['rollouts_at_goal']:.0f} rollouts)"
+                     if at is not None else "; not rising"))
     return out
 
 

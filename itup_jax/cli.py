@@ -166,7 +166,8 @@ def cmd_train(args) -> int:
     hidden = TrainConfig.hidden if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
     wd = TrainConfig.weight_decay if args.weight_decay is None else args.weight_decay
     cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, weight_decay=wd,
-                      patience=args.patience, per_task=args.per_task)
+                      patience=args.patience, per_task=args.per_task,
+                      torque_scale=TrainConfig.torque_scale if args.torque_scale is None else args.torque_scale)
     model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
     datasets = [{"folder": os.path.abspath(d), "config": m["config"], "totals": m.get("totals"),
                  "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
@@ -409,6 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--hidden", default=None, help="hidden layer widths, e.g. 128,128,128 (default: TrainConfig's)")
     tr.add_argument("--weight-decay", type=float, default=None,
                     help="AdamW's decoupled weight decay, per step w -= lr * wd * w (default: TrainConfig's)")
+    tr.add_argument("--torque-scale", type=float, default=None,
+                    help="N m; the torque target is log1p(tau / scale) (default: TrainConfig's)")
     tr.add_argument("--epochs", type=int, default=200)
     tr.add_argument("--batch", type=int, default=128)
     tr.add_argument("--lr", type=float, default=2e-3)

@@ -51,10 +51,10 @@ class Scores:
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
 
 
-def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, weights, spec):
+def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, weights, spec):
     loads = task_loads(tool_params, task)
     feats = _batched(field, loads, tool_params, grasps, spec)
-    y = predict_from_features(params, x_mean, x_std, y_mean, y_std, feats.astype(x_mean.dtype))
+    y = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
     tau, slip, align = y[:, 0], y[:, 1], y[:, 2]
     return tau, slip, align, weights[0] * tau + weights[1] * slip + weights[2] * align
 
@@ -77,7 +77,7 @@ def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: 
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
     args = (per_tool[spec], tool.params, task, grasps, params,
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
-            jnp.asarray(s["y_std"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt))
+            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt))
     return args, {"spec": spec}
 
 

@@ -261,3 +261,7 @@ def test_scaling_subsets_and_fit():
     assert mod.fit_log2([4, 8], [0.6, 0.5], 0.9)["tools_per_task_at_goal"] is None
     assert mod.fit_log2([4, 8, 16], [float("nan"), 0.5, 0.6], 0.9)["per_doubling"] == pytest.approx(0.1)
     assert mod.fit_log2([4, 8], [float("nan"), 0.5], 0.9)["per_doubling"] is None
+    # a line crossing 0.9 at 64 is contradicted by a measurement of 0.85 at 128, not by 0.95 at 128 or 0.8 at 32
+    assert mod.measured_past_goal([32, 128], [0.8, 0.85], 64.0, 0.9) == [128]
+    assert mod.measured_past_goal([32, 128], [0.8, 0.95], 64.0, 0.9) == []
+    assert mod.measured_past_goal([32, 128], [0.8, 0.85], None, 0.9) == []

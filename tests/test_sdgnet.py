@@ -1,5 +1,7 @@
 """SDG-Net training and scoring: synthetic training, checkpoint spec, one-jit scoring, the default model."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -50,6 +52,46 @@ def test_default_model_scores_in_one_jit_without_recompiling(tasks):
     assert float(s.total[i]) == pytest.approx(float(np.min(np.asarray(s.total))))
     a = itup.score(tool, task, g, model="analytic")
     assert a.scorer == "analytic" and a.total.shape == (32,)
+
+
+def test_predictions_are_decoded_with_the_checkpoints_own_target_scales(tasks, tmp_path):
+    """A checkpoint trained with other log1p(y / scale) scales is decoded with its own (the spec's), by
+    both `predict_costs` and the scorer: scales x (2, 3, 5) give exactly those multiples of the costs."""
+    from itup_jax.sdgnet import predict_costs
+
+    tool, task = tasks["reach"]
+    g = itup.sample_grasps(tool, 16, seed=0)
+    base = load_model()
+    k = np.array([2.0, 3.0, 5.0])
+    other = dataclasses.replace(base, spec=dict(base.spec, target_scales=list(k * base.spec["target_scales"])))
+    s0, s1 = itup.score(tool, task, g, model=base), itup.score(tool, task, g, model=other)
+    for i, name in enumerate(("tau", "slip", "align")):
+        np.testing.assert_allclose(np.asarray(getattr(s1, name)), k[i] * np.asarray(getattr(s0, name)), rtol=1e-5, atol=1e-9)
+    feats = np.random.default_rng(0).normal(size=(8, len(base.spec["x_mean"]))) * base.spec["x_std"] + base.spec["x_mean"]
+    p0, p1 = predict_costs(base, feats), predict_costs(other, feats)
+    np.testing.assert_allclose(np.asarray(p1["tau"]), k[0] * np.asarray(p0["tau"]), rtol=1e-5)
+    path = str(tmp_path / "bad.npz")
+    save_model(path, dataclasses.replace(base, spec=dict(base.spec, target_scales=[1.0, -1.0, 0.1])))
+    with pytest.raises(itup.InputError, match="target_scales"):
+        load_model(path)
+
+
+def test_torque_scale_sets_the_target_and_travels_with_the_checkpoint(tmp_path):
+    """TrainConfig.torque_scale: the torque target is log1p(tau / scale), the checkpoint stores the scale,
+    and the predictions come back in N m either way (a scale of 0 is refused)."""
+    data = _synthetic()
+    cfg = TrainConfig(hidden=(32,), epochs=60, patience=60, lr=3e-3)
+    models = {k: train(data, dataclasses.replace(cfg, torque_scale=k), progress=False, log=lambda *a: None) for k in (1.0, 0.02)}
+    assert models[0.02].spec["target_scales"][0] == 0.02 and models[1.0].spec["target_scales"][0] == 1.0
+    assert models[0.02].spec["y_mean"][0] > models[1.0].spec["y_mean"][0] + 2  # log1p(tau / 0.02) is ~log(50) larger
+    from itup_jax.sdgnet import predict_costs
+
+    tau = data[TARGETS[0]]
+    for m in models.values():  # both decode to torques of the data's size (N m), not off by the scale ratio
+        pred = np.asarray(predict_costs(m, data["features"])["tau"])
+        assert 0.5 < np.median(pred) / np.median(tau) < 2
+    with pytest.raises(itup.InputError, match="torque_scale"):
+        train(data, dataclasses.replace(cfg, torque_scale=0.0), progress=False, log=lambda *a: None)
 
 
 def test_bad_model_argument(tasks, tmp_path):
