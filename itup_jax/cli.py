@@ -162,12 +162,13 @@ def cmd_train(args) -> int:
     from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
+    hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
+    # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
+    recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale).items()
+              if v is not None}
+    cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
+                      per_task=args.per_task, **recipe)
     data, manifests = load_datasets(args.data)
-    hidden = TrainConfig.hidden if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
-    wd = TrainConfig.weight_decay if args.weight_decay is None else args.weight_decay
-    cfg = TrainConfig(hidden=hidden, epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, weight_decay=wd,
-                      patience=args.patience, per_task=args.per_task,
-                      torque_scale=TrainConfig.torque_scale if args.torque_scale is None else args.torque_scale)
     model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
     datasets = [{"folder": os.path.abspath(d), "config": m["config"], "totals": m.get("totals"),
                  "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]

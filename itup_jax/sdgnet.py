@@ -51,6 +51,10 @@ class TrainConfig:
     # held-out grasps better (Spearman +0.02) but its picks on knock miss the tower: models/README.md
     torque_scale: float = 1.0
 
+    def __post_init__(self):
+        if not self.torque_scale > 0:
+            raise InputError(f"train: torque_scale must be > 0 N m, got {self.torque_scale!r}")
+
     @property
     def target_scales(self) -> tuple:
         return (self.torque_scale,) + TARGET_SCALES[1:]
@@ -137,8 +141,6 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
 
 def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log) -> Model:
     X = np.asarray(data["features"], np.float64)
-    if not config.torque_scale > 0:
-        raise InputError(f"train: torque_scale must be > 0 N m, got {config.torque_scale!r}")
     Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(config.target_scales))
     keep = np.isfinite(X).all(1) & np.isfinite(Y).all(1)
     X, Y = X[keep], Y[keep]
