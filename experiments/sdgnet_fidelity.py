@@ -15,14 +15,25 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
   * top-1 regret = measured torque of the scorer's pick / the lowest measured torque among the
     candidates - 1; for SDG-Net, the analytic cost, and a random pick (its expectation); and two
     robust companions: the pick's percentile among the candidates' measured torques (0 = best)
-    and its torque over the candidates' 10th percentile.
+    and its torque over the candidates' 10th percentile;
+  * the task: whether the pick achieved the task (label `success`), for the pick by predicted C_tau
+    alone (`tau`) and by the scorer's total (`total`: the three costs and, for a model with a
+    success head, w_task x its predicted failure probability, as `itup.best_grasp` picks); the
+    task regret = the pick's torque / the lowest torque among the candidates that achieved the task
+    - 1 (NaN where the pick itself failed, so read it beside the pick's success rate); and the AUC of
+    the predicted success probability, pooled per task over the held-out tools.
 Also the wall time of training (`--train-model` retrains on --train and times it; otherwise the
 model given by --model, default the shipped checkpoint). Writes fidelity.json and fidelity.png.
+The redraws (`--redraws K`) are deterministic (seeded by the shard); they are kept in --out as
+redraws.npz, keyed by the test manifest and K, and reused by a later run on the same test set.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
+import io
 import json
 import os
 import sys
@@ -30,26 +41,57 @@ import time
 
 import numpy as np
 
-from itup_jax.atomic import atomic_write_json
+from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
-from itup_jax.stats import spearman
+from itup_jax.scoring import ScoreWeights, sdgnet_total
+from itup_jax.stats import roc_auc, spearman
 from itup_jax.sdgnet import TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.simulate import simulate
 
 MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
 GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
+REDRAWN = ("torque", "success", "failed")  # the labels `redraw_labels` keeps
 
 
-def redraw_torques(config: GenerateConfig, entry: dict, a: dict, k: int) -> np.ndarray:
-    """[k, N] measured projected peak torque of a shard's N grasps under k further physics draws (NaN
-    where a rollout is not valid): the same grasps, tool and task, one simulate call, a new seed."""
+def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int) -> dict[str, np.ndarray]:
+    """{torque, success, failed}: each [k, N], the measured projected peak torque (N m), task success (1/0)
+    and grasp failure (1/0: slip or rotation over the thresholds, or the tool lost) of a shard's N
+    grasps under k further physics draws (NaN where a rollout is not valid): the same grasps, tool and
+    task, one simulate call, a new seed."""
     tool, task = unit_tool(config, entry["task"], entry["variant"])
     n = len(a["grasp_width"])
     reps = Grasps(*(np.tile(a[f], (k,) + (1,) * (a[f].ndim - 1)) for f in ("grasp_p", "grasp_q", "grasp_width")))
     seed = json.loads(bytes(a["meta_json"]))["seed"] + 1
     L = simulate(tool, task, reps, seed=seed, backend=config.backend).labels
-    return np.where(L.valid, L.peak_torque_projected, np.nan).reshape(k, n)
+    return {"torque": np.where(L.valid, L.peak_torque_projected, np.nan).reshape(k, n),
+            "success": np.where(L.valid, L.success.astype(float), np.nan).reshape(k, n),
+            "failed": np.where(L.valid, L.failed.astype(float), np.nan).reshape(k, n)}
+
+
+def _shard_key(entry: dict) -> str:
+    return f"{entry['task']}_{entry['variant']}"
+
+
+def cached_redraws(test_dir: str, k: int, cache: str | None) -> dict[str, dict[str, np.ndarray]]:
+    """{shard key: redraw_labels(...)} for every shard of the test set, read from `cache` (an npz) when
+    it was made from this very manifest with this k, else simulated and written there atomically."""
+    with open(os.path.join(test_dir, MANIFEST), "rb") as fh:
+        raw = fh.read()
+    key = f"{hashlib.sha256(raw).hexdigest()}:{k}:{','.join(REDRAWN)}"
+    if cache and os.path.exists(cache):
+        with np.load(cache, allow_pickle=False) as z:
+            if str(z["key"]) == key:
+                return {n[: -len("/torque")]: {f: z[n[: -len("torque")] + f] for f in REDRAWN}
+                        for n in z.files if n.endswith("/torque")}
+    manifest = json.loads(raw)
+    config = GenerateConfig.from_json(manifest["config"])
+    out = {_shard_key(e): redraw_labels(config, e, load_shard(test_dir, e), k) for e in manifest["shards"]}
+    if cache:
+        buf = io.BytesIO()
+        np.savez(buf, key=np.array(key), **{f"{n}/{f}": v for n, d in out.items() for f, v in d.items()})
+        atomic_write(cache, buf.getvalue())
+    return out
 
 
 def pick_stats(y: np.ndarray, score: np.ndarray) -> dict:
@@ -62,7 +104,23 @@ def pick_stats(y: np.ndarray, score: np.ndarray) -> dict:
             "over_p10": y_pick / float(np.percentile(y, 10)) - 1}
 
 
-def evaluate(model, test_dir: str, redraws: int = 0) -> dict:
+def task_pick_stats(y: np.ndarray, success: np.ndarray, score: np.ndarray) -> dict:
+    """The pick (lowest score) against the task: whether it succeeded (1/0) and its task regret, its
+    torque over the lowest torque among the candidates that succeeded - 1 (NaN when the pick failed or
+    no candidate succeeded)."""
+    i = int(np.argmin(score))
+    ok = success.astype(bool)
+    regret = float(y[i] / y[ok].min() - 1) if ok[i] else float("nan")
+    return {"success": float(ok[i]), "task_regret": regret}
+
+
+def _draws(ok: np.ndarray, first: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """[k + 1, N]: draw 0 (the shard's label, NaN where not valid) over the k redraws."""
+    return np.vstack([np.where(ok, first.astype(float), np.nan)[None], extra])
+
+
+def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None,
+             weights: ScoreWeights = ScoreWeights()) -> dict:
     """Per test shard: rank correlations and regrets of SDG-Net and the analytic cost against the measured
     torques. With `redraws` k >= 1 every grasp is rolled out k more times under new physics draws, which
     adds the retest correlation between two draws (`retest_rho` = r) and the target `mean` (the mean over
@@ -73,23 +131,46 @@ def evaluate(model, test_dir: str, redraws: int = 0) -> dict:
     single-draw labels is sqrt(r), not r. Likewise `regret_retest_projected`: the regret on draw 0 of
     the candidate with the lowest mean over draws 1..k, i.e. of a scorer that simulated every candidate
     k more times (a perfect scorer of the expected torque is its limit as k grows), with
-    `regret_sdgnet_same_rows_projected` SDG-Net's on the same rows (valid in every draw)."""
+    `regret_sdgnet_same_rows_projected` SDG-Net's on the same rows (valid in every draw). The task
+    fields (`task_pick_stats`) judge the pick by `tau` and by `total` (weighted by `weights`) on draw 0;
+    with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws."""
     with open(os.path.join(test_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
-    config = GenerateConfig.from_json(manifest["config"])
-    rows = []
+    extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
+    w = np.array([weights.w_tau, weights.w_slip, weights.w_align, weights.w_task])
+    rows, pooled = [], {}
     for entry in manifest["shards"]:
         a = load_shard(test_dir, entry)
         ok = a["label_valid"].astype(bool)
         if ok.sum() < 3:
             continue
-        pred_all = np.asarray(predict_costs(model, a["features"], entry["task"])["tau"], float)
+        pred = {k: np.asarray(v, float) for k, v in predict_costs(model, a["features"], entry["task"]).items()}
+        pred_all = pred["tau"]
+        p_success = pred.get("p_success")
+        total_all = np.asarray(sdgnet_total(np.stack([pred[c] for c in ("tau", "slip", "align")], 1), p_success, w))
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}
+        y_ok, s_ok = a["label_peak_torque_projected"][ok], a["label_success"][ok].astype(bool)
+        row["success_rate_candidates"] = float(s_ok.mean())
+        for name, sc in (("tau", pred_all[ok]), ("total", total_all[ok])):
+            for stat, v in task_pick_stats(y_ok, s_ok, sc).items():
+                row[f"{stat}_{name}"] = v
+        if p_success is not None:
+            row["success_auc"] = roc_auc(p_success[ok], s_ok)
+            if row["held_out"]:
+                pt = pooled.setdefault(entry["task"], ([], []))
+                pt[0].append(p_success[ok])
+                pt[1].append(s_ok)
         if redraws:
-            extra = redraw_torques(config, entry, a, redraws)
-            y0 = np.where(ok, a["label_peak_torque_projected"], np.nan)
-            draws = np.vstack([y0[None], extra])
+            extra = extra_all[_shard_key(entry)]
+            succ = _draws(ok, a["label_success"], extra["success"])
+            failed = _draws(ok, a["label_failed"], extra["failed"])
+            draws = _draws(ok, a["label_peak_torque_projected"], extra["torque"])
+            for name, sc in (("tau", pred_all), ("total", total_all)):
+                i = int(np.argmin(np.where(ok, sc, np.inf)))
+                row[f"success_draws_{name}"] = float(np.nanmean(succ[:, i]))
+                row[f"failed_draws_{name}"] = float(np.nanmean(failed[:, i]))
+                row[f"torque_draws_{name}"] = float(np.nanmean(draws[:, i]))
             both = np.isfinite(draws).all(axis=0)
             row["retest_rho"] = spearman(draws[0][both], draws[1][both]) if both.sum() >= 3 else float("nan")
             row["retest_ceiling_rho"] = float(np.sqrt(row["retest_rho"])) if row["retest_rho"] > 0 else float("nan")
@@ -102,6 +183,13 @@ def evaluate(model, test_dir: str, redraws: int = 0) -> dict:
                 row["regret_retest_projected"] = retest["regret"]
                 row["percentile_retest_projected"] = retest["percentile"]
                 row["regret_sdgnet_same_rows_projected"] = pick_stats(draws[0][both], pred_all[both])["regret"]
+                # the same simulating scorer under the task: lowest mean torque among the candidates that did
+                # the task in every one of draws 1..k, judged on draw 0 by `task_pick_stats`
+                always = (succ[1:, both] == 1).all(axis=0)
+                if always.any():
+                    oracle = np.where(always, draws[1:, both].mean(axis=0), np.inf)
+                    ts = task_pick_stats(draws[0][both], succ[0][both] == 1, oracle)
+                    row["task_regret_retest"], row["success_retest"] = ts["task_regret"], ts["success"]
         for name, (mask, y_all) in targets.items():
             y, pred, ana = y_all[mask], pred_all[mask], a["analytic_tau"][mask]
             row[f"rho_sdgnet_{name}"] = spearman(pred, y)
@@ -111,7 +199,8 @@ def evaluate(model, test_dir: str, redraws: int = 0) -> dict:
                     row[f"{stat}_{scorer}_{name}"] = v
             row[f"regret_random_{name}"] = float(y.mean() / y.min() - 1)
         rows.append(row)
-    return {"rows": rows, "test_config": manifest["config"]}
+    auc = {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(pooled.items())}
+    return {"rows": rows, "test_config": manifest["config"], "success_auc_held_out": auc}
 
 
 def _nan_stat(f, v: np.ndarray) -> float:
@@ -126,7 +215,8 @@ def summarise(rows: list[dict]) -> dict:
             continue
         s = {"tools": len(sel)}
         keys = [k for k in dict.fromkeys(k for r in sel for k in r)
-                if k.startswith(("rho_", "regret_", "percentile_", "over_p10_", "retest_"))]
+                if k.startswith(("rho_", "regret_", "percentile_", "over_p10_", "retest_", "success_", "task_regret_",
+                                 "failed_", "torque_draws_"))]
         for k in keys:
             v = np.array([r.get(k, np.nan) for r in sel], float)
             s[k] = {"median": _nan_stat(np.nanmedian, v), "mean": _nan_stat(np.nanmean, v)}
@@ -138,7 +228,13 @@ def summarise(rows: list[dict]) -> dict:
                            "regret_analytic_projected", "regret_random_projected", "percentile_sdgnet_projected",
                            "percentile_analytic_projected", "retest_rho", "retest_ceiling_rho", "rho_sdgnet_mean", "rho_analytic_mean",
                            "regret_sdgnet_mean", "percentile_sdgnet_mean", "regret_retest_projected",
-                           "percentile_retest_projected", "regret_sdgnet_same_rows_projected") if any(k in r for r in tr)}
+                           "percentile_retest_projected", "regret_sdgnet_same_rows_projected", "success_rate_candidates",
+                           "success_tau", "success_total", "success_draws_tau", "success_draws_total",
+                           "failed_draws_tau", "failed_draws_total", "torque_draws_tau", "torque_draws_total",
+                           "task_regret_retest", "success_retest",
+                           "task_regret_tau", "task_regret_total", "success_auc") if any(k in r for r in tr)}
+            for k in ("task_regret_total", "task_regret_retest"):
+                by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
         s["by_task"] = by_task
         out[subset] = s
     return out
@@ -186,6 +282,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--train-model", action="store_true", help="retrain on --train, time it, evaluate that")
     ap.add_argument("--redraws", type=int, default=0, help="roll every test grasp out K more times under new "
                     "physics draws: retest ceiling and the mean-over-draws target")
+    ap.add_argument("--w-task", type=float, default=ScoreWeights().w_task,
+                    help="weight of the predicted task-failure probability in the pick by total (default: the scorer's)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 1 redraw (for the tests)")
     ap.add_argument("--out", default="results/fidelity")
     args = ap.parse_args(argv)
@@ -218,11 +316,13 @@ def main(argv=None) -> dict:
         save_model(os.path.join(args.out, "model.npz"), model)
     else:
         model = load_model(args.model)
-    res = evaluate(model, args.test, redraws=args.redraws)
+    weights = ScoreWeights(w_task=args.w_task)
+    res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights)
     summary = summarise(res["rows"])
     out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
-           "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws, "goals": GOALS, "summary": summary,
-           "per_tool": res["rows"], "test_config": res["test_config"]}
+           "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws, "goals": GOALS,
+           "success_head": model.has_success_head, "weights": dataclasses.asdict(weights), "summary": summary,
+           "success_auc_held_out": res["success_auc_held_out"], "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
     out["machine"] = machine_info()
@@ -239,6 +339,18 @@ def main(argv=None) -> dict:
               f"sdgnet {100 * v['regret_sdgnet_projected']:.0f}% analytic {100 * v['regret_analytic_projected']:.0f}% "
               f"random {100 * v['regret_random_projected']:.0f}% | pick percentile sdgnet "
               f"{100 * v['percentile_sdgnet_projected']:.0f} analytic {100 * v['percentile_analytic_projected']:.0f}")
+    draws = "success_draws_total" in h
+    print(f"the task ({'draws 0-' + str(args.redraws) if draws else 'draw 0'}): the pick achieves it by predicted C_tau "
+          f"{100 * h['success_draws_tau' if draws else 'success_tau']['mean']:.0f}% / by the total "
+          f"{100 * h['success_draws_total' if draws else 'success_total']['mean']:.0f}% of tools (candidates "
+          f"{100 * h['success_rate_candidates']['mean']:.0f}%); task regret (vs the best candidate that did it, draw 0, "
+          f"picks that did it) by the total median {100 * h['task_regret_total']['median']:.0f}%"
+          + (f"; success head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['success_auc_held_out'].items())}"
+             if res["success_auc_held_out"] else "; no success head"))
+    for t, v in h["by_task"].items():
+        print(f"  {t:7s} pick success tau {100 * v['success_draws_tau' if draws else 'success_tau']:.0f}% total "
+              f"{100 * v['success_draws_total' if draws else 'success_total']:.0f}% | task regret total median "
+              f"{100 * v['task_regret_total_median']:.0f}% (tau mean {100 * v['task_regret_tau']:.0f}%)")
     if args.redraws:
         print(f"with {args.redraws} more physics draws per grasp: retest rho (draw 0 vs draw 1) median "
               f"{h['retest_rho']['median']:.2f} (a perfect prior-blind scorer's rho against one draw: ~sqrt of it, "

@@ -43,7 +43,7 @@ PAPER = {"source": "Trupin, Wang, Qureshi: Physics-Conditioned Grasping for Stab
          "failure_threshold_Nm": 6.9}
 
 
-def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, log=print) -> dict:
+def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, log=print, model=None) -> dict:
     per_tool = []
     for kind in tasks:
         base = load_tool(DEFAULT_TOOL[kind])
@@ -53,7 +53,7 @@ def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, 
                 warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit: flagged
                 task = make_task(kind, tool)
             t0 = time.perf_counter()
-            res = evaluate(tool, task, methods, n=n, seeds=seeds, seed=seed + v)
+            res = evaluate(tool, task, methods, n=n, seeds=seeds, seed=seed + v, model=model)
             log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
                 f"{m} {res['methods'][m]['measured']['peak_torque_projected']['mean']:.2f}" for m in methods))
             per_tool.append(res)
@@ -134,6 +134,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--methods", default=",".join(DEFAULT_METHODS))
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 16 candidates, 1 seed, 3 methods")
     ap.add_argument("--out", default="results/table1")
     a = ap.parse_args(argv)
@@ -143,12 +144,18 @@ def main(argv=None) -> dict:
     methods = tuple(m for m in a.methods.split(",") if m)
     os.makedirs(a.out, exist_ok=True)
     t0 = time.perf_counter()
-    res = run(tasks, a.tools_per_task, a.n, a.seeds, methods, a.seed)
+    model = None
+    if a.model is not None:
+        from itup_jax.sdgnet import load_model
+
+        model = load_model(a.model)  # a bad path or file fails here, before any rollout
+    res = run(tasks, a.tools_per_task, a.n, a.seeds, methods, a.seed, model=model)
     from itup_jax.bench import machine_info
 
     out = {"schema": "itup.table1/1", "experiment": "table1", "quick": a.quick,
            "config": {"tasks": tasks, "tools_per_task": a.tools_per_task, "n": a.n, "seeds": a.seeds,
-                      "methods": list(methods), "seed": a.seed, "measured": list(MEASURED)},
+                      "methods": list(methods), "seed": a.seed, "measured": list(MEASURED),
+                      "model": a.model or "shipped default"},
            "paper": PAPER, "paper_note": "the paper's per-cell Table I values are not in this repository; "
                                          "its headline figures are",
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info(), **res}

@@ -91,8 +91,9 @@ def cmd_plan(args) -> int:
             "q_tool_grasp_wxyz": np.asarray(grasps.q_tool_grasp[i], float).round(6).tolist(),
             "width_m": round(float(grasps.width[i]), 6),
             "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
-            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure")
-                      if hasattr(costs, k)},
+            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
+                                                                          "p_success")
+                      if getattr(costs, k, None) is not None},
         }
 
     result = {
@@ -114,11 +115,13 @@ def cmd_plan(args) -> int:
     # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
     # (N m, m, rad); the baselines' scores are dimensionless
     units = {"analytic": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad")}.get(args.scorer, ("", "", ""))
-    print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} {'C':>9}  "
-          "grasp origin (tool frame, m)")
+    p_task = getattr(costs, "p_success", None) is not None  # SDG-Net with a success head: P(task achieved)
+    print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
+          + (f"{'P(task)':>7} " if p_task else "") + f"{'C':>9}  grasp origin (tool frame, m)")
     for rank, i in enumerate(order):
         c = result["top"][rank]["costs"]
-        print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} {c['total']:>9.3f}  "
+        print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
+              + (f"{c['p_success']:>7.2f} " if p_task else "") + f"{c['total']:>9.3f}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
     s = result["summary"]
     print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
@@ -164,8 +167,8 @@ def cmd_train(args) -> int:
 
     hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
     # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
-    recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale).items()
-              if v is not None}
+    recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
+                                    success_weight=args.success_weight).items() if v is not None}
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
     data, manifests = load_datasets(args.data)
@@ -175,7 +178,8 @@ def cmd_train(args) -> int:
     model.spec["datasets"] = datasets
     model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
     save_model(args.out, model)
-    print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE), "
+    print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
+          f"{' + weighted success cross-entropy' if model.has_success_head else ''}), "
           f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
     return 0
 
@@ -413,6 +417,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="AdamW's decoupled weight decay, per step w -= lr * wd * w (default: TrainConfig's)")
     tr.add_argument("--torque-scale", type=float, default=None,
                     help="N m; the torque target is log1p(tau / scale) (default: TrainConfig's)")
+    tr.add_argument("--success-weight", type=float, default=None,
+                    help="weight of the task-success head's cross-entropy; 0: no success head (default: TrainConfig's)")
     tr.add_argument("--epochs", type=int, default=200)
     tr.add_argument("--batch", type=int, default=128)
     tr.add_argument("--lr", type=float, default=2e-3)

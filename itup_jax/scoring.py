@@ -28,35 +28,53 @@ from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
 
+#: Weight of SDG-Net's predicted task-failure probability in the total (N m of torque per unit).
+W_TASK = 3.0
+
 
 @dataclasses.dataclass(frozen=True)
 class ScoreWeights:
     """Weights of the SDG-Net total: its costs are measured quantities (N m, m, rad), so 1 cm of slip
-    weighs like 1 N m of torque and 0.1 rad of drift (a stated choice; the experiments tune it)."""
+    weighs like 1 N m of torque and 0.1 rad of drift (a stated choice; the experiments tune it). With a
+    success head, the predicted probability that the grasp fails the task adds w_task x (1 - p_success):
+    a sure miss weighs like W_TASK N m of torque (chosen on held-out tools: models/README.md)."""
 
     w_tau: float = 1.0  # 1/(N m)
     w_slip: float = 100.0  # 1/m
     w_align: float = 10.0  # 1/rad
+    w_task: float = W_TASK  # per unit of failure probability
+
+    def array(self, dtype=jnp.float32) -> jax.Array:
+        return jnp.asarray([self.w_tau, self.w_slip, self.w_align, self.w_task], dtype)
+
+
+def sdgnet_total(costs, p_success, weights):
+    """[N] total of SDG-Net's predictions: costs [N, 3] (N m, m, rad) . weights[:3], plus weights[3] x
+    (1 - p_success) when the model predicts success (p_success [N]; None: no task term). Pure."""
+    total = costs @ weights[:3]
+    return total if p_success is None else total + weights[3] * (1.0 - p_success)
 
 
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class Scores:
-    """Per-grasp scores, each [N]; lower is better. `scorer` (static) says which model made them."""
+    """Per-grasp scores, each [N]; lower is better. `scorer` (static) says which model made them.
+    p_success: SDG-Net's predicted probability that the grasp achieves the task (None where the
+    scorer does not predict it)."""
 
     tau: jax.Array
     slip: jax.Array
     align: jax.Array
     total: jax.Array
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
+    p_success: jax.Array | None = None
 
 
 def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, weights, spec):
     loads = task_loads(tool_params, task)
     feats = _batched(field, loads, tool_params, grasps, spec)
-    y = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
-    tau, slip, align = y[:, 0], y[:, 1], y[:, 2]
-    return tau, slip, align, weights[0] * tau + weights[1] * slip + weights[2] * align
+    y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
+    return y[:, 0], y[:, 1], y[:, 2], sdgnet_total(y, p, weights), p
 
 
 #: The one jit of SDG-Net scoring (the outer call).
@@ -77,7 +95,7 @@ def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: 
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
     args = (per_tool[spec], tool.params, task, grasps, params,
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
-            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), jnp.asarray([weights.w_tau, weights.w_slip, weights.w_align], dt))
+            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.array(dt))
     return args, {"spec": spec}
 
 
@@ -102,8 +120,8 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
     args, kw = _sdgnet_args(tool, task, grasps, model, weights)
-    out = sdgnet_scores_jit(*args, **kw)
-    return Scores(*out, scorer="sdgnet")
+    tau, slip, align, total, p = sdgnet_scores_jit(*args, **kw)
+    return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet", p_success=p)
 
 
 def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> Scores:

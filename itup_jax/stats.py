@@ -1,6 +1,7 @@
 """Statistics the experiments share (host-side NumPy/SciPy; nothing here is differentiated).
 
     spearman(a, b)                        rank correlation, NaN when either side has no ranking
+    roc_auc(score, label)                 P(a positive's score > a negative's), ties count half
     failure_threshold(torque, failed)     logistic fit of P(fail | peak torque); the 50 % torque
     binned_rate(x, flag, bins)            empirical rate per equal-count bin with Wilson intervals
 """
@@ -10,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import expit, log_expit
-from scipy.stats import spearmanr
+from scipy.stats import mannwhitneyu, spearmanr
 
 from itup_jax.errors import InputError
 
@@ -24,6 +25,20 @@ def spearman(a, b) -> float:
     if len(a) < 3 or np.ptp(a) <= 1e-12 * max(1.0, np.abs(a).max()) or np.ptp(b) <= 1e-12 * max(1.0, np.abs(b).max()):
         return float("nan")
     return float(spearmanr(a, b).statistic)
+
+
+def roc_auc(score, label) -> float:
+    """Area under the ROC curve of `score` [N] for the boolean `label` [N]: the probability that a random
+    positive scores above a random negative, ties counting half (the Mann-Whitney U statistic over
+    n_pos x n_neg). NaN when either class is empty (no pair to order)."""
+    score, label = np.asarray(score, float), np.asarray(label)
+    if score.shape != label.shape or score.ndim != 1:
+        raise InputError(f"roc_auc: need [N] scores and [N] labels, got {score.shape} and {label.shape}")
+    label = label.astype(bool)
+    pos, neg = score[label], score[~label]
+    if len(pos) == 0 or len(neg) == 0:
+        return float("nan")
+    return float(mannwhitneyu(pos, neg).statistic / (len(pos) * len(neg)))
 
 
 def _logistic_mle(x: np.ndarray, y: np.ndarray) -> np.ndarray:

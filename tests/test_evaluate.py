@@ -195,6 +195,17 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     retest = [r for r in rows if "regret_retest_projected" in r]
     assert retest and all(r["regret_retest_projected"] >= 0 and 0 <= r["percentile_retest_projected"] <= 1
                           and r["regret_sdgnet_same_rows_projected"] >= 0 for r in retest)
+    # the task: the quick model has a success head; every row judges both picks against the task
+    assert doc["success_head"] and doc["weights"]["w_task"] > 0
+    assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
+    # the redraws were kept: a second run on the same test set reads them instead of simulating again
+    assert (tmp_path / "redraws.npz").exists()
+    fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))
+    from itup_jax.sdgnet import load_model
+
+    again = fid["evaluate"](load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
+                            cache=str(tmp_path / "redraws.npz"))
+    assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
 
 
 def test_fidelity_pick_stats_closed_form():
@@ -205,6 +216,16 @@ def test_fidelity_pick_stats_closed_form():
     assert s["over_p10"] == pytest.approx(9.0 / np.percentile(y, 10) - 1)
     best = pick_stats(y, y)  # a scorer that knows the draw picks its minimum: no regret, percentile 0
     assert best["regret"] == 0 and best["percentile"] == 0
+
+
+def test_fidelity_task_pick_stats_closed_form():
+    task_pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["task_pick_stats"]
+    y = np.array([0.1, 2.0, 3.0, 0.5, 4.0])
+    ok = np.array([False, True, True, False, True])  # the two lowest torques did not do the task
+    s = task_pick_stats(y, ok, np.array([5.0, 4.0, 1.0, 3.0, 2.0]))  # picks y = 3, the best that did it is 2
+    assert s == {"success": 1.0, "task_regret": pytest.approx(0.5)}
+    miss = task_pick_stats(y, ok, y)  # the torque-only pick: the lowest torque, which missed the task
+    assert miss["success"] == 0.0 and np.isnan(miss["task_regret"])
 
 
 def test_torque_failure_quick(tmp_path, monkeypatch):

@@ -70,6 +70,33 @@ def test_loss_gradient_matches_finite_differences(rng):
     np.testing.assert_allclose(g, fd, rtol=FD_RTOL, atol=1e-8)
 
 
+def test_sdgnet_loss_is_sse_plus_weighted_cross_entropy_and_its_gradient_matches_fd(rng):
+    """sdgnet.training_loss: with a network whose outputs are known (zero last-layer weights, biases
+    b), SSE = sum (b_k - y_k)^2 and the success term = -log sigma(+-b_3); its gradient (float64) matches
+    central finite differences in every first-layer weight."""
+    from itup_jax.sdgnet import training_loss
+
+    params = mlp.init(jax.random.key(3), [4, 8, 4])
+    x, y = jnp.asarray(rng.normal(size=(6, 4))), jnp.asarray(rng.normal(size=(6, 3)))
+    s = jnp.asarray([1.0, 0.0, 1.0, 1.0, 0.0, 0.0])
+    b = jnp.asarray([0.3, -0.2, 0.5, 1.7])
+    const = [params[0], (jnp.zeros((8, 4)), b)]
+    sse = np.mean(np.sum((np.asarray(b[:3]) - np.asarray(y)) ** 2, axis=1))
+    bce = np.mean(np.where(np.asarray(s) > 0, np.log1p(np.exp(-1.7)), np.log1p(np.exp(1.7))))
+    assert float(training_loss(const, x, y, s, 2.5)) == pytest.approx(sse + 2.5 * bce, rel=1e-12)
+    three = [params[0], (jnp.zeros((8, 3)), b[:3])]  # no success head: the paper's loss alone
+    assert float(training_loss(three, x, y, s, 2.5)) == pytest.approx(sse, rel=1e-12)
+
+    def loss(flat):
+        return training_loss([(flat.reshape(4, 8), params[0][1]), params[1]], x, y, s, 2.5)
+
+    w = params[0][0].ravel()
+    g = np.asarray(jax.grad(loss)(w))
+    fd = np.array([(float(loss(w.at[i].add(FD_STEP))) - float(loss(w.at[i].add(-FD_STEP)))) / (2 * FD_STEP)
+                   for i in range(w.size)])
+    np.testing.assert_allclose(g, fd, rtol=FD_RTOL, atol=1e-8)
+
+
 def test_training_on_a_synthetic_problem_lowers_the_loss_tenfold(rng):
     x = rng.uniform(-1, 1, size=(256, 3))
     y = np.stack([np.sin(2 * x[:, 0]) + x[:, 1] * x[:, 2], x[:, 0] ** 2 - 0.5 * x[:, 1]], axis=1)

@@ -7,7 +7,7 @@ import pytest
 
 import itup_jax as itup
 from itup_jax.scoring import sdgnet_scores_jit
-from itup_jax.sdgnet import TARGETS, TrainConfig, load_model, save_model, train
+from itup_jax.sdgnet import SUCCESS_TARGET, TARGETS, TrainConfig, load_model, save_model, train
 
 
 def _synthetic(n=400, f=12, seed=0):
@@ -16,6 +16,7 @@ def _synthetic(n=400, f=12, seed=0):
     raw = np.stack([np.exp(0.5 * X[:, 0]), 1e-3 * np.exp(X[:, 1] - X[:, 2]), 0.1 * (1 + np.tanh(X[:, 3]))], 1)
     data = {"features": X, "task": np.array(["hammer"] * n), "tool_id": np.arange(n) % 8}
     data.update({t: raw[:, i] for i, t in enumerate(TARGETS)})
+    data[SUCCESS_TARGET] = X[:, 4] + 0.3 * X[:, 5] > 0  # the task succeeds on one side of a plane
     return data
 
 
@@ -155,3 +156,51 @@ def test_a_feature_constant_in_training_is_not_blown_up():
     model = train(data, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *_: None)
     assert model.spec["x_std"][5] == 1.0 and model.spec["x_mean"][5] == pytest.approx(3.0)
     assert all(s > 0.5 for i, s in enumerate(model.spec["x_std"]) if i != 5)  # the others are scaled by their spread
+
+
+def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure(tasks, tmp_path):
+    """The 4th output learns P(success) (held-out AUC on a separable synthetic task), travels with the
+    checkpoint, and the scorer's total is the costs' weighted sum plus w_task x (1 - p_success)."""
+    from itup_jax.scoring import ScoreWeights
+    from itup_jax.sdgnet import predict_costs
+    from itup_jax.stats import roc_auc
+
+    data = _synthetic(n=800)
+    model = train(data, TrainConfig(hidden=(32, 32), epochs=150, patience=150, lr=3e-3), progress=False,
+                  log=lambda *a: None)
+    assert model.has_success_head and model.params[-1][0].shape[1] == len(TARGETS) + 1
+    test = _synthetic(n=400, seed=7)
+    p = np.asarray(predict_costs(model, test["features"])["p_success"])
+    assert np.all((p >= 0) & (p <= 1)) and roc_auc(p, test[SUCCESS_TARGET]) > 0.95
+    path = str(tmp_path / "m.npz")
+    save_model(path, model)
+    back = load_model(path)
+    assert back.has_success_head and back.spec["success_target"] == SUCCESS_TARGET
+    # a spec that disagrees with the network's outputs is refused
+    save_model(str(tmp_path / "bad.npz"), dataclasses.replace(model, spec=dict(model.spec, success_head=False)))
+    with pytest.raises(itup.InputError, match="outputs"):
+        load_model(str(tmp_path / "bad.npz"))
+    # without the head: three outputs and no task term (as every checkpoint before it)
+    plain = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0), progress=False, log=lambda *a: None)
+    assert not plain.has_success_head and "p_success" not in predict_costs(plain, test["features"][:3])
+    with pytest.raises(itup.InputError, match="success_weight"):
+        TrainConfig(success_weight=-1.0)
+    no_labels = {k: v for k, v in data.items() if k != SUCCESS_TARGET}
+    with pytest.raises(itup.InputError, match=SUCCESS_TARGET):
+        train(no_labels, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *a: None)
+    # the scorer (on a real tool, with the shipped features): total = w . costs + w_task (1 - p)
+    from itup_jax.features import FeatureSpec
+
+    spec = FeatureSpec()
+    real = train(_synthetic(f=spec.size), TrainConfig(hidden=(16,), epochs=5), feature_spec=spec.to_dict(),
+                 progress=False, log=lambda *a: None)
+    tool, task = tasks["reach"]
+    g = itup.sample_grasps(tool, 16, seed=0)
+    w = ScoreWeights(w_task=7.0)
+    s = itup.score(tool, task, g, model=real, weights=w)
+    pr = np.asarray(s.p_success)
+    expect = (w.w_tau * np.asarray(s.tau) + w.w_slip * np.asarray(s.slip) + w.w_align * np.asarray(s.align)
+              + w.w_task * (1 - pr))
+    np.testing.assert_allclose(np.asarray(s.total), expect, rtol=1e-5, atol=1e-5)
+    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0))
+    np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - pr), rtol=1e-5, atol=1e-5)

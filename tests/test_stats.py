@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from itup_jax.errors import InputError
-from itup_jax.stats import binned_rate, failure_threshold, spearman
+from itup_jax.stats import binned_rate, failure_threshold, roc_auc, spearman
 
 
 def test_spearman_is_rank_invariant_and_nan_without_ranking():
@@ -16,6 +16,20 @@ def test_spearman_is_rank_invariant_and_nan_without_ranking():
     assert np.isnan(spearman(x[:2], x[:2]))
     with pytest.raises(InputError, match="spearman"):
         spearman(x, x[:10])
+
+
+def test_roc_auc_counts_ordered_pairs_and_ties_half():
+    # positives {3, 1}, negatives {2, 0, 1}: pairs (pos > neg) 3>2, 3>0, 3>1, 1>0; the tie 1=1 counts half
+    assert roc_auc([3, 2, 1, 0, 1], [1, 0, 1, 0, 0]) == pytest.approx(4.5 / 6)
+    x = np.random.default_rng(1).normal(size=200)
+    assert roc_auc(x, x > 0.3) == 1.0 and roc_auc(-x, x > 0.3) == 0.0  # perfect and reversed orderings
+    # two unit-variance Gaussians d apart: AUC = Phi(d / sqrt 2)
+    rng = np.random.default_rng(2)
+    s = np.r_[rng.normal(1.0, 1.0, 20000), rng.normal(0.0, 1.0, 20000)]
+    assert roc_auc(s, np.r_[np.ones(20000), np.zeros(20000)]) == pytest.approx(0.7602, abs=0.01)
+    assert np.isnan(roc_auc(x, np.ones(200)))  # one class only: nothing to order
+    with pytest.raises(InputError, match="roc_auc"):
+        roc_auc(x, x[:10] > 0)
 
 
 def test_logistic_threshold_recovers_a_known_50_percent_torque():
