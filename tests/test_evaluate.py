@@ -102,6 +102,8 @@ def test_every_method_picks_from_the_same_candidates(small_eval):
         assert 0 <= m["index"] < r["candidates"]["used"]
         assert len(m["rollouts"]["peak_torque"]) == 2
         assert m["valid_rollouts"] == 0 or m["measured"]["peak_torque"]["mean"] > 0
+    # the shipped SDG-Net predicts whether its pick does the task; the baselines do not
+    assert 0 <= r["methods"]["sdgnet"]["p_success"] <= 1 and r["methods"]["random"]["p_success"] is None
     jsonschema.validate({"schema": "itup.evaluate/1", **r}, load_schema("evaluate"))
 
 
