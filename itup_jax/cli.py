@@ -13,6 +13,7 @@ Bad input exits with status 2 and a message that names the problem; nothing is h
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -72,13 +73,26 @@ def cmd_plan(args) -> int:
         raise_input(f"--n must be >= 1, got {args.n}")
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
+    # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
+    # defaults for a flag left out, and a baseline has none to take
+    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task") if getattr(args, k) is not None}
+    if given and args.scorer not in ("analytic", "sdgnet"):
+        raise_input(f"--{'/--'.join(k.replace('_', '-') for k in given)}: the {args.scorer!r} scorer has no "
+                    "weights (they apply to --scorer analytic or sdgnet)")
+    if "w_task" in given and args.scorer == "analytic":
+        raise_input("--w-task weighs SDG-Net's predicted task failure; the analytic cost has no such term")
     grasps = itup.sample_grasps(tool, args.n, seed=args.seed)
-    params = itup.CostParams(w_tau=args.w_tau, w_slip=args.w_slip, w_align=args.w_align)
     if args.scorer == "analytic":
+        params = itup.CostParams(**given)
+        weights = {k: float(getattr(params, k)) for k in ("w_tau", "w_slip", "w_align")}
         costs = itup.wrench_costs(tool, task, grasps, params)
     else:
+        from itup_jax.scoring import ScoreWeights
+
+        sw = ScoreWeights(**given)
+        weights = dataclasses.asdict(sw) if args.scorer == "sdgnet" else None
         model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
-        costs = itup.score(tool, task, grasps, model=model, seed=args.seed)
+        costs = itup.score(tool, task, grasps, model=model, seed=args.seed, weights=sw)
     total = np.asarray(costs.total)
     order = np.argsort(total)[: max(1, args.top)]
     regime = itup.classify_regime(tool, task)
@@ -104,7 +118,7 @@ def cmd_plan(args) -> int:
         "n_candidates": int(args.n),
         "seed": args.seed,
         "scorer": args.scorer,
-        "weights": {"w_tau": args.w_tau, "w_slip": args.w_slip, "w_align": args.w_align},
+        "weights": weights,
         "best": row(order[0]),
         "top": [row(i) for i in order],
         "summary": {k: {"min": float(np.min(getattr(costs, k))), "median": float(np.median(getattr(costs, k))),
@@ -371,9 +385,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--n", type=int, default=1000, help="grasp candidates (default 1000)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--top", type=int, default=5, help="rows to print")
-    p.add_argument("--w-tau", type=float, default=1.0, help="weight of C_tau, 1/(N m)")
-    p.add_argument("--w-slip", type=float, default=1.0, help="weight of C_s, 1/N")
-    p.add_argument("--w-align", type=float, default=1.0, help="weight of C_alpha, 1/rad")
+    p.add_argument("--w-tau", type=float, default=None, help="weight of C_tau, 1/(N m) (default 1)")
+    p.add_argument("--w-slip", type=float, default=None,
+                   help="weight of C_s: 1/N for --scorer analytic (default 1), 1/m for sdgnet (default 100)")
+    p.add_argument("--w-align", type=float, default=None,
+                   help="weight of C_alpha, 1/rad (defaults: analytic 1, sdgnet scoring.ScoreWeights)")
+    p.add_argument("--w-task", type=float, default=None,
+                   help="sdgnet: weight of the predicted task-failure probability (default scoring.W_TASK)")
     p.add_argument("--verify", type=int, default=0, help="roll the N best grasps out in MuJoCo and report")
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")

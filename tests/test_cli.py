@@ -1,5 +1,6 @@
 """The `itup` CLI end to end at tiny sizes; JSON outputs checked against their documented schema."""
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -23,6 +24,30 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     assert totals == sorted(totals) and res["best"]["costs"]["total"] == pytest.approx(res["summary"]["total"]["min"])
     assert res["regime"] == "quasi_static"
     assert "rank" in capsys.readouterr().out
+
+
+def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
+    """--w-* flags weigh the analytic cost (CostParams) or SDG-Net's total (ScoreWeights) and are recorded
+    as used; a baseline has no weights, the analytic cost no task term: both refused."""
+    runs = {}
+    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0"])):
+        out = tmp_path / f"{name}.json"
+        assert main(["plan", "--task", "knock", "--n", "40", "--top", "40", "--json", str(out)] + extra) == 0
+        runs[name] = json.loads(out.read_text())
+    from itup_jax.scoring import ScoreWeights
+
+    assert runs["default"]["weights"] == dataclasses.asdict(ScoreWeights())
+    assert runs["align"]["weights"]["w_align"] == 50 and runs["align"]["weights"]["w_task"] == 0
+    for r in runs["align"]["top"]:  # the total is the weighted sum with the given weights
+        c = r["costs"]
+        assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"], rel=1e-4, abs=1e-4)
+    out = tmp_path / "a.json"
+    assert main(["plan", "--task", "knock", "--n", "8", "--scorer", "analytic", "--w-slip", "3", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["weights"] == {"w_tau": 1.0, "w_slip": 3.0, "w_align": 1.0}
+    assert main(["plan", "--task", "knock", "--n", "8", "--scorer", "random", "--w-tau", "2"]) == 2
+    assert "no weights" in capsys.readouterr().err
+    assert main(["plan", "--task", "knock", "--n", "8", "--scorer", "analytic", "--w-task", "2"]) == 2
+    assert "w-task" in capsys.readouterr().err
 
 
 @pytest.mark.filterwarnings("ignore:.*joint-speed limit")  # a short stick swings faster for the same tip speed
