@@ -38,6 +38,7 @@ import json
 import os
 import sys
 import time
+import zipfile
 
 import numpy as np
 
@@ -80,10 +81,13 @@ def cached_redraws(test_dir: str, k: int, cache: str | None) -> dict[str, dict[s
         raw = fh.read()
     key = f"{hashlib.sha256(raw).hexdigest()}:{k}:{','.join(REDRAWN)}"
     if cache and os.path.exists(cache):
-        with np.load(cache, allow_pickle=False) as z:
-            if str(z["key"]) == key:
-                return {n[: -len("/torque")]: {f: z[n[: -len("torque")] + f] for f in REDRAWN}
-                        for n in z.files if n.endswith("/torque")}
+        try:
+            with np.load(cache, allow_pickle=False) as z:
+                if str(z["key"]) == key:
+                    return {n[: -len("/torque")]: {f: z[n[: -len("torque")] + f] for f in REDRAWN}
+                            for n in z.files if n.endswith("/torque")}
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:  # unreadable: simulate again
+            print(f"sdgnet_fidelity: ignoring the redraw cache {cache!r} ({exc})", file=sys.stderr)
     manifest = json.loads(raw)
     config = GenerateConfig.from_json(manifest["config"])
     out = {_shard_key(e): redraw_labels(config, e, load_shard(test_dir, e), k) for e in manifest["shards"]}

@@ -46,6 +46,13 @@ class ScoreWeights:
     w_align: float = 1.0  # 1/rad
     w_task: float = W_TASK  # per unit of failure probability
 
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
+                raise InputError(f"ScoreWeights: {f.name} must be a finite number >= 0 (every term is a cost "
+                                 f"to minimise), got {v!r}")
+
     def array(self, dtype=jnp.float32) -> jax.Array:
         return jnp.asarray([self.w_tau, self.w_slip, self.w_align, self.w_task], dtype)
 

@@ -208,6 +208,10 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     again = fid["evaluate"](load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
                             cache=str(tmp_path / "redraws.npz"))
     assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
+    (tmp_path / "redraws.npz").write_bytes(b"not an npz")  # a damaged cache is ignored and rebuilt
+    again = fid["evaluate"](load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
+                            cache=str(tmp_path / "redraws.npz"))
+    assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
 
 
 def test_fidelity_pick_stats_closed_form():

@@ -202,5 +202,7 @@ def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure
     expect = (w.w_tau * np.asarray(s.tau) + w.w_slip * np.asarray(s.slip) + w.w_align * np.asarray(s.align)
               + w.w_task * (1 - pr))
     np.testing.assert_allclose(np.asarray(s.total), expect, rtol=1e-5, atol=1e-5)
+    with pytest.raises(itup.InputError, match="w_task"):
+        ScoreWeights(w_task=-1.0)  # a negative weight would reward predicted failure
     s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0))
     np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - pr), rtol=1e-5, atol=1e-5)
