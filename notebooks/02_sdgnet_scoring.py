@@ -120,3 +120,31 @@ print(f"{other.name}: {other.mass:.3f} kg, {N} candidates, pick at height {float
 plot_grasp_candidates(other, g_o, np.asarray(s_o.tau), f"{OUT}/02_variant_sdgnet.png", label="SDG-Net C_tau (N m)",
                       title=f"{other.name} (unseen): SDG-Net's predicted torque cost", best=i_o)
 assert np.all(np.isfinite(np.asarray(s_o.total)))
+
+# %% [markdown]
+# ## The task term
+# A grasp that carries little torque may simply not do the task (a mallet that misses the tower feels
+# no impact). The shipped network also predicts P(task achieved) (`s.p_success`, trained on the
+# labels' `success`), and the total adds `ScoreWeights.w_task` x (1 - p). Below: knock candidates, the
+# pick by predicted torque alone against the pick by the total.
+
+# %%
+mallet = itup.load_tool("mallet")
+knock = itup.make_task("knock", mallet)
+g_k = itup.sample_grasps(mallet, N, seed=2)
+s_k = itup.score(mallet, knock, g_k, model=model)
+p_k, tau_k = np.asarray(s_k.p_success), np.asarray(s_k.tau)
+i_tau, i_total = int(np.argmin(tau_k)), int(np.argmin(np.asarray(s_k.total)))
+print(f"knock, {N} candidates: predicted P(task) median {np.median(p_k):.2f}, {np.mean(p_k < 0.5):.0%} below 0.5")
+print(f"pick by C_tau alone: C_tau {tau_k[i_tau]:.2f} N m, P(task) {p_k[i_tau]:.2f}")
+print(f"pick by the total:   C_tau {tau_k[i_total]:.2f} N m, P(task) {p_k[i_total]:.2f}")
+fig, ax = plt.subplots(figsize=(5, 3.5))
+ax.scatter(tau_k, p_k, s=4, alpha=0.5)
+ax.scatter([tau_k[i_tau], tau_k[i_total]], [p_k[i_tau], p_k[i_total]], c=["C3", "C2"], s=40)
+ax.set_xscale("log")
+ax.set_xlabel("SDG-Net C_tau (N m)")
+ax.set_ylabel("predicted P(task achieved)")
+ax.set_title("knock: red = pick by C_tau, green = pick by the total")
+fig.tight_layout()
+fig.savefig(f"{OUT}/02_knock_task_term.png", dpi=90)
+assert np.all((p_k >= 0) & (p_k <= 1)) and p_k[i_total] >= p_k[i_tau]
