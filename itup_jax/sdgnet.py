@@ -155,7 +155,7 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
                        log=lambda msg, kind=kind: log(f"{kind}: {msg}"))
         by_task[kind] = {"layers": [len(params), len(params) + len(m.params)],
                          **{k: m.spec[k] for k in ("x_mean", "x_std", "y_mean", "y_std", "best_epoch",
-                                                   "best_val_loss", "n_train", "n_val", "history")
+                                                   "best_val_loss", "n_train", "n_val", "history", "val_metrics")
                             if k in m.spec}}
         params += m.params
     n_val = sum(e["n_val"] for e in by_task.values())
@@ -243,16 +243,35 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     if bar is not None:
         bar.close()
     wall = time.perf_counter() - t0
+    val_metrics = _validation_metrics(best[1], Xva, Yva, S[va], head)
     log(f"train: {len(history)} epochs in {wall:.1f} s, best val loss {best[0]:.4f} at epoch {best[2]} "
-        f"({int(tr.sum())} train / {int(va.sum())} validation examples, held-out tools)")
+        f"({int(tr.sum())} train / {int(va.sum())} validation examples, held-out tools)"
+        + ("; validation " + ", ".join(f"{k} {v:.3f}" for k, v in val_metrics.items()) if val_metrics else ""))
     spec = {
         "feature_spec": feature_spec or {}, "targets": list(TARGETS), "cost_names": list(COST_NAMES),
         "target_scales": list(config.target_scales), **_head_spec(config),
         "x_mean": x_mean.tolist(), "x_std": x_std.tolist(), "y_mean": y_mean.tolist(), "y_std": y_std.tolist(),
         "config": dataclasses.asdict(config), "best_epoch": best[2], "best_val_loss": best[0],
         "history": history, "train_seconds": wall, "n_train": int(tr.sum()), "n_val": int(va.sum()),
+        "val_metrics": val_metrics,
     }
     return Model(params=[(np.asarray(W), np.asarray(b)) for W, b in best[1]], spec=spec)
+
+
+def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, head: bool) -> dict:
+    """The best network on the held-out-tool rows: each target's mean squared error on the normalised
+    scale (`mse_tau`, ...; 1.0 = predicting the training mean) and, with a success head, the AUC of the
+    predicted success probability (`success_auc`, NaN when one class is missing)."""
+    if len(Xva) == 0:
+        return {}
+    from itup_jax.stats import roc_auc
+
+    pred = np.asarray(jax.vmap(mlp.apply, in_axes=(None, 0))(params, Xva), float)
+    err = ((pred[:, : len(TARGETS)] - np.asarray(Yva, float)) ** 2).mean(0)
+    out = {f"mse_{name}": float(e) for name, e in zip(COST_NAMES, err)}
+    if head:
+        out["success_auc"] = roc_auc(pred[:, len(TARGETS)], s_va > 0.5)
+    return out
 
 
 def _head_spec(config: TrainConfig) -> dict:

@@ -169,6 +169,8 @@ def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure
     model = train(data, TrainConfig(hidden=(32, 32), epochs=150, patience=150, lr=3e-3), progress=False,
                   log=lambda *a: None)
     assert model.has_success_head and model.params[-1][0].shape[1] == len(TARGETS) + 1
+    vm = model.spec["val_metrics"]  # on the held-out tools: the separable task is learned, the targets fit
+    assert vm["success_auc"] > 0.95 and all(0 <= vm[f"mse_{c}"] < 1.0 for c in ("tau", "slip", "align"))
     test = _synthetic(n=400, seed=7)
     p = np.asarray(predict_costs(model, test["features"])["p_success"])
     assert np.all((p >= 0) & (p <= 1)) and roc_auc(p, test[SUCCESS_TARGET]) > 0.95
