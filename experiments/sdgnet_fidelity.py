@@ -18,7 +18,8 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
     and its torque over the candidates' 10th percentile;
   * the task: whether the pick achieved the task (label `success`), for the pick by predicted C_tau
     alone (`tau`) and by the scorer's total (`total`: the three costs and, for a model with a
-    success head, w_task x its predicted failure probability, as `itup.best_grasp` picks); the
+    success head, w_task x its predicted probability of missing the task, and with a failure head
+    w_fail x its predicted probability of failing in the grip, as `itup.best_grasp` picks); the
     task regret = the pick's torque / the lowest torque among the candidates that achieved the task
     - 1 (NaN where the pick itself failed, so read it beside the pick's success rate); and the AUC of
     the predicted success probability, pooled per task over the held-out tools.
@@ -46,6 +47,7 @@ from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
 from itup_jax.scoring import ScoreWeights, sdgnet_total
+from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS
 from itup_jax.stats import roc_auc, spearman
 from itup_jax.sdgnet import TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.simulate import simulate
@@ -141,7 +143,6 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     with open(os.path.join(test_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
-    w = np.array([weights.w_tau, weights.w_slip, weights.w_align, weights.w_task])
     rows, pooled = [], {}
     for entry in manifest["shards"]:
         a = load_shard(test_dir, entry)
@@ -151,7 +152,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         pred = {k: np.asarray(v, float) for k, v in predict_costs(model, a["features"], entry["task"]).items()}
         pred_all = pred["tau"]
         p_success = pred.get("p_success")
-        total_all = np.asarray(sdgnet_total(np.stack([pred[c] for c in ("tau", "slip", "align")], 1), p_success, w))
+        heads = model.for_task(entry["task"]).class_heads
+        probs = (np.stack([pred[CLASS_NAMES[CLASS_TARGETS.index(h)]] for h in heads], 1) if heads else None)
+        total_all = np.asarray(sdgnet_total(np.stack([pred[c] for c in ("tau", "slip", "align")], 1), probs,
+                                            np.asarray(weights.costs()), np.asarray(weights.heads(heads))))
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}
         y_ok, s_ok = a["label_peak_torque_projected"][ok], a["label_success"][ok].astype(bool)
@@ -161,10 +165,11 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_{name}"] = v
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
-            if row["held_out"]:
-                pt = pooled.setdefault(entry["task"], ([], []))
-                pt[0].append(p_success[ok])
-                pt[1].append(s_ok)
+        for name, label in (("p_success", "label_success"), ("p_failed", "label_failed")):
+            if name in pred and row["held_out"]:  # pooled per task over the held-out tools
+                pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
+                pt[0].append(pred[name][ok])
+                pt[1].append(a[label][ok].astype(bool))
         if redraws:
             extra = extra_all[_shard_key(entry)]
             succ = _draws(ok, a["label_success"], extra["success"])
@@ -203,8 +208,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                     row[f"{stat}_{scorer}_{name}"] = v
             row[f"regret_random_{name}"] = float(y.mean() / y.min() - 1)
         rows.append(row)
-    auc = {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(pooled.items())}
-    return {"rows": rows, "test_config": manifest["config"], "success_auc_held_out": auc}
+    auc = {name: {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(by_task.items())}
+           for name, by_task in pooled.items()}
+    return {"rows": rows, "test_config": manifest["config"], "success_auc_held_out": auc.get("p_success", {}),
+            "failure_auc_held_out": auc.get("p_failed", {})}
 
 
 def _nan_stat(f, v: np.ndarray) -> float:
@@ -300,7 +307,11 @@ def main(argv=None) -> dict:
     ap.add_argument("--redraws", type=int, default=0, help="roll every test grasp out K more times under new "
                     "physics draws: retest ceiling and the mean-over-draws target")
     ap.add_argument("--w-task", type=float, default=ScoreWeights().w_task,
-                    help="weight of the predicted task-failure probability in the pick by total (default: the scorer's)")
+                    help="weight of the predicted probability of missing the task in the pick by total (default: the scorer's)")
+    ap.add_argument("--w-fail", type=float, default=ScoreWeights().w_fail,
+                    help="weight of the predicted probability of failing in the grip (default: the scorer's)")
+    ap.add_argument("--w-align", type=float, default=ScoreWeights().w_align,
+                    help="weight of the predicted alignment drift, 1/rad (default: the scorer's)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 1 redraw (for the tests)")
     ap.add_argument("--out", default="results/fidelity")
     args = ap.parse_args(argv)
@@ -333,13 +344,14 @@ def main(argv=None) -> dict:
         save_model(os.path.join(args.out, "model.npz"), model)
     else:
         model = load_model(args.model)
-    weights = ScoreWeights(w_task=args.w_task)
+    weights = ScoreWeights(w_task=args.w_task, w_fail=args.w_fail, w_align=args.w_align)
     res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights)
     summary = summarise(res["rows"])
     out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
            "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws, "goals": GOALS,
-           "success_head": model.has_success_head, "weights": dataclasses.asdict(weights), "summary": summary,
-           "success_auc_held_out": res["success_auc_held_out"], "per_tool": res["rows"], "test_config": res["test_config"]}
+           "success_head": model.has_success_head, "class_heads": model.class_heads, "weights": dataclasses.asdict(weights), "summary": summary,
+           "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
+           "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
     out["machine"] = machine_info()
@@ -363,7 +375,12 @@ def main(argv=None) -> dict:
           f"{100 * h['success_rate_candidates']['mean']:.0f}%); task regret (vs the best candidate that did it, draw 0, "
           f"picks that did it) by the total median {100 * h['task_regret_total']['median']:.0f}%"
           + (f"; success head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['success_auc_held_out'].items())}"
-             if res["success_auc_held_out"] else "; no success head"))
+             if res["success_auc_held_out"] else "; no success head")
+          + (f"; failure head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['failure_auc_held_out'].items())}"
+             if res["failure_auc_held_out"] else ""))
+    if draws:
+        print(f"the pick by the total fails in the grip in {100 * h['failed_draws_total']['mean']:.1f}% of the rollouts "
+              f"(by predicted C_tau {100 * h['failed_draws_tau']['mean']:.1f}%)")
     for t, v in h["by_task"].items():
         print(f"  {t:7s} pick success tau {100 * v['success_draws_tau' if draws else 'success_tau']:.0f}% total "
               f"{100 * v['success_draws_total' if draws else 'success_total']:.0f}% | task regret total median "

@@ -245,6 +245,7 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
         "features": spec.size,
         "hidden": [int(W.shape[1]) for W, _ in m.params[:-1]],
         "success_head": m.has_success_head,
+        "class_heads": m.class_heads,
         "dtype": "float32",
         "compile_s": round(compile_s, 3),
         "warm_ms": round(1e3 * warm_s, 3),

@@ -75,12 +75,12 @@ def cmd_plan(args) -> int:
     task = itup.make_task(args.task, tool)
     # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
     # defaults for a flag left out, and a baseline has none to take
-    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task") if getattr(args, k) is not None}
+    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail") if getattr(args, k) is not None}
     if given and args.scorer not in ("analytic", "sdgnet"):
         raise_input(f"--{'/--'.join(k.replace('_', '-') for k in given)}: the {args.scorer!r} scorer has no "
                     "weights (they apply to --scorer analytic or sdgnet)")
-    if "w_task" in given and args.scorer == "analytic":
-        raise_input("--w-task weighs SDG-Net's predicted task failure; the analytic cost has no such term")
+    if {"w_task", "w_fail"} & set(given) and args.scorer == "analytic":
+        raise_input("--w-task/--w-fail weigh SDG-Net's predicted probabilities; the analytic cost has no such terms")
     grasps = itup.sample_grasps(tool, args.n, seed=args.seed)
     if args.scorer == "analytic":
         params = itup.CostParams(**given)
@@ -106,7 +106,7 @@ def cmd_plan(args) -> int:
             "width_m": round(float(grasps.width[i]), 6),
             "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
             "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
-                                                                          "p_success")
+                                                                          "p_success", "p_failed")
                       if getattr(costs, k, None) is not None},
         }
 
@@ -130,12 +130,15 @@ def cmd_plan(args) -> int:
     # (N m, m, rad); the baselines' scores are dimensionless
     units = {"analytic": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad")}.get(args.scorer, ("", "", ""))
     p_task = getattr(costs, "p_success", None) is not None  # SDG-Net with a success head: P(task achieved)
+    p_fail = getattr(costs, "p_failed", None) is not None  # and with a failure head: P(fails in the grip)
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
-          + (f"{'P(task)':>7} " if p_task else "") + f"{'C':>9}  grasp origin (tool frame, m)")
+          + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
+          + f"{'C':>9}  grasp origin (tool frame, m)")
     for rank, i in enumerate(order):
         c = result["top"][rank]["costs"]
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
-              + (f"{c['p_success']:>7.2f} " if p_task else "") + f"{c['total']:>9.3f}  "
+              + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
+              + f"{c['total']:>9.3f}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
     s = result["summary"]
     print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
@@ -182,7 +185,8 @@ def cmd_train(args) -> int:
     hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
     # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
-                                    success_weight=args.success_weight).items() if v is not None}
+                                    success_weight=args.success_weight,
+                                    failure_weight=args.failure_weight).items() if v is not None}
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
     data, manifests = load_datasets(args.data)
@@ -193,7 +197,7 @@ def cmd_train(args) -> int:
     model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
-          f"{' + weighted success cross-entropy' if model.has_success_head else ''}), "
+          f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
           f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
     return 0
 
@@ -391,7 +395,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--w-align", type=float, default=None,
                    help="weight of C_alpha, 1/rad (defaults: analytic 1, sdgnet scoring.ScoreWeights)")
     p.add_argument("--w-task", type=float, default=None,
-                   help="sdgnet: weight of the predicted task-failure probability (default scoring.W_TASK)")
+                   help="sdgnet: weight of the predicted probability of missing the task (default scoring.W_TASK)")
+    p.add_argument("--w-fail", type=float, default=None,
+                   help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
     p.add_argument("--verify", type=int, default=0, help="roll the N best grasps out in MuJoCo and report")
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
@@ -437,6 +443,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="N m; the torque target is log1p(tau / scale) (default: TrainConfig's)")
     tr.add_argument("--success-weight", type=float, default=None,
                     help="weight of the task-success head's cross-entropy; 0: no success head (default: TrainConfig's)")
+    tr.add_argument("--failure-weight", type=float, default=None,
+                    help="weight of the grip-failure head's cross-entropy; 0: no failure head (default: TrainConfig's)")
     tr.add_argument("--epochs", type=int, default=200)
     tr.add_argument("--batch", type=int, default=128)
     tr.add_argument("--lr", type=float, default=2e-3)

@@ -57,7 +57,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
              randomize: Randomization | None = Randomization(), model: Any = None) -> dict[str, Any]:
     """Each method's pick among the same candidates and its MuJoCo-measured labels over `seeds` rollouts.
 
-    Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "score_s",
+    Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
     "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}.
     """
     unknown = [m for m in methods if m not in SCORERS]
@@ -92,6 +92,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
             "score": float(total[i]),
             # SDG-Net's predicted probability that the pick achieves the task (None: the scorer does not predict it)
             "p_success": None if s.p_success is None else float(np.asarray(s.p_success)[i]),
+            "p_failed": None if s.p_failed is None else float(np.asarray(s.p_failed)[i]),
             "score_s": round(dt, 4),
             "valid_rollouts": int(L.valid.sum()),
             "measured": {f: _summary(v) for f, v in rollouts.items()},

@@ -23,29 +23,32 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.sdgnet import Model, load_model, predict_from_features
+from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, Model, load_model, predict_from_features
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
 
-#: Weight of SDG-Net's predicted task-failure probability in the total (N m of torque per unit).
+#: Weights of SDG-Net's predicted probabilities in the total (N m of torque per unit): that the grasp
+#: misses the task (1 - p_success) and that it fails in the grip (p_failed).
 W_TASK = 10.0
+W_FAIL = 10.0
 
 
 @dataclasses.dataclass(frozen=True)
 class ScoreWeights:
     """Weights of the SDG-Net total: its costs are measured quantities (N m, m, rad), so 1 cm of slip
     weighs like 1 N m of torque and like 1 rad of drift. With a success head, the predicted probability
-    that the grasp fails the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
-    torque. w_align and w_task were chosen on two validation sets of unseen tools (152 tools; session 7,
-    models/README.md): against w_align 10 (sessions 2-6), the picks carry 17-39 % less torque at the
-    same task success, but some knock picks fail (slip or turn in the grip) where w_align 10 picks do
-    not: ScoreWeights(w_align=10.0) is the safer, higher-torque choice (README, Table I)."""
+    that the grasp misses the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
+    torque; with a failure head, w_fail x p_failed (slip over 1 cm or a turn over 10 degrees in the
+    grip). w_align, w_task and w_fail were chosen on two validation sets of unseen tools (152 tools;
+    session 7, README): against w_align 10 and no failure term (sessions 2-6) the picks carry 15-27 %
+    less torque, with full task success and no grip failure on the validation and test sets."""
 
     w_tau: float = 1.0  # 1/(N m)
     w_slip: float = 100.0  # 1/m
     w_align: float = 1.0  # 1/rad
-    w_task: float = W_TASK  # per unit of failure probability
+    w_task: float = W_TASK  # per unit of probability of missing the task
+    w_fail: float = W_FAIL  # per unit of probability of failing in the grip
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -54,23 +57,32 @@ class ScoreWeights:
                 raise InputError(f"ScoreWeights: {f.name} must be a finite number >= 0 (every term is a cost "
                                  f"to minimise), got {v!r}")
 
-    def array(self, dtype=jnp.float32) -> jax.Array:
-        return jnp.asarray([self.w_tau, self.w_slip, self.w_align, self.w_task], dtype)
+    def costs(self, dtype=jnp.float32) -> jax.Array:
+        """[3] weights of (C_tau, C_s, C_alpha)."""
+        return jnp.asarray([self.w_tau, self.w_slip, self.w_align], dtype)
+
+    def heads(self, class_heads, dtype=jnp.float32) -> jax.Array:
+        """[K, 2] (a, b) per binary head of a model (`Model.class_heads`): its term is a + b p. Success:
+        w_task (1 - p); failure: w_fail p."""
+        coef = {"label_success": (self.w_task, -self.w_task), "label_failed": (0.0, self.w_fail)}
+        return jnp.asarray([coef[h] for h in class_heads], dtype).reshape(len(class_heads), 2)
 
 
-def sdgnet_total(costs, p_success, weights):
-    """[N] total of SDG-Net's predictions: costs [N, 3] (N m, m, rad) . weights[:3], plus weights[3] x
-    (1 - p_success) when the model predicts success (p_success [N]; None: no task term). Pure."""
-    total = costs @ weights[:3]
-    return total if p_success is None else total + weights[3] * (1.0 - p_success)
+def sdgnet_total(costs, probs, w_costs, head_coef):
+    """[N] total of SDG-Net's predictions: costs [N, 3] (N m, m, rad) . w_costs [3], plus, per binary
+    head k, head_coef[k, 0] + head_coef[k, 1] x probs[:, k] (probs [N, K]; None: no heads). Pure."""
+    total = costs @ w_costs
+    if probs is None:
+        return total
+    return total + jnp.sum(head_coef[:, 0] + head_coef[:, 1] * probs, axis=-1)
 
 
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class Scores:
     """Per-grasp scores, each [N]; lower is better. `scorer` (static) says which model made them.
-    p_success: SDG-Net's predicted probability that the grasp achieves the task (None where the
-    scorer does not predict it)."""
+    p_success / p_failed: SDG-Net's predicted probability that the grasp achieves the task / fails in the
+    grip (None where the scorer does not predict it)."""
 
     tau: jax.Array
     slip: jax.Array
@@ -78,13 +90,15 @@ class Scores:
     total: jax.Array
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
     p_success: jax.Array | None = None
+    p_failed: jax.Array | None = None
 
 
-def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, weights, spec):
+def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, w_costs,
+                   head_coef, spec):
     loads = task_loads(tool_params, task)
     feats = _batched(field, loads, tool_params, grasps, spec)
     y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
-    return y[:, 0], y[:, 1], y[:, 2], sdgnet_total(y, p, weights), p
+    return y[:, 0], y[:, 1], y[:, 2], sdgnet_total(y, p, w_costs, head_coef), p
 
 
 #: The one jit of SDG-Net scoring (the outer call).
@@ -105,7 +119,8 @@ def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: 
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
     args = (per_tool[spec], tool.params, task, grasps, params,
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
-            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.array(dt))
+            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.costs(dt),
+            weights.heads(model.class_heads, dt))
     return args, {"spec": spec}
 
 
@@ -131,7 +146,9 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
     args, kw = _sdgnet_args(tool, task, grasps, model, weights)
     tau, slip, align, total, p = sdgnet_scores_jit(*args, **kw)
-    return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet", p_success=p)
+    heads = model.for_task(task.kind).class_heads
+    probs = {name: p[:, heads.index(label)] for label, name in zip(CLASS_TARGETS, CLASS_NAMES) if label in heads}
+    return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet", **probs)
 
 
 def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> Scores:

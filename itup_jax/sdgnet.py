@@ -3,11 +3,13 @@
 The network (`mlp.py`) maps a grasp's features (`features.py`) to the MuJoCo-measured counterparts of
 the three costs — C_tau: peak wrist torque perpendicular to the jaw axis (N m), C_s: slip of the tool in
 the grasp (m), C_alpha: alignment drift (rad) — trained with the sum of squared errors on normalised
-targets (the paper's loss), plus (with `TrainConfig.success_weight` > 0, the default) a fourth output:
-the logit of the probability that the rollout achieves the task (the labels' `success`: nail driven,
-debris past the line, tower knocked, block moved), trained with binary cross-entropy. A cost of torque
-alone is lowest for grasps that do not do the task (a mallet that misses the tower carries no impact
-torque); the scorer penalises the predicted failure probability (`scoring.ScoreWeights.w_task`).
+targets (the paper's loss), plus binary heads trained with cross-entropy (`CLASS_TARGETS`; each present
+when its `TrainConfig` weight is > 0, both by default): the logit of the probability that the rollout
+achieves the task (the labels' `success`: nail driven, debris past the line, tower knocked, block
+moved) and of the probability that the grasp fails (`failed`: slip over 1 cm, a turn in the grip over
+10 degrees, or the tool lost). A cost of torque alone is lowest for grasps that do not do the task (a
+mallet that misses the tower carries no impact torque); the scorer penalises both predicted
+probabilities (`scoring.ScoreWeights.w_task`, `w_fail`).
 Train/validation split by tool (held-out tools), our own AdamW, minibatches scanned inside one jitted
 epoch, early stopping on the validation loss.
 
@@ -38,8 +40,11 @@ TARGETS = ("label_peak_torque_projected", "label_slip_translation", "label_align
 #: stored in the checkpoint and its predictions are mapped back with them by scale * expm1.
 TARGET_SCALES = (0.02, 1e-3, 0.1)
 COST_NAMES = ("tau", "slip", "align")
-#: The label of the success head (bool per rollout; `simulate.Labels.success`).
-SUCCESS_TARGET = "label_success"
+#: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`), in the order
+#: of their outputs after the three costs, and the names their probabilities go by.
+CLASS_TARGETS = ("label_success", "label_failed")
+CLASS_NAMES = ("p_success", "p_failed")
+SUCCESS_TARGET = CLASS_TARGETS[0]
 DEFAULT_MODEL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "models", "sdgnet_default.npz")
 
 
@@ -57,16 +62,24 @@ class TrainConfig:
     # N m: the torque target is log1p(tau / torque_scale). 0.02 (about the smallest peaks measured) ranks
     # held-out grasps better than 1 N m (Spearman +0.02; models/README.md); its picks need the success head
     torque_scale: float = 0.02
-    # weight of the success head's binary cross-entropy in the loss; 0: no success head (3 outputs, the
-    # paper's loss alone, as every checkpoint before session 7). 0.3 ranks torque better than 1.0 at the
-    # same success AUC (models/README.md)
+    # weights of the binary heads' cross-entropy in the loss (task success, grasp failure); 0: no such
+    # head (both 0: 3 outputs, the paper's loss alone, as every checkpoint before session 7). 0.3 ranks
+    # torque better than 1.0 at the same success AUC (models/README.md)
     success_weight: float = 0.3
+    failure_weight: float = 0.3
 
     def __post_init__(self):
         if not self.torque_scale > 0:
             raise InputError(f"train: torque_scale must be > 0 N m, got {self.torque_scale!r}")
-        if not self.success_weight >= 0:
-            raise InputError(f"train: success_weight must be >= 0, got {self.success_weight!r}")
+        for name in ("success_weight", "failure_weight"):
+            if not getattr(self, name) >= 0:
+                raise InputError(f"train: {name} must be >= 0, got {getattr(self, name)!r}")
+
+    @property
+    def class_weights(self) -> dict:
+        """{label: cross-entropy weight} of the binary heads the network gets, in output order."""
+        w = dict(zip(CLASS_TARGETS, (self.success_weight, self.failure_weight)))
+        return {k: v for k, v in w.items() if v > 0}
 
     @property
     def target_scales(self) -> tuple:
@@ -85,9 +98,17 @@ class Model:
         return FeatureSpec(**self.spec["feature_spec"])
 
     @property
+    def class_heads(self) -> list[str]:
+        """Labels of the binary heads, in output order after the three costs (checkpoints of session 7's
+        first commits say `success_head` instead)."""
+        if "class_heads" in self.spec:
+            return list(self.spec["class_heads"])
+        return [SUCCESS_TARGET] if self.spec.get("success_head") else []
+
+    @property
     def has_success_head(self) -> bool:
-        """Whether the network also predicts the probability of task success (a 4th output)."""
-        return bool(self.spec.get("success_head", False))
+        """Whether the network also predicts the probability of task success."""
+        return SUCCESS_TARGET in self.class_heads
 
     @property
     def tasks(self) -> list[str] | None:
@@ -109,16 +130,16 @@ class Model:
         return Model(params=self.params[lo:hi], spec=spec)
 
 
-def training_loss(params, x, y, s, success_weight):
+def training_loss(params, x, y, s, class_weights):
     """SDG-Net's training loss on a minibatch, mean over examples: the sum of squared errors of the first
-    three outputs against the normalised targets y [B, 3] (the paper's loss), plus `success_weight` x the
-    binary cross-entropy of the fourth output (a logit) against the success labels s [B] in {0, 1} when
-    the network has one. x: [B, F] normalised features."""
+    three outputs against the normalised targets y [B, 3] (the paper's loss), plus, for each binary head
+    k, class_weights[k] x the binary cross-entropy of output 3 + k (a logit) against its labels s[:, k]
+    in {0, 1}. x: [B, F] normalised features; s: [B, K]; class_weights: [K] (K = 0: no heads)."""
     pred = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x)
     out = jnp.mean(jnp.sum((pred[:, : y.shape[1]] - y) ** 2, axis=1))
-    if pred.shape[1] > y.shape[1]:  # static: the success head's logit; softplus(z) - s z = -log p(s | z)
-        z = pred[:, y.shape[1]]
-        out = out + success_weight * jnp.mean(jax.nn.softplus(z) - s * z)
+    if pred.shape[1] > y.shape[1]:  # static: the heads' logits; softplus(z) - s z = -log p(s | z)
+        z = pred[:, y.shape[1]:]
+        out = out + jnp.mean(jnp.sum(class_weights * (jax.nn.softplus(z) - s * z), axis=1))
     return out
 
 
@@ -176,11 +197,13 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     X = np.asarray(data["features"], np.float64)
     Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(config.target_scales))
     keep = np.isfinite(X).all(1) & np.isfinite(Y).all(1)
-    head = config.success_weight > 0
-    if head and SUCCESS_TARGET not in data:
-        raise InputError(f"train: success_weight > 0 needs the {SUCCESS_TARGET!r} labels, which the data lacks "
-                         f"(or train with success_weight=0)")
-    S = np.asarray(data[SUCCESS_TARGET], np.float64)[keep] if head else np.zeros(int(keep.sum()))
+    heads = config.class_weights
+    missing = [t for t in heads if t not in data]
+    if missing:
+        raise InputError(f"train: the binary heads need the {missing} labels, which the data lacks "
+                         f"(or train with their weights at 0: success_weight / failure_weight)")
+    S = np.stack([np.asarray(data[t], np.float64)[keep] for t in heads], axis=1) if heads else np.zeros((int(keep.sum()), 0))
+    class_w = jnp.asarray(list(heads.values()), jnp.float32)
     X, Y = X[keep], Y[keep]
     sub = {k: np.asarray(v)[keep] for k, v in data.items() if k in ("task", "tool_id")}
     if len(X) < 8:
@@ -199,12 +222,12 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     steps_per_epoch = max(1, n_tr // batch)
     key = jax.random.key(config.seed)
     key, k_init = jax.random.split(key)
-    params = jax.tree_util.tree_map(f32, mlp.init(k_init, [X.shape[1], *config.hidden, len(TARGETS) + int(head)]))
+    params = jax.tree_util.tree_map(f32, mlp.init(k_init, [X.shape[1], *config.hidden, len(TARGETS) + len(heads)]))
     adam = AdamConfig(lr=config.lr, weight_decay=config.weight_decay, warmup_steps=min(100, 5 * steps_per_epoch),
                       total_steps=config.epochs * steps_per_epoch)
     opt = adam_init(params)
 
-    loss_fn = lambda p, x, y, s: training_loss(p, x, y, s, config.success_weight)  # noqa: E731
+    loss_fn = lambda p, x, y, s: training_loss(p, x, y, s, class_w)  # noqa: E731
 
     @jax.jit  # the outer call: one jitted epoch (shuffle, then scan over minibatches)
     def epoch(p, s, k):
@@ -243,7 +266,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     if bar is not None:
         bar.close()
     wall = time.perf_counter() - t0
-    val_metrics = _validation_metrics(best[1], Xva, Yva, S[va], head)
+    val_metrics = _validation_metrics(best[1], Xva, Yva, S[va], list(heads))
     log(f"train: {len(history)} epochs in {wall:.1f} s, best val loss {best[0]:.4f} at epoch {best[2]} "
         f"({int(tr.sum())} train / {int(va.sum())} validation examples, held-out tools)"
         + ("; validation " + ", ".join(f"{k} {v:.3f}" for k, v in val_metrics.items()) if val_metrics else ""))
@@ -258,10 +281,10 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     return Model(params=[(np.asarray(W), np.asarray(b)) for W, b in best[1]], spec=spec)
 
 
-def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, head: bool) -> dict:
+def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list) -> dict:
     """The best network on the held-out-tool rows: each target's mean squared error on the normalised
-    scale (`mse_tau`, ...; 1.0 = predicting the training mean) and, with a success head, the AUC of the
-    predicted success probability (`success_auc`, NaN when one class is missing)."""
+    scale (`mse_tau`, ...; 1.0 = predicting the training mean) and each binary head's AUC (`auc_success`,
+    `auc_failed`; NaN when one class is missing)."""
     if len(Xva) == 0:
         return {}
     from itup_jax.stats import roc_auc
@@ -269,14 +292,13 @@ def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, head: bool) -> dict:
     pred = np.asarray(jax.vmap(mlp.apply, in_axes=(None, 0))(params, Xva), float)
     err = ((pred[:, : len(TARGETS)] - np.asarray(Yva, float)) ** 2).mean(0)
     out = {f"mse_{name}": float(e) for name, e in zip(COST_NAMES, err)}
-    if head:
-        out["success_auc"] = roc_auc(pred[:, len(TARGETS)], s_va > 0.5)
+    for k, label in enumerate(heads):
+        out[f"auc_{label.removeprefix('label_')}"] = roc_auc(pred[:, len(TARGETS) + k], s_va[:, k] > 0.5)
     return out
 
 
 def _head_spec(config: TrainConfig) -> dict:
-    return {"success_head": config.success_weight > 0,
-            **({"success_target": SUCCESS_TARGET} if config.success_weight > 0 else {})}
+    return {"class_heads": list(config.class_weights)}
 
 
 def save_model(path: str, model: Model) -> None:
@@ -292,25 +314,30 @@ def load_model(path: str | None = None) -> Model:
     if not (isinstance(scales, list) and len(scales) == len(TARGETS) and all(isinstance(v, (int, float)) and v > 0 for v in scales)):
         raise InputError(f"model {path!r}: target_scales must be {len(TARGETS)} positive numbers (the log1p(y / scale) "
                          f"of training), got {scales!r}")
-    n_out = len(TARGETS) + int(bool(spec.get("success_head", False)))
+    model = Model(params=layers, spec=spec)
+    heads = model.class_heads
+    if not set(heads) <= set(CLASS_TARGETS) or len(set(heads)) != len(heads):
+        raise InputError(f"model {path!r}: class_heads must be distinct labels among {list(CLASS_TARGETS)}, got {heads}")
+    n_out = len(TARGETS) + len(heads)
     outs = [layers[hi - 1][0].shape[-1] for hi in
             ([e["layers"][1] for e in spec["by_task"].values()] if "by_task" in spec else [len(layers)])]
     if any(o != n_out for o in outs):
-        raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec (success_head="
-                         f"{spec.get('success_head', False)}) says {n_out}")
-    return Model(params=layers, spec=spec)
+        raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec (3 costs + binary heads "
+                         f"{heads}) says {n_out}")
+    return model
 
 
 def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
-    """[N, F] features -> ([N, 3] costs in SI units, [N] probability of task success or None): normalise,
-    MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales `y_scale` [3] (N m, m,
-    rad); the success probability is the sigmoid of the 4th output, None for a network without one
-    (decided by the last layer's static shape). Pure; `predict` and the scorer's jit wrap it."""
+    """[N, F] features -> ([N, 3] costs in SI units, [N, K] probabilities of the binary heads or None):
+    normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales `y_scale` [3]
+    (N m, m, rad); the probabilities are the sigmoids of the outputs after the costs (which label each
+    is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
+    shape). Pure; `predict` and the scorer's jit wrap it."""
     x = (feats - x_mean) / x_std
     out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x)
     k = y_mean.shape[-1]
     costs = y_scale * jnp.expm1(out[:, :k] * y_std + y_mean)
-    return costs, (jax.nn.sigmoid(out[:, k]) if out.shape[1] > k else None)
+    return costs, (jax.nn.sigmoid(out[:, k:]) if out.shape[1] > k else None)
 
 
 #: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).
@@ -318,13 +345,14 @@ predict = jax.jit(predict_from_features)
 
 
 def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:
-    """{tau, slip, align} and, for a model with a success head, p_success: each [N], from features [N, F]
-    of grasps for `task` (required by a per-task model)."""
+    """{tau, slip, align} and each binary head's probability (p_success, p_failed): each [N], from
+    features [N, F] of grasps for `task` (required by a per-task model)."""
     model = model.for_task(task)
     s = model.spec
     dt = jnp.asarray(model.params[0][0]).dtype
     out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                      jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
                      jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt))
-    return {name: out[:, i] for i, name in enumerate(COST_NAMES)} | ({} if p is None else {"p_success": p})
+    names = [CLASS_NAMES[CLASS_TARGETS.index(t)] for t in model.class_heads]
+    return {name: out[:, i] for i, name in enumerate(COST_NAMES)} | {n: p[:, j] for j, n in enumerate(names)}
 

@@ -30,7 +30,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     """--w-* flags weigh the analytic cost (CostParams) or SDG-Net's total (ScoreWeights) and are recorded
     as used; a baseline has no weights, the analytic cost no task term: both refused."""
     runs = {}
-    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0"])):
+    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0", "--w-fail", "0"])):
         out = tmp_path / f"{name}.json"
         assert main(["plan", "--task", "knock", "--n", "40", "--top", "40", "--json", str(out)] + extra) == 0
         runs[name] = json.loads(out.read_text())
@@ -38,6 +38,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
 
     assert runs["default"]["weights"] == dataclasses.asdict(ScoreWeights())
     assert runs["align"]["weights"]["w_align"] == 50 and runs["align"]["weights"]["w_task"] == 0
+    assert runs["align"]["weights"]["w_fail"] == 0
     for r in runs["align"]["top"]:  # the total is the weighted sum with the given weights
         c = r["costs"]
         assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"], rel=1e-4, abs=1e-4)

@@ -104,6 +104,7 @@ def test_every_method_picks_from_the_same_candidates(small_eval):
         assert m["valid_rollouts"] == 0 or m["measured"]["peak_torque"]["mean"] > 0
     # the shipped SDG-Net predicts whether its pick does the task; the baselines do not
     assert 0 <= r["methods"]["sdgnet"]["p_success"] <= 1 and r["methods"]["random"]["p_success"] is None
+    assert 0 <= r["methods"]["sdgnet"]["p_failed"] <= 1 and r["methods"]["random"]["p_failed"] is None
     jsonschema.validate({"schema": "itup.evaluate/1", **r}, load_schema("evaluate"))
 
 
@@ -198,7 +199,7 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert retest and all(r["regret_retest_projected"] >= 0 and 0 <= r["percentile_retest_projected"] <= 1
                           and r["regret_sdgnet_same_rows_projected"] >= 0 for r in retest)
     # the task: the quick model has a success head; every row judges both picks against the task
-    assert doc["success_head"] and doc["weights"]["w_task"] > 0
+    assert doc["success_head"] and doc["weights"]["w_task"] > 0 and doc["class_heads"] == ["label_success", "label_failed"]
     assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
     # the redraws were kept: a second run on the same test set reads them instead of simulating again
     assert (tmp_path / "redraws.npz").exists()

@@ -72,23 +72,29 @@ def test_loss_gradient_matches_finite_differences(rng):
 
 def test_sdgnet_loss_is_sse_plus_weighted_cross_entropy_and_its_gradient_matches_fd(rng):
     """sdgnet.training_loss: with a network whose outputs are known (zero last-layer weights, biases
-    b), SSE = sum (b_k - y_k)^2 and the success term = -log sigma(+-b_3); its gradient (float64) matches
-    central finite differences in every first-layer weight."""
+    b), SSE = sum (b_k - y_k)^2 and each binary head adds its weight x -log sigma(+-b_{3+k}); its gradient
+    (float64) matches central finite differences in every first-layer weight."""
     from itup_jax.sdgnet import training_loss
 
-    params = mlp.init(jax.random.key(3), [4, 8, 4])
+    params = mlp.init(jax.random.key(3), [4, 8, 5])
     x, y = jnp.asarray(rng.normal(size=(6, 4))), jnp.asarray(rng.normal(size=(6, 3)))
-    s = jnp.asarray([1.0, 0.0, 1.0, 1.0, 0.0, 0.0])
-    b = jnp.asarray([0.3, -0.2, 0.5, 1.7])
-    const = [params[0], (jnp.zeros((8, 4)), b)]
+    s = jnp.asarray([[1.0, 0.0], [0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    cw = jnp.asarray([2.5, 0.5])
+    b = jnp.asarray([0.3, -0.2, 0.5, 1.7, -0.4])
+    const = [params[0], (jnp.zeros((8, 5)), b)]
     sse = np.mean(np.sum((np.asarray(b[:3]) - np.asarray(y)) ** 2, axis=1))
-    bce = np.mean(np.where(np.asarray(s) > 0, np.log1p(np.exp(-1.7)), np.log1p(np.exp(1.7))))
-    assert float(training_loss(const, x, y, s, 2.5)) == pytest.approx(sse + 2.5 * bce, rel=1e-12)
-    three = [params[0], (jnp.zeros((8, 3)), b[:3])]  # no success head: the paper's loss alone
-    assert float(training_loss(three, x, y, s, 2.5)) == pytest.approx(sse, rel=1e-12)
+
+    def bce(z, lab):  # -log sigma(z) for label 1, -log(1 - sigma(z)) for 0
+        return np.mean(np.where(lab > 0, np.log1p(np.exp(-z)), np.log1p(np.exp(z))))
+
+    S = np.asarray(s)
+    expect = sse + 2.5 * bce(1.7, S[:, 0]) + 0.5 * bce(-0.4, S[:, 1])
+    assert float(training_loss(const, x, y, s, cw)) == pytest.approx(expect, rel=1e-12)
+    three = [params[0], (jnp.zeros((8, 3)), b[:3])]  # no heads: the paper's loss alone
+    assert float(training_loss(three, x, y, s[:, :0], cw[:0])) == pytest.approx(sse, rel=1e-12)
 
     def loss(flat):
-        return training_loss([(flat.reshape(4, 8), params[0][1]), params[1]], x, y, s, 2.5)
+        return training_loss([(flat.reshape(4, 8), params[0][1]), params[1]], x, y, s, cw)
 
     w = params[0][0].ravel()
     g = np.asarray(jax.grad(loss)(w))

@@ -7,7 +7,7 @@ import pytest
 
 import itup_jax as itup
 from itup_jax.scoring import sdgnet_scores_jit
-from itup_jax.sdgnet import SUCCESS_TARGET, TARGETS, TrainConfig, load_model, save_model, train
+from itup_jax.sdgnet import CLASS_TARGETS, SUCCESS_TARGET, TARGETS, TrainConfig, load_model, save_model, train
 
 
 def _synthetic(n=400, f=12, seed=0):
@@ -17,6 +17,7 @@ def _synthetic(n=400, f=12, seed=0):
     data = {"features": X, "task": np.array(["hammer"] * n), "tool_id": np.arange(n) % 8}
     data.update({t: raw[:, i] for i, t in enumerate(TARGETS)})
     data[SUCCESS_TARGET] = X[:, 4] + 0.3 * X[:, 5] > 0  # the task succeeds on one side of a plane
+    data["label_failed"] = X[:, 6] - 0.5 * X[:, 7] > 0.5  # the grip fails on one side of another
     return data
 
 
@@ -158,9 +159,10 @@ def test_a_feature_constant_in_training_is_not_blown_up():
     assert all(s > 0.5 for i, s in enumerate(model.spec["x_std"]) if i != 5)  # the others are scaled by their spread
 
 
-def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure(tasks, tmp_path):
-    """The 4th output learns P(success) (held-out AUC on a separable synthetic task), travels with the
-    checkpoint, and the scorer's total is the costs' weighted sum plus w_task x (1 - p_success)."""
+def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(tasks, tmp_path):
+    """Outputs 4 and 5 learn P(success) and P(failed) (held-out AUC on separable synthetic labels),
+    travel with the checkpoint, and the scorer's total is the costs' weighted sum plus
+    w_task x (1 - p_success) + w_fail x p_failed."""
     from itup_jax.scoring import ScoreWeights
     from itup_jax.sdgnet import predict_costs
     from itup_jax.stats import roc_auc
@@ -168,29 +170,37 @@ def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure
     data = _synthetic(n=800)
     model = train(data, TrainConfig(hidden=(32, 32), epochs=150, patience=150, lr=3e-3), progress=False,
                   log=lambda *a: None)
-    assert model.has_success_head and model.params[-1][0].shape[1] == len(TARGETS) + 1
-    vm = model.spec["val_metrics"]  # on the held-out tools: the separable task is learned, the targets fit
-    assert vm["success_auc"] > 0.95 and all(0 <= vm[f"mse_{c}"] < 1.0 for c in ("tau", "slip", "align"))
+    assert model.class_heads == list(CLASS_TARGETS) and model.params[-1][0].shape[1] == len(TARGETS) + 2
+    vm = model.spec["val_metrics"]  # on the held-out tools: the separable labels are learned, the targets fit
+    assert vm["auc_success"] > 0.95 and vm["auc_failed"] > 0.95
+    assert all(0 <= vm[f"mse_{c}"] < 1.0 for c in ("tau", "slip", "align"))
     test = _synthetic(n=400, seed=7)
-    p = np.asarray(predict_costs(model, test["features"])["p_success"])
-    assert np.all((p >= 0) & (p <= 1)) and roc_auc(p, test[SUCCESS_TARGET]) > 0.95
+    pred = {k: np.asarray(v) for k, v in predict_costs(model, test["features"]).items()}
+    for name, label in (("p_success", SUCCESS_TARGET), ("p_failed", "label_failed")):
+        assert np.all((pred[name] >= 0) & (pred[name] <= 1)) and roc_auc(pred[name], test[label]) > 0.95
     path = str(tmp_path / "m.npz")
     save_model(path, model)
     back = load_model(path)
-    assert back.has_success_head and back.spec["success_target"] == SUCCESS_TARGET
-    # a spec that disagrees with the network's outputs is refused
-    save_model(str(tmp_path / "bad.npz"), dataclasses.replace(model, spec=dict(model.spec, success_head=False)))
-    with pytest.raises(itup.InputError, match="outputs"):
-        load_model(str(tmp_path / "bad.npz"))
-    # without the head: three outputs and no task term (as every checkpoint before it)
-    plain = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0), progress=False, log=lambda *a: None)
-    assert not plain.has_success_head and "p_success" not in predict_costs(plain, test["features"][:3])
-    with pytest.raises(itup.InputError, match="success_weight"):
-        TrainConfig(success_weight=-1.0)
-    no_labels = {k: v for k, v in data.items() if k != SUCCESS_TARGET}
-    with pytest.raises(itup.InputError, match=SUCCESS_TARGET):
+    assert back.class_heads == list(CLASS_TARGETS) and back.has_success_head
+    # a spec that disagrees with the network's outputs is refused, and so is an unknown head
+    for heads, match in (([SUCCESS_TARGET], "outputs"), (["label_lucky", "label_failed"], "class_heads")):
+        save_model(str(tmp_path / "bad.npz"), dataclasses.replace(model, spec=dict(model.spec, class_heads=heads)))
+        with pytest.raises(itup.InputError, match=match):
+            load_model(str(tmp_path / "bad.npz"))
+    # one head, or none: fewer outputs and no such term (as every checkpoint before them)
+    only_fail = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0), progress=False, log=lambda *a: None)
+    assert only_fail.class_heads == ["label_failed"] and not only_fail.has_success_head
+    assert set(predict_costs(only_fail, test["features"][:3])) == {"tau", "slip", "align", "p_failed"}
+    plain = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0), progress=False,
+                  log=lambda *a: None)
+    assert plain.class_heads == [] and set(predict_costs(plain, test["features"][:3])) == {"tau", "slip", "align"}
+    for name in ("success_weight", "failure_weight"):
+        with pytest.raises(itup.InputError, match=name):
+            TrainConfig(**{name: -1.0})
+    no_labels = {k: v for k, v in data.items() if k != "label_failed"}
+    with pytest.raises(itup.InputError, match="label_failed"):
         train(no_labels, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *a: None)
-    # the scorer (on a real tool, with the shipped features): total = w . costs + w_task (1 - p)
+    # the scorer (on a real tool, with the shipped features): total = w . costs + w_task (1 - p_s) + w_fail p_f
     from itup_jax.features import FeatureSpec
 
     spec = FeatureSpec()
@@ -198,13 +208,20 @@ def test_success_head_learns_the_task_and_the_scorer_penalises_predicted_failure
                  progress=False, log=lambda *a: None)
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 16, seed=0)
-    w = ScoreWeights(w_task=7.0)
+    w = ScoreWeights(w_task=7.0, w_fail=3.0)
     s = itup.score(tool, task, g, model=real, weights=w)
-    pr = np.asarray(s.p_success)
+    ps, pf = np.asarray(s.p_success), np.asarray(s.p_failed)
     expect = (w.w_tau * np.asarray(s.tau) + w.w_slip * np.asarray(s.slip) + w.w_align * np.asarray(s.align)
-              + w.w_task * (1 - pr))
+              + w.w_task * (1 - ps) + w.w_fail * pf)
     np.testing.assert_allclose(np.asarray(s.total), expect, rtol=1e-5, atol=1e-5)
-    with pytest.raises(itup.InputError, match="w_task"):
-        ScoreWeights(w_task=-1.0)  # a negative weight would reward predicted failure
-    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0))
-    np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - pr), rtol=1e-5, atol=1e-5)
+    for name in ("w_task", "w_fail"):
+        with pytest.raises(itup.InputError, match=name):
+            ScoreWeights(**{name: -1.0})  # a negative weight would reward a predicted miss or failure
+    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0, w_fail=0.0))
+    np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - ps) + 3.0 * pf, rtol=1e-5, atol=1e-5)
+    bare = train(_synthetic(f=spec.size), TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0),
+                 feature_spec=spec.to_dict(), progress=False, log=lambda *a: None)
+    s1 = itup.score(tool, task, g, model=bare, weights=w)  # no heads: no such fields, no such terms
+    assert s1.p_success is None and s1.p_failed is None
+    np.testing.assert_allclose(np.asarray(s1.total), w.w_tau * np.asarray(s1.tau) + w.w_slip * np.asarray(s1.slip)
+                               + w.w_align * np.asarray(s1.align), rtol=1e-5, atol=1e-5)
