@@ -125,7 +125,8 @@ assert np.all(np.isfinite(np.asarray(s_o.total)))
 # ## The task term
 # A grasp that carries little torque may simply not do the task (a mallet that misses the tower feels
 # no impact). The shipped network also predicts P(task achieved) (`s.p_success`, trained on the
-# labels' `success`), and the total adds `ScoreWeights.w_task` x (1 - p). Below: knock candidates, the
+# labels' `success`) and P(the grasp fails in the grip) (`s.p_failed`, from `failed`), and the total
+# adds `ScoreWeights.w_task` x (1 - p_success) + `w_fail` x p_failed. Below: knock candidates, the
 # pick by predicted torque alone against the pick by the total.
 
 # %%
@@ -136,8 +137,9 @@ s_k = itup.score(mallet, knock, g_k, model=model)
 p_k, tau_k = np.asarray(s_k.p_success), np.asarray(s_k.tau)
 i_tau, i_total = int(np.argmin(tau_k)), int(np.argmin(np.asarray(s_k.total)))
 print(f"knock, {N} candidates: predicted P(task) median {np.median(p_k):.2f}, {np.mean(p_k < 0.5):.0%} below 0.5")
-print(f"pick by C_tau alone: C_tau {tau_k[i_tau]:.2f} N m, P(task) {p_k[i_tau]:.2f}")
-print(f"pick by the total:   C_tau {tau_k[i_total]:.2f} N m, P(task) {p_k[i_total]:.2f}")
+pf_k = np.asarray(s_k.p_failed)
+print(f"pick by C_tau alone: C_tau {tau_k[i_tau]:.2f} N m, P(task) {p_k[i_tau]:.2f}, P(fail) {pf_k[i_tau]:.2f}")
+print(f"pick by the total:   C_tau {tau_k[i_total]:.2f} N m, P(task) {p_k[i_total]:.2f}, P(fail) {pf_k[i_total]:.2f}")
 fig, ax = plt.subplots(figsize=(5, 3.5))
 ax.scatter(tau_k, p_k, s=4, alpha=0.5)
 ax.scatter([tau_k[i_tau], tau_k[i_total]], [p_k[i_tau], p_k[i_total]], c=["C3", "C2"], s=40)
