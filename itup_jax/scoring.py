@@ -41,7 +41,7 @@ class ScoreWeights:
     that the grasp misses the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
     torque; with a failure head, w_fail x p_failed (slip over 1 cm or a turn over 10 degrees in the
     grip). w_align, w_task and w_fail were chosen on two validation sets of unseen tools (152 tools;
-    session 7, README): against w_align 10 and no failure term (sessions 2-6) the picks carry 15-27 %
+    session 7, README): against w_align 10 and no failure term (sessions 2-6) the picks carry 16-27 %
     less torque, with full task success and no grip failure on the validation and test sets."""
 
     w_tau: float = 1.0  # 1/(N m)
