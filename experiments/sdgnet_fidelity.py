@@ -47,9 +47,8 @@ from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
 from itup_jax.scoring import ScoreWeights, sdgnet_total
-from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS
+from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.stats import roc_auc, spearman
-from itup_jax.sdgnet import TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.simulate import simulate
 
 MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
@@ -149,13 +148,13 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         ok = a["label_valid"].astype(bool)
         if ok.sum() < 3:
             continue
-        pred = {k: np.asarray(v, float) for k, v in predict_costs(model, a["features"], entry["task"]).items()}
-        pred_all = pred["tau"]
-        p_success = pred.get("p_success")
-        heads = model.for_task(entry["task"]).class_heads
-        probs = (np.stack([pred[CLASS_NAMES[CLASS_TARGETS.index(h)]] for h in heads], 1) if heads else None)
-        total_all = np.asarray(sdgnet_total(np.stack([pred[c] for c in ("tau", "slip", "align")], 1), probs,
-                                            np.asarray(weights.costs()), np.asarray(weights.heads(heads))))
+        predicted = {k: np.asarray(v, float) for k, v in predict_costs(model, a["features"], entry["task"]).items()}
+        pred_all = predicted["tau"]
+        p_success = predicted.get("p_success")
+        net = model.for_task(entry["task"])
+        probs = np.stack([predicted[n] for n in net.head_names], 1) if net.head_names else None
+        total_all = np.asarray(sdgnet_total(np.stack([predicted[c] for c in ("tau", "slip", "align")], 1), probs,
+                                            np.asarray(weights.costs()), np.asarray(weights.heads(net.class_heads))))
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}
         y_ok, s_ok = a["label_peak_torque_projected"][ok], a["label_success"][ok].astype(bool)
@@ -165,10 +164,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_{name}"] = v
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
-        for name, label in (("p_success", "label_success"), ("p_failed", "label_failed")):
-            if name in pred and row["held_out"]:  # pooled per task over the held-out tools
+        for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
+            if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
                 pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
-                pt[0].append(pred[name][ok])
+                pt[0].append(predicted[name][ok])
                 pt[1].append(a[label][ok].astype(bool))
         if redraws:
             extra = extra_all[_shard_key(entry)]

@@ -244,7 +244,6 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
         "t": task.num_steps,
         "features": spec.size,
         "hidden": [int(W.shape[1]) for W, _ in m.params[:-1]],
-        "success_head": m.has_success_head,
         "class_heads": m.class_heads,
         "dtype": "float32",
         "compile_s": round(compile_s, 3),

@@ -23,7 +23,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, Model, load_model, predict_from_features
+from itup_jax.sdgnet import Model, load_model, predict_from_features
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
@@ -146,8 +146,7 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
     args, kw = _sdgnet_args(tool, task, grasps, model, weights)
     tau, slip, align, total, p = sdgnet_scores_jit(*args, **kw)
-    heads = model.for_task(task.kind).class_heads
-    probs = {name: p[:, heads.index(label)] for label, name in zip(CLASS_TARGETS, CLASS_NAMES) if label in heads}
+    probs = {name: p[:, j] for j, name in enumerate(model.for_task(task.kind).head_names)}
     return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet", **probs)
 
 

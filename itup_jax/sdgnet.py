@@ -106,6 +106,11 @@ class Model:
         return [SUCCESS_TARGET] if self.spec.get("success_head") else []
 
     @property
+    def head_names(self) -> list[str]:
+        """The probability names of the binary heads (`CLASS_NAMES`: p_success, p_failed), in output order."""
+        return [CLASS_NAMES[CLASS_TARGETS.index(t)] for t in self.class_heads]
+
+    @property
     def has_success_head(self) -> bool:
         """Whether the network also predicts the probability of task success."""
         return SUCCESS_TARGET in self.class_heads
@@ -353,6 +358,5 @@ def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str
     out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                      jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
                      jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt))
-    names = [CLASS_NAMES[CLASS_TARGETS.index(t)] for t in model.class_heads]
-    return {name: out[:, i] for i, name in enumerate(COST_NAMES)} | {n: p[:, j] for j, n in enumerate(names)}
+    return {name: out[:, i] for i, name in enumerate(COST_NAMES)} | {n: p[:, j] for j, n in enumerate(model.head_names)}
 
