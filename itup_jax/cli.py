@@ -186,7 +186,10 @@ def cmd_train(args) -> int:
     # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
                                     success_weight=args.success_weight,
-                                    failure_weight=args.failure_weight).items() if v is not None}
+                                    failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
+                                    finetune_lr=args.finetune_lr).items() if v is not None}
+    if args.per_task:  # from scratch per task: nothing shared to fine-tune
+        recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
     data, manifests = load_datasets(args.data)
@@ -450,8 +453,13 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--lr", type=float, default=2e-3)
     tr.add_argument("--patience", type=int, default=25)
     tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--finetune-epochs", type=int, default=None,
+                    help="epochs of fine-tuning a copy of the shared network on each task's rows, one network per "
+                         "task in the checkpoint; 0: the shared network alone (default: TrainConfig's, 0)")
+    tr.add_argument("--finetune-lr", type=float, default=None, help="fine-tuning's peak learning rate (default: TrainConfig's)")
     tr.add_argument("--per-task", action="store_true",
-                    help="one MLP per task (own normalisation, split and early stopping), one checkpoint")
+                    help="one MLP per task trained from scratch (own normalisation, split and early stopping), "
+                         "one checkpoint; no fine-tuning")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 

@@ -225,3 +225,46 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     assert s1.p_success is None and s1.p_failed is None
     np.testing.assert_allclose(np.asarray(s1.total), w.w_tau * np.asarray(s1.tau) + w.w_slip * np.asarray(s1.slip)
                                + w.w_align * np.asarray(s1.align), rtol=1e-5, atol=1e-5)
+
+
+def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_worse():
+    import jax
+    import jax.numpy as jnp
+
+    from itup_jax import sdgnet
+
+    a, b = _synthetic(seed=1), _synthetic(seed=2)
+    b["task"] = np.array(["reach"] * len(b["task"]))
+    b[TARGETS[0]] = np.exp(-0.5 * b["features"][:, 0])  # the reach's torque falls where the hammer's rises
+    data = {k: np.concatenate([a[k], b[k]]) for k in a}
+    cfg = TrainConfig(hidden=(16,), epochs=40, patience=40, lr=3e-3, finetune_epochs=40, finetune_lr=3e-3)
+    model = train(data, cfg, progress=False, log=lambda *_: None)
+    shared = train(data, dataclasses.replace(cfg, finetune_epochs=0), progress=False, log=lambda *_: None)
+    assert model.tasks == ["hammer", "reach"] and len(model.params) == 4
+    assert model.spec["shared"]["best_val_loss"] == shared.spec["best_val_loss"]  # the same shared network first
+    # fine-tuning keeps the shared normalisation and the shared split: every held-out row stays held out
+    for kind in model.tasks:
+        assert model.spec["by_task"][kind]["x_mean"] == shared.spec["x_mean"]
+        assert model.spec["by_task"][kind]["y_std"] == shared.spec["y_std"]
+    assert sum(e["n_val"] for e in model.spec["by_task"].values()) == shared.spec["n_val"]
+    val = sdgnet._val_tools(data, cfg.val_fraction, cfg.seed)
+    names = sdgnet._tool_names(data)
+    gains = []
+    for kind in model.tasks:
+        rows = (data["task"] == kind) & np.isin(names, list(val))
+        x = (data["features"][rows] - np.array(shared.spec["x_mean"])) / np.array(shared.spec["x_std"])
+        y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
+        y = (y - np.array(shared.spec["y_mean"])) / np.array(shared.spec["y_std"])
+        s = np.stack([data[t][rows] for t in CLASS_TARGETS], 1).astype(float)
+        f32 = lambda v: jnp.asarray(v, jnp.float32)  # noqa: E731
+        loss = lambda params: float(sdgnet.training_loss(jax.tree_util.tree_map(f32, params), f32(x), f32(y), f32(s),  # noqa: E731
+                                                          f32(list(cfg.class_weights.values()))))
+        before, after = loss(shared.params), loss(model.for_task(kind).params)
+        assert after <= before + 1e-5
+        assert model.spec["by_task"][kind]["best_val_loss"] == pytest.approx(after, rel=1e-4)
+        gains.append(before - after)
+    assert max(gains) > 0.05  # the tasks disagree: a network of their own fits the held-out rows better
+    with pytest.raises(itup.InputError, match="finetune_epochs=0 with per_task"):
+        TrainConfig(per_task=True, finetune_epochs=60)
+    with pytest.raises(itup.InputError, match="finetune_epochs"):
+        TrainConfig(finetune_epochs=-1)
