@@ -359,9 +359,9 @@ def main(argv=None) -> dict:
     h = summary.get("held_out") or summary.get("seen")
     print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, projected torque) median "
           f"{h['rho_sdgnet_projected']['median']:.2f}, raw {h['rho_sdgnet_raw']['median']:.2f}; analytic "
-          f"{h['rho_analytic_projected']['median']:.2f}; top-1 regret, median / mean over tools: SDG-Net "
+          f"{h['rho_analytic_projected']['median']:.2f}; top-1 regret, median / mean over tools: "
           + " ".join(f"{name} {100 * h[f'regret_{key}_projected']['median']:.0f}% / {100 * h[f'regret_{key}_projected']['mean']:.0f}%"
-                     for name, key in (("SDG-Net", "sdgnet"), ("analytic", "analytic"), ("random", "random"))).removeprefix("SDG-Net ")
+                     for name, key in (("SDG-Net", "sdgnet"), ("analytic", "analytic"), ("random", "random")))
           + (f"; training {train_s:.1f} s" if train_s is not None else ""))
     for t, v in h["by_task"].items():
         print(f"  {t:7s} rho sdgnet {v['rho_sdgnet_projected']:+.2f} analytic {v['rho_analytic_projected']:+.2f} | regret "

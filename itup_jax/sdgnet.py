@@ -198,11 +198,12 @@ def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict
     return _train_per_task(data, config, feature_spec=feature_spec, progress=progress, log=log, init=shared)
 
 
-def _valid_rows(data: dict, config: TrainConfig) -> np.ndarray:
-    """[N] bool: the rows a network is trained on (finite features and targets)."""
+def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Features X [N, F], targets Y [N, 3] = log1p(y / scale), and keep [N] bool: the rows a network is
+    trained on (finite features and targets)."""
     X = np.asarray(data["features"], np.float64)
     Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(config.target_scales))
-    return np.isfinite(X).all(1) & np.isfinite(Y).all(1)
+    return X, Y, np.isfinite(X).all(1) & np.isfinite(Y).all(1)
 
 
 def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log,
@@ -214,7 +215,7 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
         one, val_tools = dataclasses.replace(config, per_task=False), None
     else:
         one = dataclasses.replace(config, epochs=config.finetune_epochs, lr=config.finetune_lr, finetune_epochs=0)
-        keep = _valid_rows(data, config)
+        keep = _design(data, config)[2]
         val_tools = _val_tools({"task": task[keep], "tool_id": np.asarray(data["tool_id"])[keep]},
                                config.val_fraction, config.seed)
     params, by_task = [], {}
@@ -251,9 +252,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
                val_tools: set | None = None, init: Model | None = None) -> Model:
     """One MLP on `data`'s valid rows. `val_tools`: the held-out tools (default: drawn by `config`);
     `init`: start from this network and keep its normalisation (fine-tuning) instead of a fresh one."""
-    X = np.asarray(data["features"], np.float64)
-    Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(config.target_scales))
-    keep = _valid_rows(data, config)
+    X, Y, keep = _design(data, config)
     heads = config.class_weights
     missing = [t for t in heads if t not in data]
     if missing:
@@ -304,8 +303,9 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
         return p, s, losses.mean()
 
     val_loss = jax.jit(loss_fn)
-    # fine-tuning keeps the network it started from unless an epoch beats it on the held-out tools
-    best = (np.inf, params, 0) if init is None else (float(val_loss(params, Xva, Yva, Sva)) if len(Xva) else np.inf, params, -1)
+    best = (np.inf, params, 0)
+    if init is not None:  # fine-tuning keeps the network it started from unless an epoch beats it
+        best = (float(val_loss(params, Xva, Yva, Sva)) if len(Xva) else np.inf, params, -1)
     history = []
     bar = None
     if progress:
