@@ -5,16 +5,17 @@
     python experiments/sdgnet_scaling.py --quick --out /tmp/scaling     # tiny datasets made here (tests)
 
 For each size k (tools per task) and seed, SDG-Net is trained with the shipped checkpoint's recipe
-(`--hidden`, `--weight-decay` override it) on the first k tools of every task (tool ids in dataset
-order: the first dataset's built-in tool and variants first), and scored on the held-out tools of
---test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau and the measured
-projected peak torque; median over tools, and per task). A straight line of the median rho (mean over
-seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
-the line would reach the issue's 0.9 goal. That is an extrapolation, and the curve bends: the script
-also fits the three largest sizes alone (the local rate) and names any measured size past the line's
-crossing that is still below the goal; what bounds any prior-blind
+(`--hidden`, `--weight-decay`, `--torque-scale`, `--epochs` override it) on the first k tools of every
+task (tool ids in dataset order: the first dataset's built-in tool and variants first), and scored on
+the held-out tools of --test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau
+and the measured projected peak torque; median over tools, and per task). A straight line of the
+median rho (mean over seeds) against log2(k) gives the gain per doubling of the data and, where it
+rises, the size at which the line would reach the issue's 0.9 goal. That is an extrapolation, and the
+curve bends: the script also fits the three largest sizes alone (the local rate) and names any
+measured size past the line's crossing that is still below the goal; what bounds any prior-blind
 scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of the retest
-correlation). Writes scaling.json (`itup.scaling/1`) and scaling.png.
+correlation). With `--tools all --epochs E` it measures fidelity against training time instead.
+Writes scaling.json (`itup.scaling/1`) and scaling.png.
 """
 
 from __future__ import annotations
@@ -111,25 +112,28 @@ def main(argv=None) -> dict:
     ap.add_argument("--hidden", default=None, help="hidden widths, e.g. 128,128,128 (default: the shipped recipe)")
     ap.add_argument("--weight-decay", type=float, default=None, help="default: the shipped recipe")
     ap.add_argument("--torque-scale", type=float, default=None, help="N m, log1p(tau / scale) target (default: the shipped recipe)")
+    ap.add_argument("--epochs", type=int, default=None, help="training epochs (default: the shipped recipe); with "
+                    "--tools all, fidelity against training time")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
     ap.add_argument("--out", default="results/scaling")
     args = ap.parse_args(argv)
-    os.makedirs(args.out, exist_ok=True)
     shipped = load_model().spec["config"]
     base = TrainConfig(**{**shipped, "hidden": tuple(shipped["hidden"])})
     if args.quick:
+        os.makedirs(args.out, exist_ok=True)
         args.train = [os.path.join(args.out, "train")]
         args.test = os.path.join(args.out, "test")
         generate(args.train[0], GenerateConfig(tasks=("reach",), tools_per_task=4, grasps=24, seed=0), progress=False)
         generate(args.test, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=1), progress=False)
         args.tools, args.seeds = "2,all", 1
         base = dataclasses.replace(base, hidden=(16,), epochs=30, patience=10)
-    if args.hidden:
-        base = dataclasses.replace(base, hidden=tuple(int(h) for h in args.hidden.split(",") if h))
-    if args.weight_decay is not None:
-        base = dataclasses.replace(base, weight_decay=args.weight_decay)
-    if args.torque_scale is not None:
-        base = dataclasses.replace(base, torque_scale=args.torque_scale)
+    try:
+        hidden = tuple(int(h) for h in args.hidden.split(",") if h.strip()) if args.hidden else None
+        overrides = dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale, epochs=args.epochs)
+        base = dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
+    except ValueError as exc:  # InputError is a ValueError; so is a width that is not a number
+        print(f"sdgnet_scaling: bad training recipe: {exc}", file=sys.stderr)
+        raise SystemExit(2)
     if not args.train or not args.test:
         print("sdgnet_scaling: --train DIR [DIR ...] and --test DIR are required (or --quick)", file=sys.stderr)
         raise SystemExit(2)
@@ -197,10 +201,12 @@ def main(argv=None) -> dict:
            "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)},
            "tasks": list(results[0]["by_task"]), "goals": GOALS, "sizes": results, "fit": fit,
            "machine": machine_info()}
+    os.makedirs(args.out, exist_ok=True)
     atomic_write_json(os.path.join(args.out, "scaling.json"), out, indent=2)
     plot(out, os.path.join(args.out, "scaling.png"))
     if fit["per_doubling"] is None:
-        print("fit: fewer than two sizes gave a held-out rank correlation; no line")
+        print("fit: one size was measured, no line" if len(results) == 1 else
+              "fit: fewer than two sizes gave a held-out rank correlation; no line")
     else:
         at = fit["tools_per_task_at_goal"]
         print(f"fit: median rho = {fit['intercept']:.3f} + {fit['per_doubling']:.3f} log2(tools per task)"

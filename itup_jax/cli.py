@@ -69,8 +69,9 @@ def cmd_plan(args) -> int:
     import itup_jax as itup
     from itup_jax.grasp import to_graspnet
 
-    if args.n < 1:
-        raise_input(f"--n must be >= 1, got {args.n}")
+    for flag, v, lowest in (("--n", args.n, 1), ("--top", args.top, 1), ("--verify", args.verify, 0)):
+        if v < lowest:
+            raise_input(f"{flag} must be >= {lowest}, got {v}")
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
@@ -94,7 +95,7 @@ def cmd_plan(args) -> int:
         model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
         costs = itup.score(tool, task, grasps, model=model, seed=args.seed, weights=sw)
     total = np.asarray(costs.total)
-    order = np.argsort(total)[: max(1, args.top)]
+    order = np.argsort(total)[: args.top]
     regime = itup.classify_regime(tool, task)
     gn = to_graspnet(grasps)
 
@@ -182,7 +183,10 @@ def cmd_train(args) -> int:
     from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
-    hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h)
+    try:
+        hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h.strip())
+    except ValueError:
+        raise_input(f"--hidden: comma-separated layer widths, e.g. 128,128,128; got {args.hidden!r}")
     # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
                                     success_weight=args.success_weight,

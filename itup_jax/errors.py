@@ -9,3 +9,13 @@ from __future__ import annotations
 
 class InputError(ValueError):
     """Bad input: the message names the input and the problem."""
+
+
+def check_seed(seed, where: str) -> int:
+    """`seed` as an int if it is an integer >= 0 (what NumPy's generators take), else InputError naming
+    `where`."""
+    import numpy as np
+
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"{where}: seed must be an integer >= 0, got {seed!r}")
+    return int(seed)

@@ -27,7 +27,7 @@ import numpy as np
 import trimesh
 
 from itup_jax import units
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.tool import Tool
 
@@ -61,7 +61,7 @@ class SamplingError(RuntimeError):
 def _rng_from(seed: Any) -> np.random.Generator:
     """NumPy generator from an int seed or a JAX PRNG key (typed or raw uint32)."""
     if isinstance(seed, (int, np.integer)):
-        return np.random.default_rng(int(seed))
+        return np.random.default_rng(check_seed(seed, "sample_grasps"))
     try:
         data = jax.random.key_data(seed) if jax.dtypes.issubdtype(seed.dtype, jax.dtypes.prng_key) else seed
         words = np.asarray(data, dtype=np.uint32).ravel()

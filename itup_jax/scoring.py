@@ -20,7 +20,7 @@ import numpy as np
 
 from itup_jax.baselines import BASELINES
 from itup_jax.costs import CostParams, wrench_costs
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, check_seed
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.sdgnet import Model, load_model, predict_from_features
@@ -165,7 +165,7 @@ def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> S
         s = baselines.static_scores(tool, task, grasps)
         return Scores(tau=jnp.asarray(s["tau"]), slip=jnp.asarray(s["slip"]), align=jnp.asarray(s["align"]),
                       total=jnp.asarray(s["total"]), scorer=name)
-    r = np.random.default_rng(seed).random(n)
+    r = np.random.default_rng(check_seed(seed, "score (random)")).random(n)
     return Scores(tau=zero, slip=zero, align=zero, total=jnp.asarray(r), scorer=name)
 
 

@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from itup_jax import checkpoint, mlp
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, check_seed
 from itup_jax.features import FeatureSpec
 from itup_jax.optim import AdamConfig, adam_init, adam_update
 
@@ -75,6 +75,23 @@ class TrainConfig:
     failure_weight: float = 0.3
 
     def __post_init__(self):
+        def integer(v):
+            return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+        if not (isinstance(self.hidden, tuple) and all(integer(h) and h >= 1 for h in self.hidden)):
+            raise InputError(f"train: hidden must be a tuple of layer widths >= 1 (() for a linear model), "
+                             f"got {self.hidden!r}")
+        for name in ("epochs", "batch", "patience"):
+            if not (integer(getattr(self, name)) and getattr(self, name) >= 1):
+                raise InputError(f"train: {name} must be an integer >= 1, got {getattr(self, name)!r}")
+        if not (np.isfinite(self.lr) and self.lr > 0):
+            raise InputError(f"train: lr must be a finite number > 0, got {self.lr!r}")
+        if not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
+            raise InputError(f"train: weight_decay must be a finite number >= 0, got {self.weight_decay!r}")
+        if not 0 < self.val_fraction < 1:
+            raise InputError(f"train: val_fraction (the share of tools held out) must be in (0, 1), "
+                             f"got {self.val_fraction!r}")
+        check_seed(self.seed, "train")
         if not self.torque_scale > 0:
             raise InputError(f"train: torque_scale must be > 0 N m, got {self.torque_scale!r}")
         for name in ("success_weight", "failure_weight"):

@@ -36,7 +36,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from itup_jax import ik, units
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scene import Scene, build_scene, restitution_solref
 from itup_jax.task import Task
@@ -98,6 +98,7 @@ def sample_physics(tool: Tool, n: int, seed: int = 0, *, spread: Randomization |
     p = tool.params
     nominal = Physics(np.ones(n), np.full(n, float(p.mu)), np.full(n, float(p.restitution)),
                       np.full(n, float(p.contact_duration)), np.full(n, float(grip_force)))
+    check_seed(seed, "sample_physics")
     if spread is None:
         return nominal
     rng = np.random.default_rng(seed)

@@ -94,6 +94,9 @@ def test_importing_mjx_prints_nothing_to_stdout():
 
 @pytest.mark.parametrize("argv,match", [
     (["plan", "--task", "hammer", "--n", "0"], "--n must be >= 1"),
+    (["plan", "--top", "0"], "--top must be >= 1"),
+    (["plan", "--verify", "-1"], "--verify must be >= 0"),
+    (["plan", "--n", "5", "--seed", "-1"], "seed must be an integer >= 0, got -1"),
     (["plan", "--tool", "spoon"], "not a built-in tool"),
     (["plan", "--tool-spec", "x.toml"], "--tool-spec needs --tool"),
     (["plan", "--n", "5", "--json", "/no/such/folder/out.json"], "does not exist"),
@@ -102,6 +105,23 @@ def test_importing_mjx_prints_nothing_to_stdout():
 def test_bad_input_exits_non_zero_with_a_message(argv, match, capsys, tmp_path):
     assert main(argv) == 2
     assert match in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flags,match", [
+    (["--epochs", "0"], "epochs must be an integer >= 1, got 0"),
+    (["--batch", "0"], "batch must be an integer >= 1, got 0"),
+    (["--patience", "0"], "patience must be an integer >= 1, got 0"),
+    (["--lr", "-1"], "lr must be a finite number > 0, got -1.0"),
+    (["--weight-decay", "-0.1"], "weight_decay must be a finite number >= 0"),
+    (["--hidden", "128,x"], "--hidden: comma-separated layer widths"),
+    (["--hidden", "128,0"], "hidden must be a tuple of layer widths >= 1"),
+    (["--seed", "-1"], "seed must be an integer >= 0"),
+])
+def test_bad_training_recipe_is_refused_before_anything_is_read_or_written(flags, match, capsys, tmp_path):
+    out = tmp_path / "m.npz"
+    assert main(["train", "--data", str(tmp_path / "no-such-dataset"), "--out", str(out), *flags]) == 2
+    assert match in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_unknown_task_is_refused_by_the_parser(capsys):

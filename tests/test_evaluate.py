@@ -263,6 +263,11 @@ def test_experiments_refuse_a_missing_dataset(tmp_path, monkeypatch, capsys):
         with pytest.raises(SystemExit) as e:
             _run_experiment(script, ["--data", str(tmp_path / "nope"), "--out", str(tmp_path / "o")], monkeypatch)
         assert e.value.code == 2 and "no dataset manifest" in capsys.readouterr().err
+    for flags, words in ((["--epochs", "0"], "epochs must be an integer >= 1"), (["--hidden", "64,x"], "'x'")):
+        with pytest.raises(SystemExit) as e:  # refused before any data is read or any folder made
+            _run_experiment("sdgnet_scaling.py", ["--train", str(tmp_path / "nope"), "--test", str(tmp_path / "nope"),
+                                                  "--out", str(tmp_path / "s"), *flags], monkeypatch)
+        assert e.value.code == 2 and words in capsys.readouterr().err and not (tmp_path / "s").exists()
 
 
 def test_sdgnet_scaling_quick(tmp_path, monkeypatch):

@@ -96,3 +96,5 @@ def test_bad_arguments(tools):
         itup.sample_grasps(tools["hammer"], 0)
     with pytest.raises(itup.InputError, match="seed"):
         itup.sample_grasps(tools["hammer"], 5, seed="abc")
+    with pytest.raises(itup.InputError, match="sample_grasps: seed must be an integer >= 0, got -1"):
+        itup.sample_grasps(tools["hammer"], 5, seed=-1)

@@ -197,6 +197,10 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     for name in ("success_weight", "failure_weight"):
         with pytest.raises(itup.InputError, match=name):
             TrainConfig(**{name: -1.0})
+    for bad in (dict(val_fraction=0.0), dict(val_fraction=1.0), dict(hidden=[128]), dict(epochs=2.5),
+                dict(lr=float("nan")), dict(seed=True)):
+        with pytest.raises(itup.InputError, match=f"train: {next(iter(bad))}"):
+            TrainConfig(**bad)
     no_labels = {k: v for k, v in data.items() if k != "label_failed"}
     with pytest.raises(itup.InputError, match="label_failed"):
         train(no_labels, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *a: None)

@@ -150,6 +150,8 @@ def test_bad_backend_is_refused(hammer):
     tool, task, scene = hammer
     with pytest.raises(itup.InputError, match="backend"):
         simulate(tool, task, itup.sample_grasps(tool, 2, seed=0), scene=scene, backend="warp")
+    with pytest.raises(itup.InputError, match="sample_physics: seed must be an integer >= 0, got -3"):
+        simulate(tool, task, itup.sample_grasps(tool, 2, seed=0), scene=scene, seed=-3)
 
 
 def test_mjx_agrees_with_native_mujoco(hammer):
