@@ -280,6 +280,42 @@ def test_sdgnet_scaling_quick(tmp_path, monkeypatch):
     assert (tmp_path / "scaling.png").stat().st_size > 5_000
 
 
+def test_label_smoothness_quick(tmp_path, monkeypatch):
+    """A zero move must give the grasps' own labels back (rho 1 on every tool: same inputs, same
+    rollout); a real move is reported per tool and validated against the schema."""
+    _run_experiment("label_smoothness.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "smoothness.json").read_text())
+    jsonschema.validate(doc, load_schema("smoothness"))
+    assert [r["variant"] for r in doc["per_tool"]] == [1, 2] and doc["move_m"] == 0.002  # built-in tool skipped
+    _run_experiment("label_smoothness.py", ["--quick", "--out", str(tmp_path), "--move", "0", "--turn", "0"], monkeypatch)
+    still = json.loads((tmp_path / "smoothness.json").read_text())
+    assert [r["rho_moved"] for r in still["per_tool"]] == pytest.approx([1.0, 1.0], abs=1e-12)
+    with pytest.raises(SystemExit) as e:
+        _run_experiment("label_smoothness.py", ["--data", str(tmp_path / "data"), "--turn", "-1", "--out", str(tmp_path / "x")],
+                        monkeypatch)
+    assert e.value.code == 2 and not (tmp_path / "x").exists()
+
+
+def test_label_smoothness_moves_across_the_jaw_axis_and_turns_about_it():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("label_smoothness", os.path.join(ROOT, "experiments", "label_smoothness.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(50, 4))
+    R = np.stack([np.asarray(itup.grasp.rotation_matrix(v / np.linalg.norm(v))) for v in q])
+    p = rng.normal(size=(50, 3))
+    p1, R1 = mod.moved(p, R, 0.002, np.radians(2.0), np.random.default_rng(0))
+    step = p1 - p
+    np.testing.assert_allclose(np.linalg.norm(step, axis=1), 0.002, rtol=1e-12)
+    np.testing.assert_allclose(np.einsum("ni,ni->n", step, R[:, :, 1]), 0.0, atol=1e-15)  # across the jaw axis
+    np.testing.assert_allclose(R1[:, :, 1], R[:, :, 1], atol=1e-12)  # the jaw axis stays
+    cos = (np.einsum("nij,nij->n", R, R1) - 1) / 2  # trace(R^T R1) = 1 + 2 cos(angle)
+    np.testing.assert_allclose(np.degrees(np.arccos(np.clip(cos, -1, 1))), 2.0, rtol=1e-6)
+    np.testing.assert_allclose(np.einsum("nji,njk->nik", R1, R1), np.broadcast_to(np.eye(3), (50, 3, 3)), atol=1e-12)
+
+
 def test_scaling_subsets_and_fit():
     import importlib.util
 
