@@ -46,6 +46,7 @@ import numpy as np
 from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
+from itup_jax.scene import build_scene
 from itup_jax.scoring import ScoreWeights, sdgnet_total
 from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.stats import roc_auc, spearman
@@ -65,7 +66,8 @@ def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int) -> dict[
     n = len(a["grasp_width"])
     reps = Grasps(*(np.tile(a[f], (k,) + (1,) * (a[f].ndim - 1)) for f in ("grasp_p", "grasp_q", "grasp_width")))
     seed = json.loads(bytes(a["meta_json"]))["seed"] + 1
-    L = simulate(tool, task, reps, seed=seed, backend=config.backend).labels
+    L = simulate(tool, task, reps, seed=seed, backend=config.backend,
+                 scene=build_scene(tool, task, timestep=config.timestep)).labels  # the dataset's step
     return {"torque": np.where(L.valid, L.peak_torque_projected, np.nan).reshape(k, n),
             "success": np.where(L.valid, L.success.astype(float), np.nan).reshape(k, n),
             "failed": np.where(L.valid, L.failed.astype(float), np.nan).reshape(k, n)}

@@ -171,7 +171,7 @@ def cmd_generate(args) -> int:
 
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
-                         backend=args.backend, randomize=not args.nominal)
+                         backend=args.backend, randomize=not args.nominal, timestep=args.timestep)
     m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard)
     t = m.get("totals", {})
     print(f"{args.out}: {len(m['shards'])} shards, {t.get('n', 0)} rollouts: {t.get('valid', 0)} valid, "
@@ -381,6 +381,7 @@ def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from itup_jax.scene import TIMESTEP as TIMESTEP_S
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
 
@@ -433,6 +434,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--backend", default=None, choices=["native", "mjx"])
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
+    gen.add_argument("--timestep", type=float, default=TIMESTEP_S,
+                     help=f"s, the simulator's integration step (default {TIMESTEP_S}; labels are not converged in it "
+                     "on hammer and knock: experiments/timestep_convergence.py)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")

@@ -34,7 +34,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import build_scene
+from itup_jax.scene import TIMESTEP, build_scene
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -106,6 +106,10 @@ class GenerateConfig:
     backend: str | None = None
     randomize: bool = True
     feature_spec: dict = dataclasses.field(default_factory=lambda: FeatureSpec().to_dict())
+    # s, the scenes' integration step; contacts keep their 2 ms parameters at any step (scene.py). Labels
+    # made at different steps differ (experiments/timestep_convergence.py), so datasets of different
+    # steps are not mixed (`load_datasets`)
+    timestep: float = TIMESTEP
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
@@ -113,6 +117,8 @@ class GenerateConfig:
             raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
         if self.tools_per_task < 1 or self.grasps < 1:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
+        if not (isinstance(self.timestep, (int, float)) and 0 < self.timestep <= 0.01):
+            raise InputError(f"generate: timestep must be in (0, 0.01] s, got {self.timestep!r}")
 
     def to_json(self) -> dict:
         return dict(dataclasses.asdict(self), tasks=list(self.tasks))
@@ -163,7 +169,7 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
     seed = _unit_seed(config, task_kind, variant)
     tool, task = unit_tool(config, task_kind, variant)
     grasps = sample_grasps(tool, config.grasps, seed=seed)
-    scene = build_scene(tool, task)
+    scene = build_scene(tool, task, timestep=config.timestep)
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
                    randomize=Randomization() if config.randomize else None)
     if mcap_dir is not None:
@@ -324,8 +330,9 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
                   tasks: Sequence[str] | None = None) -> tuple[dict[str, np.ndarray], list[dict]]:
     """Several datasets (e.g. `itup generate` runs with different seeds, whose procedural tools differ)
     as one: rows concatenated, plus the manifests. Refused: a folder given twice (its rows would count
-    twice) and datasets whose features were made with different `FeatureSpec`s (their columns would
-    mean different things). `tool_id` is renumbered so that it names one tool across the datasets (the
+    twice), datasets whose features were made with different `FeatureSpec`s (their columns would
+    mean different things) and datasets simulated at different timesteps (their labels measure
+    different integrations; a manifest without one was made at the 2 ms of every dataset before it). `tool_id` is renumbered so that it names one tool across the datasets (the
     first keeps its ids; a tool name seen before, such as a built-in tool, keeps its id; every other tool
     gets a new one), so a split by tool stays a split by tool."""
     if not out_dirs:
@@ -338,6 +345,10 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
         if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
+        steps = [mm["config"].get("timestep", TIMESTEP) for mm in (manifests[0], m)]
+        if steps[0] != steps[1]:
+            raise InputError(f"dataset {d!r}: simulated at a {steps[1]} s timestep, but {out_dirs[0]!r} at "
+                             f"{steps[0]} s; their labels cannot be mixed")
     parts = [load_dataset(d, valid_only=valid_only, tasks=tasks, manifest=m) for d, m in zip(out_dirs, manifests)]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:

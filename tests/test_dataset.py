@@ -114,6 +114,33 @@ def test_generate_cli(tmp_path, capsys):
     assert main(["generate", "--out", out, "--tasks", "drill", "--quiet"]) == 2
 
 
+def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys):
+    """`--timestep` reaches the simulation: the shard's labels are those of a scene built at that step
+    (and differ from the 2 ms ones), and a bad step is refused before anything is written."""
+    from itup_jax.dataset import unit_tool
+    from itup_jax.scene import build_scene
+
+    out = str(tmp_path / "fine")
+    assert main(["generate", "--out", out, "--tasks", "knock", "--tools-per-task", "1", "--grasps", "6",
+                 "--timestep", "0.001", "--nominal", "--quiet"]) == 0
+    capsys.readouterr()
+    manifest = json.load(open(os.path.join(out, MANIFEST)))
+    config = GenerateConfig.from_json(manifest["config"])
+    assert config.timestep == 0.001
+    a = load_shard(out, manifest["shards"][0])
+    tool, task = unit_tool(config, "knock", 0)
+    g = itup.Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
+    ok = a["label_valid"].astype(bool)
+    assert ok.sum() >= 2
+    at = {dt: np.asarray(itup.simulate(tool, task, g, randomize=None, backend="native",
+                                       scene=build_scene(tool, task, timestep=dt)).labels.peak_torque_projected)[ok]
+          for dt in (0.001, 0.002)}
+    np.testing.assert_array_equal(a["label_peak_torque_projected"][ok], at[0.001])
+    assert not np.allclose(at[0.001], at[0.002], rtol=1e-3)
+    assert main(["generate", "--out", str(tmp_path / "bad"), "--timestep", "-1", "--quiet"]) == 2
+    assert "timestep must be in (0, 0.01] s" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+
+
 def test_config_round_trips_through_the_manifest_and_rebuilds_a_shards_tool(full_run):
     from itup_jax.dataset import unit_tool
     from itup_jax.errors import InputError
@@ -168,6 +195,17 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     json.dump(m, open(os.path.join(odd, MANIFEST), "w"))
     with pytest.raises(itup.InputError, match="cannot be mixed"):
         load_datasets([out, odd])
+    fine = str(tmp_path / "fine")
+    shutil.copytree(other, fine)
+    m = json.load(open(os.path.join(fine, MANIFEST)))
+    assert m["config"]["timestep"] == 0.002  # recorded; a manifest without one (before session 9) means 2 ms
+    m["config"]["timestep"] = 0.001
+    json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
+    with pytest.raises(itup.InputError, match="0.001 s timestep, but .* at 0.002 s; their labels cannot be mixed"):
+        load_datasets([out, fine])
+    del m["config"]["timestep"]
+    json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
+    load_datasets([out, fine])  # an old manifest: 2 ms
 
     ckpt = str(tmp_path / "m.npz")
     assert main(["train", "--data", out, other, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--quiet"]) == 0

@@ -296,6 +296,37 @@ def test_label_smoothness_quick(tmp_path, monkeypatch):
     assert e.value.code == 2 and not (tmp_path / "x").exists()
 
 
+def test_timestep_convergence_quick(tmp_path, monkeypatch):
+    """The finest step agrees with itself, and the 2 ms column is the default simulation's: SDG-Net's rank
+    correlation with it equals the one recomputed here from a plain `simulate` call."""
+    _run_experiment("timestep_convergence.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "timestep.json").read_text())
+    jsonschema.validate(doc, load_schema("timestep"))
+    assert doc["timesteps_s"] == [0.002, 0.001]
+    (tool_row,) = doc["per_tool"]
+    coarse, finest = tool_row["timesteps"]
+    assert finest["rho_vs_finest"] == pytest.approx(1.0, abs=1e-12) and finest["ratio_vs_finest"] == 1.0
+    assert finest["success_agree"] == 1.0 and coarse["n"] >= 3
+    from itup_jax.dataset import GenerateConfig, load_shard, read_manifest, unit_tool
+    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.stats import spearman
+
+    data = str(tmp_path / "data")
+    man = read_manifest(data)
+    entry = next(e for e in man["shards"] if e["variant"] == tool_row["variant"])
+    a = load_shard(data, entry, valid_only=True)
+    tool, task = unit_tool(GenerateConfig.from_json(man["config"]), "hammer", entry["variant"])
+    L = itup.simulate(tool, task, make_grasps(a["grasp_p"], q_tool_grasp=a["grasp_q"], width=a["grasp_width"]),
+                      randomize=None, backend="native").labels
+    v = np.asarray(L.valid)
+    pred = np.asarray(predict_costs(load_model(), a["features"], "hammer")["tau"])
+    assert coarse["rho_sdgnet"] == pytest.approx(spearman(pred[v], np.asarray(L.peak_torque_projected)[v]), abs=1e-12)
+    with pytest.raises(SystemExit) as e:
+        _run_experiment("timestep_convergence.py", ["--data", data, "--timesteps", "0.002", "--out", str(tmp_path / "x")],
+                        monkeypatch)
+    assert e.value.code == 2 and not (tmp_path / "x").exists()
+
+
 def test_label_smoothness_moves_across_the_jaw_axis_and_turns_about_it():
     import importlib.util
 
