@@ -172,6 +172,7 @@ def test_table1_quick(tmp_path, monkeypatch):
     _run_experiment("table1.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "table1.json").read_text())
     jsonschema.validate(doc, load_schema("table1"))
+    assert doc["config"]["timestep_s"] == 0.002
     cell = doc["table"]["hammer"]["sdgnet"]
     # the table aggregates exactly the valid rollouts of the per-tool runs
     valid = sum(r["methods"]["sdgnet"]["valid_rollouts"] for r in doc["per_tool"])
