@@ -31,7 +31,7 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
-from itup_jax.grasp import make_grasps, rotation_matrix
+from itup_jax.grasp import Grasps, make_grasps, rotation_matrix
 from itup_jax.sdgnet import load_model, predict_costs
 from itup_jax.simulate import simulate
 from itup_jax.stats import spearman
@@ -53,6 +53,27 @@ def moved(p: np.ndarray, R: np.ndarray, move: float, turn: float, rng: np.random
     return p + step, R @ Ry
 
 
+def with_moved_copies(a: dict, task_kind: str, variant: int, move: float, turn: float, seed: int) -> Grasps:
+    """[2N] grasps: a shard's N grasps `a`, then each of them `moved`. The moves are drawn from `seed`,
+    the task and the variant alone, so a tool's moves do not depend on which other tools are run."""
+    rng = np.random.default_rng([seed, TASK_KINDS.index(task_kind), variant])
+    R = np.stack([np.asarray(rotation_matrix(q), float) for q in a["grasp_q"]])
+    p1, R1 = moved(a["grasp_p"], R, move, turn, rng)
+    return make_grasps(np.concatenate([a["grasp_p"], p1]), np.concatenate([R, R1]),
+                       np.concatenate([a["grasp_width"]] * 2))
+
+
+def rho(a: np.ndarray, b: np.ndarray) -> float | None:
+    """Spearman of a and b, or None (null in the JSON) with fewer than 3 pairs."""
+    return spearman(a, b) if len(a) >= 3 else None
+
+
+def mean_or_none(values) -> float | None:
+    """The mean of the values that are not None, or None if there is none."""
+    v = np.array([x for x in values if x is not None], float)
+    return float(v.mean()) if len(v) else None
+
+
 def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, model, seed: int,
              with_builtin: bool = False) -> list[dict]:
     with open(os.path.join(data_dir, MANIFEST)) as fh:
@@ -67,12 +88,7 @@ def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, mo
         if n < 3:
             continue
         tool, task = unit_tool(config, entry["task"], entry["variant"])
-        R = np.stack([np.asarray(rotation_matrix(q), float) for q in a["grasp_q"]])
-        # a tool's moves depend on the seed and the tool alone, not on which other tools are run
-        rng = np.random.default_rng([seed, TASK_KINDS.index(entry["task"]), entry["variant"]])
-        p1, R1 = moved(a["grasp_p"], R, move, turn, rng)
-        both = make_grasps(np.concatenate([a["grasp_p"], p1]), np.concatenate([R, R1]),
-                           np.concatenate([a["grasp_width"]] * 2))
+        both = with_moved_copies(a, entry["task"], entry["variant"], move, turn, seed)
         L = simulate(tool, task, both, randomize=None, backend="native").labels
         valid = np.asarray(L.valid)
         ok = valid[:n] & valid[n:]
@@ -80,9 +96,8 @@ def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, mo
         y0, y1 = y[:n][ok], y[n:][ok]
         pred = np.asarray(predict_costs(model, a["features"], entry["task"])["tau"], float)[ok]
         rows.append({"task": entry["task"], "variant": entry["variant"], "n": int(ok.sum()),
-                     "rho_moved": spearman(y1, y0) if ok.sum() >= 3 else None,
-                     "rho_draw": spearman(a["label_peak_torque_projected"][ok], y0) if ok.sum() >= 3 else None,
-                     "rho_sdgnet": spearman(pred, y0) if ok.sum() >= 3 else None})
+                     "rho_moved": rho(y1, y0), "rho_draw": rho(a["label_peak_torque_projected"][ok], y0),
+                     "rho_sdgnet": rho(pred, y0)})
     return rows
 
 
@@ -90,10 +105,7 @@ def summarise(rows: list[dict]) -> dict:
     out = {}
     for t in sorted({r["task"] for r in rows}):
         sel = [r for r in rows if r["task"] == t]
-        out[t] = {"tools": len(sel)}
-        for f in FIELDS:
-            v = np.array([r[f] for r in sel if r[f] is not None], float)
-            out[t][f] = float(v.mean()) if len(v) else None
+        out[t] = {"tools": len(sel), **{f: mean_or_none(r[f] for r in sel) for f in FIELDS}}
     return out
 
 

@@ -34,33 +34,23 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from label_smoothness import moved  # noqa: E402  (the same move as the smoothness experiment)
+from label_smoothness import mean_or_none, rho, with_moved_copies  # noqa: E402  (the smoothness experiment's moves)
 
 from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool  # noqa: E402
-from itup_jax.grasp import make_grasps, rotation_matrix  # noqa: E402
-from itup_jax.scene import build_scene  # noqa: E402
+from itup_jax.scene import MAX_TIMESTEP, build_scene  # noqa: E402
 from itup_jax.sdgnet import load_model, predict_costs  # noqa: E402
 from itup_jax.simulate import simulate  # noqa: E402
-from itup_jax.stats import spearman  # noqa: E402
 from itup_jax.task import TASK_KINDS  # noqa: E402
 
 FIELDS = ("rho_vs_finest", "ratio_vs_finest", "success_agree", "rho_moved", "rho_sdgnet")
 MOVE, TURN = 0.002, np.radians(2.0)
 
 
-def _rho(a: np.ndarray, b: np.ndarray) -> float | None:
-    return spearman(a, b) if len(a) >= 3 else None
-
-
-def tool_rows(tool, task, a: dict, timesteps: list[float], pred: np.ndarray, rng: np.random.Generator) -> list[dict]:
-    """One row per timestep for one shard's valid grasps `a` (rollouts of the grasps and of their moved
-    copies in one batch per timestep)."""
+def tool_rows(tool, task, a: dict, timesteps: list[float], pred: np.ndarray, grasps) -> list[dict]:
+    """One row per timestep for one shard's valid grasps `a`; `grasps` [2N]: them and their moved copies
+    (`label_smoothness.with_moved_copies`), rolled out in one batch per timestep."""
     n = len(a["grasp_width"])
-    R = np.stack([np.asarray(rotation_matrix(q), float) for q in a["grasp_q"]])
-    p1, R1 = moved(a["grasp_p"], R, MOVE, TURN, rng)
-    grasps = make_grasps(np.concatenate([a["grasp_p"], p1]), np.concatenate([R, R1]),
-                         np.concatenate([a["grasp_width"]] * 2))
     runs = {}
     for dt in timesteps:
         t0 = time.perf_counter()
@@ -74,11 +64,11 @@ def tool_rows(tool, task, a: dict, timesteps: list[float], pred: np.ndarray, rng
         both = v[:n] & v_f[:n]
         moved_ok = v[:n] & v[n:]
         rows.append({"timestep_s": dt, "n": int(both.sum()), "wall_s": round(wall, 2),
-                     "rho_vs_finest": _rho(y[:n][both], y_f[:n][both]),
+                     "rho_vs_finest": rho(y[:n][both], y_f[:n][both]),
                      "ratio_vs_finest": float(np.median(y[:n][both] / y_f[:n][both])) if both.any() else None,
                      "success_agree": float((s[:n][both] == s_f[:n][both]).mean()) if both.any() else None,
-                     "rho_moved": _rho(y[n:][moved_ok], y[:n][moved_ok]),
-                     "rho_sdgnet": _rho(pred[v[:n]], y[:n][v[:n]])})
+                     "rho_moved": rho(y[n:][moved_ok], y[:n][moved_ok]),
+                     "rho_sdgnet": rho(pred[v[:n]], y[:n][v[:n]])})
     return rows
 
 
@@ -89,9 +79,7 @@ def summarise(per_tool: list[dict], timesteps: list[float]) -> dict:
         out[t] = {"tools": len(sel), "by_timestep": []}
         for i, dt in enumerate(timesteps):
             row = {"timestep_s": dt}
-            for f in FIELDS:
-                v = np.array([r["timesteps"][i][f] for r in sel if r["timesteps"][i][f] is not None], float)
-                row[f] = float(v.mean()) if len(v) else None
+            row.update({f: mean_or_none(r["timesteps"][i][f] for r in sel) for f in FIELDS})
             out[t]["by_timestep"].append(row)
     return out
 
@@ -113,8 +101,9 @@ def main(argv=None) -> dict:
     except ValueError:
         timesteps = []
     if (not tasks or any(t not in TASK_KINDS for t in tasks) or len(timesteps) < 2
-            or not all(np.isfinite(dt) and 0 < dt <= 0.01 for dt in timesteps) or a.tools_per_task < 1 or a.seed < 0):
-        print(f"timestep_convergence: need --tasks from {', '.join(TASK_KINDS)}, two or more --timesteps in (0, 0.01] s, "
+            or not all(0 < dt <= MAX_TIMESTEP for dt in timesteps) or a.tools_per_task < 1 or a.seed < 0):
+        print(f"timestep_convergence: need --tasks from {', '.join(TASK_KINDS)}, two or more --timesteps in "
+              f"(0, {MAX_TIMESTEP}] s, "
               f"--tools-per-task >= 1 and --seed >= 0; got --tasks {a.tasks!r} --timesteps {a.timesteps!r} "
               f"--tools-per-task {a.tools_per_task} --seed {a.seed}", file=sys.stderr)
         raise SystemExit(2)
@@ -138,9 +127,9 @@ def main(argv=None) -> dict:
                 continue
             tool, task = unit_tool(config, task_kind, entry["variant"])
             pred = np.asarray(predict_costs(model, shard["features"], task_kind)["tau"], float)
-            rng = np.random.default_rng([a.seed, TASK_KINDS.index(task_kind), entry["variant"]])
+            grasps = with_moved_copies(shard, task_kind, entry["variant"], MOVE, TURN, a.seed)
             per_tool.append({"task": task_kind, "variant": entry["variant"],
-                             "timesteps": tool_rows(tool, task, shard, timesteps, pred, rng)})
+                             "timesteps": tool_rows(tool, task, shard, timesteps, pred, grasps)})
             r = per_tool[-1]["timesteps"]
             print(f"{task_kind} {entry['variant']}: " + "  ".join(
                 f"{1000 * x['timestep_s']:g} ms rho {x['rho_vs_finest'] if x['rho_vs_finest'] is None else round(x['rho_vs_finest'], 2)}"
