@@ -33,7 +33,8 @@ import numpy as np
 from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import vary_tool
 from itup_jax.evaluate import DEFAULT_METHODS, MEASURED, evaluate, reduction
-from itup_jax.scene import TIMESTEP, build_scene
+from itup_jax.errors import InputError
+from itup_jax.scene import TIMESTEP, build_scene, check_timestep
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
 from itup_jax.tool import load_tool
 
@@ -149,8 +150,10 @@ def main(argv=None) -> dict:
         a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,force_closure,random"
     tasks = [t for t in a.tasks.split(",") if t]
     methods = tuple(m for m in a.methods.split(",") if m)
-    if not 0 < a.timestep <= 0.01:
-        print(f"table1: --timestep must be in (0, 0.01] s, got {a.timestep}", file=sys.stderr)
+    try:
+        check_timestep(a.timestep, "table1: --timestep")
+    except InputError as exc:
+        print(exc, file=sys.stderr)
         raise SystemExit(2)
     os.makedirs(a.out, exist_ok=True)
     t0 = time.perf_counter()

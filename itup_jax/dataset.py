@@ -34,7 +34,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import TIMESTEP, build_scene
+from itup_jax.scene import TIMESTEP, build_scene, check_timestep
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -117,8 +117,7 @@ class GenerateConfig:
             raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
         if self.tools_per_task < 1 or self.grasps < 1:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
-        if not (isinstance(self.timestep, (int, float)) and 0 < self.timestep <= 0.01):
-            raise InputError(f"generate: timestep must be in (0, 0.01] s, got {self.timestep!r}")
+        check_timestep(self.timestep, "generate")
 
     def to_json(self) -> dict:
         return dict(dataclasses.asdict(self), tasks=list(self.tasks))
@@ -332,23 +331,25 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     as one: rows concatenated, plus the manifests. Refused: a folder given twice (its rows would count
     twice), datasets whose features were made with different `FeatureSpec`s (their columns would
     mean different things) and datasets simulated at different timesteps (their labels measure
-    different integrations; a manifest without one was made at the 2 ms of every dataset before it). `tool_id` is renumbered so that it names one tool across the datasets (the
-    first keeps its ids; a tool name seen before, such as a built-in tool, keeps its id; every other tool
-    gets a new one), so a split by tool stays a split by tool."""
+    different integrations; a manifest without one was made at the 2 ms of every dataset before it).
+    `tool_id` is renumbered so that it names one tool across the datasets (the first keeps its ids; a
+    tool name seen before, such as a built-in tool, keeps its id; every other tool gets a new one), so a
+    split by tool stays a split by tool."""
     if not out_dirs:
         raise InputError("load_datasets: no dataset folder given")
     real = [os.path.realpath(d) for d in out_dirs]
     if len(set(real)) != len(real):
         raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
     manifests = [read_manifest(d) for d in out_dirs]
+    step0 = manifests[0]["config"].get("timestep", TIMESTEP)
     for d, m in zip(out_dirs[1:], manifests[1:]):
         if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
-        steps = [mm["config"].get("timestep", TIMESTEP) for mm in (manifests[0], m)]
-        if steps[0] != steps[1]:
-            raise InputError(f"dataset {d!r}: simulated at a {steps[1]} s timestep, but {out_dirs[0]!r} at "
-                             f"{steps[0]} s; their labels cannot be mixed")
+        step = m["config"].get("timestep", TIMESTEP)
+        if step != step0:
+            raise InputError(f"dataset {d!r}: simulated at a {step} s timestep, but {out_dirs[0]!r} at "
+                             f"{step0} s; their labels cannot be mixed")
     parts = [load_dataset(d, valid_only=valid_only, tasks=tasks, manifest=m) for d, m in zip(out_dirs, manifests)]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:

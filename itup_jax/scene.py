@@ -40,6 +40,18 @@ TOOL_TARGET_FRICTION = 0.5  # -, tool on nail/blocks (assumed)
 TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed)
 
 
+#: s, the largest timestep a scene accepts (five times the default; the strikes need 0.5 ms to converge)
+MAX_TIMESTEP = 0.01
+
+
+def check_timestep(timestep, where: str) -> float:
+    """`timestep` (s) as a float if it lies in (0, MAX_TIMESTEP], else InputError naming `where`."""
+    if not (isinstance(timestep, (int, float, np.floating)) and not isinstance(timestep, bool)
+            and 0 < timestep <= MAX_TIMESTEP):
+        raise InputError(f"{where}: timestep must be in (0, {MAX_TIMESTEP}] s, got {timestep!r}")
+    return float(timestep)
+
+
 def scene_xml(kind: str) -> Path:
     return MJCF_DIR / "scenes" / f"{kind}.xml"
 
@@ -156,7 +168,8 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
 
 
 def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
-    """Compose and compile the scene for `tool` doing `task` (host side)."""
+    """Compose and compile the scene for `tool` doing `task` (host side), integrated at `timestep` s."""
+    check_timestep(timestep, "build_scene")
     if task.kind not in _TARGET_GEOMS:
         raise InputError(f"build_scene: no scene for task kind {task.kind!r}")
     spec = mujoco.MjSpec.from_file(str(scene_xml(task.kind)))

@@ -152,6 +152,9 @@ def test_bad_backend_is_refused(hammer):
         simulate(tool, task, itup.sample_grasps(tool, 2, seed=0), scene=scene, backend="warp")
     with pytest.raises(itup.InputError, match="sample_physics: seed must be an integer >= 0, got -3"):
         simulate(tool, task, itup.sample_grasps(tool, 2, seed=0), scene=scene, seed=-3)
+    for bad in (0.0, -0.001, 0.02, float("nan")):
+        with pytest.raises(itup.InputError, match=r"build_scene: timestep must be in \(0, 0.01\] s"):
+            itup.build_scene(tool, task, timestep=bad)
 
 
 def test_mjx_agrees_with_native_mujoco(hammer):
