@@ -30,8 +30,9 @@ import time
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
+from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps, make_grasps, rotation_matrix
+from itup_jax.scene import build_scene
 from itup_jax.sdgnet import load_model, predict_costs
 from itup_jax.simulate import simulate
 from itup_jax.stats import spearman
@@ -79,6 +80,7 @@ def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, mo
     with open(os.path.join(data_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     config = GenerateConfig.from_json(manifest["config"])
+    steps = dataset_timesteps(manifest)  # rolled out again at the dataset's step
     rows = []
     for entry in manifest["shards"]:
         if entry["task"] not in tasks or (entry["variant"] == 0 and not with_builtin):
@@ -89,7 +91,8 @@ def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, mo
             continue
         tool, task = unit_tool(config, entry["task"], entry["variant"])
         both = with_moved_copies(a, entry["task"], entry["variant"], move, turn, seed)
-        L = simulate(tool, task, both, randomize=None, backend="native").labels
+        L = simulate(tool, task, both, randomize=None, backend="native",
+                     scene=build_scene(tool, task, timestep=steps[entry["task"]])).labels
         valid = np.asarray(L.valid)
         ok = valid[:n] & valid[n:]
         y = np.asarray(L.peak_torque_projected, float)

@@ -44,7 +44,7 @@ import zipfile
 import numpy as np
 
 from itup_jax.atomic import atomic_write, atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
+from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
 from itup_jax.scene import build_scene
 from itup_jax.scoring import ScoreWeights, sdgnet_total
@@ -57,17 +57,18 @@ GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
 REDRAWN = ("torque", "success", "failed")  # the labels `redraw_labels` keeps
 
 
-def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int) -> dict[str, np.ndarray]:
+def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int, timestep: float) -> dict[str, np.ndarray]:
     """{torque, success, failed}: each [k, N], the measured projected peak torque (N m), task success (1/0)
     and grasp failure (1/0: slip or rotation over the thresholds, or the tool lost) of a shard's N
     grasps under k further physics draws (NaN where a rollout is not valid): the same grasps, tool and
-    task, one simulate call, a new seed."""
+    task, one simulate call, a new seed, at `timestep` s (the dataset's step for the task,
+    `dataset_timesteps`)."""
     tool, task = unit_tool(config, entry["task"], entry["variant"])
     n = len(a["grasp_width"])
     reps = Grasps(*(np.tile(a[f], (k,) + (1,) * (a[f].ndim - 1)) for f in ("grasp_p", "grasp_q", "grasp_width")))
     seed = json.loads(bytes(a["meta_json"]))["seed"] + 1
     L = simulate(tool, task, reps, seed=seed, backend=config.backend,
-                 scene=build_scene(tool, task, timestep=config.timestep)).labels  # the dataset's step
+                 scene=build_scene(tool, task, timestep=timestep)).labels
     return {"torque": np.where(L.valid, L.peak_torque_projected, np.nan).reshape(k, n),
             "success": np.where(L.valid, L.success.astype(float), np.nan).reshape(k, n),
             "failed": np.where(L.valid, L.failed.astype(float), np.nan).reshape(k, n)}
@@ -93,7 +94,9 @@ def cached_redraws(test_dir: str, k: int, cache: str | None) -> dict[str, dict[s
             print(f"sdgnet_fidelity: ignoring the redraw cache {cache!r} ({exc})", file=sys.stderr)
     manifest = json.loads(raw)
     config = GenerateConfig.from_json(manifest["config"])
-    out = {_shard_key(e): redraw_labels(config, e, load_shard(test_dir, e), k) for e in manifest["shards"]}
+    steps = dataset_timesteps(manifest)
+    out = {_shard_key(e): redraw_labels(config, e, load_shard(test_dir, e), k, steps[e["task"]])
+           for e in manifest["shards"]}
     if cache:
         buf = io.BytesIO()
         np.savez(buf, key=np.array(key), **{f"{n}/{f}": v for n, d in out.items() for f, v in d.items()})

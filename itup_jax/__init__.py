@@ -32,7 +32,7 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
-from itup_jax.scene import Scene, build_scene
+from itup_jax.scene import TASK_TIMESTEP, Scene, build_scene, task_timestep
 from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
 from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
 from itup_jax.task import TASK_KINDS, Task, make_task
@@ -47,6 +47,6 @@ __all__ = [
     "TASK_KINDS", "Task", "Tool", "ToolParams", "Trajectory", "batched_wrench_costs", "classify_regime",
     "from_graspnet", "grasp_cost_trace", "grasp_costs", "load_tool", "make_grasps", "make_task",
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
-    "Scene", "build_scene", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
+    "Scene", "TASK_TIMESTEP", "build_scene", "task_timestep", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
     "Scores", "ScoreWeights", "best_grasp", "score",
 ]

@@ -180,7 +180,7 @@ def cmd_generate(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from itup_jax.dataset import load_datasets
+    from itup_jax.dataset import dataset_timesteps, load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
     try:
@@ -198,8 +198,8 @@ def cmd_train(args) -> int:
                       per_task=args.per_task, **recipe)
     data, manifests = load_datasets(args.data)
     model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
-    datasets = [{"folder": os.path.abspath(d), "config": m["config"], "totals": m.get("totals"),
-                 "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
+    datasets = [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
+                 "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
     model.spec["datasets"] = datasets
     model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
     save_model(args.out, model)
@@ -381,7 +381,7 @@ def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from itup_jax.scene import TIMESTEP as TIMESTEP_S
+    from itup_jax.scene import TASK_TIMESTEP
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
 
@@ -434,9 +434,10 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--backend", default=None, choices=["native", "mjx"])
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
-    gen.add_argument("--timestep", type=float, default=TIMESTEP_S,
-                     help=f"s, the simulator's integration step (default {TIMESTEP_S}; labels are not converged in it "
-                     "on hammer and knock: experiments/timestep_convergence.py)")
+    gen.add_argument("--timestep", type=float, default=None,
+                     help="s, the simulator's integration step for every task (default: each task's, "
+                     + ", ".join(f"{k} {v * 1e3:g} ms" for k, v in TASK_TIMESTEP.items())
+                     + ": the coarsest whose labels converge, experiments/timestep_convergence.py)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")

@@ -34,7 +34,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import TIMESTEP, build_scene, check_timestep
+from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -106,10 +106,11 @@ class GenerateConfig:
     backend: str | None = None
     randomize: bool = True
     feature_spec: dict = dataclasses.field(default_factory=lambda: FeatureSpec().to_dict())
-    # s, the scenes' integration step; contacts keep their 2 ms parameters at any step (scene.py). Labels
-    # made at different steps differ (experiments/timestep_convergence.py), so datasets of different
-    # steps are not mixed (`load_datasets`)
-    timestep: float = TIMESTEP
+    # s, the scenes' integration step for every task; None: each task's own (`scene.TASK_TIMESTEP`).
+    # Contacts are the same at any step (scene.py). Labels made at different steps differ
+    # (experiments/timestep_convergence.py), so one task's rows of different steps are not mixed
+    # (`load_datasets`); the manifest records each task's step
+    timestep: float | None = None
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
@@ -117,18 +118,24 @@ class GenerateConfig:
             raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
         if self.tools_per_task < 1 or self.grasps < 1:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
-        check_timestep(self.timestep, "generate")
+        if self.timestep is not None:
+            check_timestep(self.timestep, "generate")
+
+    def task_timestep(self, kind: str) -> float:
+        """s, the step `kind`'s scenes are integrated at."""
+        return task_timestep(kind) if self.timestep is None else float(self.timestep)
 
     def to_json(self) -> dict:
         return dict(dataclasses.asdict(self), tasks=list(self.tasks))
 
     @classmethod
     def from_json(cls, d: dict) -> "GenerateConfig":
-        """The config a manifest records (`to_json`'s inverse); unknown keys are refused."""
+        """The config a manifest records (`to_json`'s inverse); unknown keys are refused. A config
+        recording no timestep (made before steps were recorded) was simulated at 2 ms."""
         names = {f.name for f in dataclasses.fields(cls)}
         if set(d) - names:
             raise InputError(f"generate config: unknown keys {sorted(set(d) - names)}")
-        return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS))))
+        return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS)), timestep=d.get("timestep", TIMESTEP)))
 
 
 def shard_units(config: GenerateConfig) -> list[tuple[str, int]]:
@@ -168,7 +175,7 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
     seed = _unit_seed(config, task_kind, variant)
     tool, task = unit_tool(config, task_kind, variant)
     grasps = sample_grasps(tool, config.grasps, seed=seed)
-    scene = build_scene(tool, task, timestep=config.timestep)
+    scene = build_scene(tool, task, timestep=config.task_timestep(task_kind))
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
                    randomize=Randomization() if config.randomize else None)
     if mcap_dir is not None:
@@ -242,12 +249,16 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
         os.makedirs(mcap_dir, exist_ok=True)
     mpath = os.path.join(out_dir, MANIFEST)
     manifest = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
-                "label_fields": list(LABEL_FIELDS), "shards": []}
+                "label_fields": list(LABEL_FIELDS), "timesteps": {t: config.task_timestep(t) for t in config.tasks},
+                "shards": []}
     if os.path.exists(mpath):
         with open(mpath) as fh:
             old = json.load(fh)
         if old.get("config") != manifest["config"]:
             raise InputError(f"generate: {mpath} was made with another config; use a new folder")
+        if dataset_timesteps(old) != manifest["timesteps"]:  # a default step changed since
+            raise InputError(f"generate: {mpath} was simulated at {dataset_timesteps(old)} s, this run would use "
+                             f"{manifest['timesteps']} s; resuming would mix their labels: use a new folder")
         if old.get("code_version") != __version__:  # labels may mean something else across versions
             raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "
                              f"{__version__}; resuming would mix their shards: use a new folder")
@@ -305,6 +316,15 @@ def read_manifest(out_dir: str) -> dict[str, Any]:
         return json.load(fh)
 
 
+def dataset_timesteps(manifest: dict[str, Any]) -> dict[str, float]:
+    """{task: s} the integration step of each task's rows in a dataset, from its manifest: recorded per
+    task since per-task steps; before, one `config.timestep` for all; before that (no step), 2 ms."""
+    if "timesteps" in manifest:
+        return {t: float(v) for t, v in manifest["timesteps"].items()}
+    step = manifest["config"].get("timestep")
+    return {t: float(TIMESTEP if step is None else step) for t in manifest["config"].get("tasks", ())}
+
+
 def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None,
                  manifest: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
     """All shards of a dataset (verified), concatenated; adds `task` [N] (str) and `tool` [N] (str, the
@@ -330,8 +350,8 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     """Several datasets (e.g. `itup generate` runs with different seeds, whose procedural tools differ)
     as one: rows concatenated, plus the manifests. Refused: a folder given twice (its rows would count
     twice), datasets whose features were made with different `FeatureSpec`s (their columns would
-    mean different things) and datasets simulated at different timesteps (their labels measure
-    different integrations; a manifest without one was made at the 2 ms of every dataset before it).
+    mean different things) and datasets whose rows of one task were simulated at different timesteps
+    (their labels measure different integrations; `dataset_timesteps`). Tasks at different steps mix.
     `tool_id` is renumbered so that it names one tool across the datasets (the first keeps its ids; a
     tool name seen before, such as a built-in tool, keeps its id; every other tool gets a new one), so a
     split by tool stays a split by tool."""
@@ -341,15 +361,18 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     if len(set(real)) != len(real):
         raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
     manifests = [read_manifest(d) for d in out_dirs]
-    step0 = manifests[0]["config"].get("timestep", TIMESTEP)
-    for d, m in zip(out_dirs[1:], manifests[1:]):
+    first: dict[str, tuple[float, str]] = {}  # task -> (step, the first folder holding it)
+    for d, m in zip(out_dirs, manifests):
         if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
-        step = m["config"].get("timestep", TIMESTEP)
-        if step != step0:
-            raise InputError(f"dataset {d!r}: simulated at a {step} s timestep, but {out_dirs[0]!r} at "
-                             f"{step0} s; their labels cannot be mixed")
+        for t, step in dataset_timesteps(m).items():
+            if tasks is not None and t not in tasks:
+                continue
+            step0, d0 = first.setdefault(t, (step, d))
+            if step != step0:
+                raise InputError(f"dataset {d!r}: its {t} rows simulated at a {step} s timestep, but those of "
+                                 f"{d0!r} at {step0} s; their labels cannot be mixed")
     parts = [load_dataset(d, valid_only=valid_only, tasks=tasks, manifest=m) for d, m in zip(out_dirs, manifests)]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:

@@ -13,7 +13,13 @@ Physics of the tool's contacts, from the tool's priors:
   * pads-tool friction: mu (torsional 0.005 m, an assumed pad patch);
   * tool-target: MuJoCo's soft contact as a damped spring whose damping ratio gives the restitution,
     zeta = -ln e / sqrt(pi^2 + ln^2 e), and whose half period is the contact duration,
-    timeconst = dt_c sqrt(1 - zeta^2) / (pi zeta) (MuJoCo clamps it to >= 2 timesteps).
+    timeconst = dt_c sqrt(1 - zeta^2) / (pi zeta), floored at CONTACT_MIN_TIMECONST = 4 ms at any step
+    (the 2 timesteps MuJoCo clamps to at the 2 ms step every dataset used before per-task steps; one
+    contact model at every step, so that steps compare: experiments/timestep_convergence.py).
+
+Integration step, per task (`TASK_TIMESTEP`): the coarsest of 2, 1 and 0.5 ms whose labels rank like
+those integrated at 0.25 ms (Spearman >= 0.98 over held-out tools, experiments/timestep_convergence.py):
+the strikes (hammer, knock) and the sweep need 0.5 ms; the reach, which hits nothing hard, keeps 2 ms.
 """
 
 from __future__ import annotations
@@ -33,15 +39,28 @@ from itup_jax.tool import Tool
 MJCF_DIR = Path(os.environ.get("ITUP_MJCF_DIR", Path(__file__).resolve().parent.parent / "mjcf"))
 UR5E_XML = MJCF_DIR / "universal_robots_ur5e" / "ur5e.xml"
 GRIPPER_XML = MJCF_DIR / "parallel_gripper" / "gripper.xml"
-TIMESTEP = 0.002  # s
+#: s, each task's default integration step (module docstring; README "Simulation")
+TASK_TIMESTEP = {"hammer": 0.0005, "knock": 0.0005, "sweep": 0.0005, "reach": 0.002}
+#: s, the one step of every scene and dataset before per-task steps (a manifest recording no step was
+#: made at it)
+TIMESTEP = 0.002
+#: s, the floor of the tool-target contact's time constant (2 x TIMESTEP, as MuJoCo clamped it there)
+CONTACT_MIN_TIMECONST = 0.004
 ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
 PAD_TORSION = 0.005  # m, torsional friction length of the pads (assumed contact patch radius)
 TOOL_TARGET_FRICTION = 0.5  # -, tool on nail/blocks (assumed)
 TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed)
 
 
-#: s, the largest timestep a scene accepts (five times the default; the strikes need 0.5 ms to converge)
+#: s, the largest timestep a scene accepts (five times the reach's; the strikes need 0.5 ms to converge)
 MAX_TIMESTEP = 0.01
+
+
+def task_timestep(kind: str) -> float:
+    """The default integration step (s) of task kind `kind` (`TASK_TIMESTEP`)."""
+    if kind not in TASK_TIMESTEP:
+        raise InputError(f"task_timestep: no task kind {kind!r}; known: {sorted(TASK_TIMESTEP)}")
+    return TASK_TIMESTEP[kind]
 
 
 def check_timestep(timestep, where: str) -> float:
@@ -60,12 +79,14 @@ def restitution_solref(restitution: float, contact_duration: float, timestep: fl
     """MuJoCo solref (timeconst s, dampratio) whose spring-damper bounces with `restitution` over
     half a period of `contact_duration` seconds.
 
-    The time constant is clamped to 2 timesteps here, as native MuJoCo would do silently, so that
-    MJX and native MuJoCo integrate the same contact.
+    The time constant is floored at CONTACT_MIN_TIMECONST (the same contact at every step up to 2 ms)
+    and at 2 timesteps, as native MuJoCo would clamp it silently, so that MJX and native MuJoCo
+    integrate the same contact at coarser steps too.
     """
     e = min(max(float(restitution), 1e-3), 0.999)
     zeta = -math.log(e) / math.sqrt(math.pi**2 + math.log(e) ** 2)
-    return max(contact_duration * math.sqrt(1 - zeta**2) / (math.pi * zeta), 2 * timestep), zeta
+    floor = max(CONTACT_MIN_TIMECONST, 2 * timestep)
+    return max(contact_duration * math.sqrt(1 - zeta**2) / (math.pi * zeta), floor), zeta
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -167,11 +188,12 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
         spec.body("block").pos = [centre[0], centre[1], 0.03]
 
 
-def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
-    """Compose and compile the scene for `tool` doing `task` (host side), integrated at `timestep` s."""
-    check_timestep(timestep, "build_scene")
+def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Scene:
+    """Compose and compile the scene for `tool` doing `task` (host side), integrated at `timestep` s
+    (None: the task's default, `task_timestep(task.kind)`)."""
     if task.kind not in _TARGET_GEOMS:
         raise InputError(f"build_scene: no scene for task kind {task.kind!r}")
+    timestep = task_timestep(task.kind) if timestep is None else check_timestep(timestep, "build_scene")
     spec = mujoco.MjSpec.from_file(str(scene_xml(task.kind)))
     _place_environment(spec, task)
     arm = mujoco.MjSpec.from_file(str(UR5E_XML))
@@ -193,7 +215,7 @@ def build_scene(tool: Tool, task: Task, *, timestep: float = TIMESTEP) -> Scene:
                           friction=[mu, mu, PAD_TORSION, 1e-4, 1e-4], solref=[0.004, 1.0],
                           solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
             pad_pairs.append(f"{pad}-{g}")
-    solref = restitution_solref(float(tool.params.restitution), float(tool.params.contact_duration))
+    solref = restitution_solref(float(tool.params.restitution), float(tool.params.contact_duration), timestep)
     for target in _TARGET_GEOMS[task.kind]:
         for g in tool_geoms:
             spec.add_pair(name=f"{g}-{target}", geomname1=g, geomname2=target, condim=3,

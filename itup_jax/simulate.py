@@ -243,7 +243,7 @@ def _set_physics(m: mujoco.MjModel, scene: Scene, physics: Physics, i: int) -> m
     m.body_inertia[b] = scene.model.body_inertia[b] * physics.mass_scale[i]
     for p in scene.pad_tool_pairs:
         m.pair_friction[p, :2] = physics.mu[i]
-    solref = restitution_solref(physics.restitution[i], physics.contact_duration[i])
+    solref = restitution_solref(physics.restitution[i], physics.contact_duration[i], scene.model.opt.timestep)
     for p in scene.tool_target_pairs:
         m.pair_solref[p] = solref
     return m
@@ -336,7 +336,7 @@ def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
     friction[:, pad, 1] = physics.mu[:, None]
     solref = np.tile(m.pair_solref, (n, 1, 1))
     for i in range(n):
-        solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i])
+        solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i], m.opt.timestep)
     return mass, inertia, friction, solref
 
 

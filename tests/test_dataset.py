@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset, load_shard, vary_tool
+from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset, load_datasets, load_shard, vary_tool
 from itup_jax.cli import main
 
 SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1)
@@ -89,6 +89,24 @@ def test_resuming_a_dataset_of_another_code_version_is_refused(full_run, tmp_pat
         generate(copy, SMALL, progress=False)
 
 
+def test_resuming_after_a_tasks_default_step_changed_is_refused(full_run, tmp_path):
+    """A dataset made with the tasks' default steps records them; if a default has changed since, a
+    resumed run would add shards of another step, so it is refused (and an old manifest, with one step
+    for every task, resumes as before)."""
+    out, _ = full_run
+    copy = str(tmp_path / "copy4")
+    shutil.copytree(out, copy)
+    path = os.path.join(copy, MANIFEST)
+    m = json.load(open(path))
+    m["timesteps"] = {"reach": 0.001}
+    json.dump(m, open(path, "w"))
+    with pytest.raises(itup.InputError, match=r"simulated at \{'reach': 0.001\} s, this run would use \{'reach': 0.002\} s"):
+        generate(copy, SMALL, progress=False)
+    del m["timesteps"]  # before per-task steps: the 2 ms of every task
+    json.dump(m, open(path, "w"))
+    assert len(generate(copy, SMALL, progress=False)["shards"]) == 3
+
+
 def test_variant_mass_properties_are_exact_for_a_box(tmp_path):
     a, b, c = 0.03, 0.02, 0.30
     trimesh.creation.box((a, b, c)).export(tmp_path / "box.stl")
@@ -126,7 +144,7 @@ def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys)
     capsys.readouterr()
     manifest = json.load(open(os.path.join(out, MANIFEST)))
     config = GenerateConfig.from_json(manifest["config"])
-    assert config.timestep == 0.001
+    assert config.timestep == 0.001 and manifest["timesteps"] == {"knock": 0.001}
     a = load_shard(out, manifest["shards"][0])
     tool, task = unit_tool(config, "knock", 0)
     g = itup.Grasps(a["grasp_p"], a["grasp_q"], a["grasp_width"])
@@ -137,6 +155,11 @@ def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys)
           for dt in (0.001, 0.002)}
     np.testing.assert_array_equal(a["label_peak_torque_projected"][ok], at[0.001])
     assert not np.allclose(at[0.001], at[0.002], rtol=1e-3)
+    # another task at its own (default) step mixes with it: the check is per task
+    reach = str(tmp_path / "reach")
+    generate(reach, GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=2, seed=0), progress=False)
+    both, _ = load_datasets([out, reach])
+    assert sorted(set(both["task"].tolist())) == ["knock", "reach"]
     assert main(["generate", "--out", str(tmp_path / "bad"), "--timestep", "-1", "--quiet"]) == 2
     assert "timestep must be in (0, 0.01] s" in capsys.readouterr().err and not (tmp_path / "bad").exists()
 
@@ -163,7 +186,6 @@ def test_config_round_trips_through_the_manifest_and_rebuilds_a_shards_tool(full
 
 def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     from itup_jax.checkpoint import load
-    from itup_jax.dataset import load_datasets
 
     out, manifest = full_run
     other = str(tmp_path / "seed2")
@@ -198,14 +220,20 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     fine = str(tmp_path / "fine")
     shutil.copytree(other, fine)
     m = json.load(open(os.path.join(fine, MANIFEST)))
-    assert m["config"]["timestep"] == 0.002  # recorded; a manifest without one (before session 9) means 2 ms
+    assert m["config"]["timestep"] is None and m["timesteps"] == {"reach": 0.002}  # each task's step, recorded
+    m["timesteps"] = {"reach": 0.001}
+    json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
+    with pytest.raises(itup.InputError, match="reach rows simulated at a 0.001 s timestep, but those of .* at 0.002 s; "
+                                              "their labels cannot be mixed"):
+        load_datasets([out, fine])
+    del m["timesteps"]  # the manifests before per-task steps: one config.timestep, or none (2 ms)
     m["config"]["timestep"] = 0.001
     json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
-    with pytest.raises(itup.InputError, match="0.001 s timestep, but .* at 0.002 s; their labels cannot be mixed"):
+    with pytest.raises(itup.InputError, match="0.001 s timestep, but those of .* at 0.002 s"):
         load_datasets([out, fine])
     del m["config"]["timestep"]
     json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
-    load_datasets([out, fine])  # an old manifest: 2 ms
+    load_datasets([out, fine])  # the oldest manifests: 2 ms
 
     ckpt = str(tmp_path / "m.npz")
     assert main(["train", "--data", out, other, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--quiet"]) == 0

@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.scene import TIMESTEP, build_scene, restitution_solref
+from itup_jax.scene import CONTACT_MIN_TIMECONST, TASK_TIMESTEP, build_scene, restitution_solref
 from itup_jax.simulate import plan, sample_physics
 
 
@@ -57,7 +57,25 @@ def test_restitution_maps_to_a_damping_ratio_and_the_contact_duration():
         assert math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)) == pytest.approx(e, rel=1e-12)
         assert math.pi * tc * zeta / math.sqrt(1 - zeta**2) == pytest.approx(dur, rel=1e-12)
     tc, _ = restitution_solref(0.4, 1e-4)
-    assert tc == 2 * TIMESTEP  # clamped to two timesteps, as MuJoCo would
+    assert tc == CONTACT_MIN_TIMECONST == 0.004  # the floor: the 2 ms scenes' two-step clamp, at any finer step
+    assert restitution_solref(0.4, 1e-4, 0.0005)[0] == CONTACT_MIN_TIMECONST
+    assert restitution_solref(0.4, 1e-4, 0.005)[0] == 0.01  # coarser than 2 ms: two steps, as MuJoCo would clamp
+
+
+def test_each_task_is_integrated_at_its_own_step_with_one_contact_model(tasks):
+    """The default scene step is the task's (`TASK_TIMESTEP`), an explicit one overrides it, and the
+    contacts (their solref, the pads' and the tool-target pairs') are the same at every step <= 2 ms."""
+    assert set(TASK_TIMESTEP) == set(itup.TASK_KINDS)
+    assert TASK_TIMESTEP["hammer"] == TASK_TIMESTEP["knock"] == TASK_TIMESTEP["sweep"] == 0.0005
+    assert TASK_TIMESTEP["reach"] == 0.002
+    tool, task = tasks["hammer"]
+    fine, coarse = build_scene(tool, task), build_scene(tool, task, timestep=0.002)
+    assert fine.model.opt.timestep == 0.0005 and coarse.model.opt.timestep == 0.002
+    np.testing.assert_array_equal(fine.model.pair_solref, coarse.model.pair_solref)
+    np.testing.assert_array_equal(fine.model.pair_solimp, coarse.model.pair_solimp)
+    assert build_scene(*tasks["reach"]).model.opt.timestep == 0.002
+    with pytest.raises(itup.InputError, match="no task kind 'drill'"):
+        itup.task_timestep("drill")
 
 
 def test_a_users_mesh_tool_gets_its_convex_hull(tmp_path, tools):
