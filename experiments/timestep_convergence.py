@@ -1,14 +1,15 @@
 """Are the labels converged in the simulator's timestep? The same grasps, the same contact model and
-nominal physics, integrated at several timesteps: if the labels at the scenes' 2 ms rank the grasps
-differently from the labels at a finer step, part of what the labels measure is the integration.
+nominal physics, integrated at several timesteps: if the labels at a step rank the grasps differently
+from the labels at a finer step, part of what they measure is the integration. This study chose each
+task's default step (`scene.TASK_TIMESTEP`; until session 10 every scene ran at 2 ms).
 
     python experiments/timestep_convergence.py --data /tmp/sdg_test8 --tools-per-task 3 --out results/timestep
     python experiments/timestep_convergence.py --quick --out /tmp/timestep     # a tiny dataset made here (tests)
 
 For the first `--tools-per-task` procedural tools of every task in --data, the valid grasps of the shard
 are rolled out under nominal physics in scenes built at each of `--timesteps` (s). Only the
-integration changes: every contact keeps the parameters it has in the 2 ms scenes (the tool-target
-spring's time constant, which MuJoCo needs >= 2 timesteps, stays clamped at 4 ms; the pads at 4 ms).
+integration changes: every contact keeps the same parameters at every step <= 2 ms (the tool-target
+spring's time constant keeps its 4 ms floor, `scene.CONTACT_MIN_TIMECONST`; the pads 4 ms).
 Per tool and timestep, over the grasps valid at both that step and the finest:
 
   rho_vs_finest     Spearman of the projected peak torque (the training target) against the finest step's;
@@ -16,8 +17,8 @@ Per tool and timestep, over the grasps valid at both that step and the finest:
   success_agree     the share of grasps whose task success is the same as at the finest step;
   rho_moved         the labels of the grasps moved by 2 mm and 2 degrees (`label_smoothness.moved`)
                     against the grasps' own, at that step: roughness in the grasp;
-  rho_sdgnet        the model's predicted C_tau (`--model`, default the shipped checkpoint, trained on
-                    2 ms labels) against that step's labels.
+  rho_sdgnet        the model's predicted C_tau (`--model`, default the shipped checkpoint) against that
+                    step's labels.
 
 Reported per tool and as the mean over each task's tools. Writes timestep.json (`itup.timestep/1`).
 """
