@@ -318,11 +318,12 @@ def read_manifest(out_dir: str) -> dict[str, Any]:
 
 def dataset_timesteps(manifest: dict[str, Any]) -> dict[str, float]:
     """{task: s} the integration step of each task's rows in a dataset, from its manifest: recorded per
-    task since per-task steps; before, one `config.timestep` for all; before that (no step), 2 ms."""
+    task since per-task steps; before, the config's one step for all (`GenerateConfig.from_json`: 2 ms
+    when it records none)."""
     if "timesteps" in manifest:
         return {t: float(v) for t, v in manifest["timesteps"].items()}
-    step = manifest["config"].get("timestep")
-    return {t: float(TIMESTEP if step is None else step) for t in manifest["config"].get("tasks", ())}
+    config = GenerateConfig.from_json(manifest["config"])
+    return {t: config.task_timestep(t) for t in config.tasks}
 
 
 def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None,
