@@ -307,7 +307,8 @@ def main(argv=None) -> dict:
                     help="training dataset folder(s) (for --train-model; several are trained on as one)")
     ap.add_argument("--test", default=None, help="test dataset folder (held-out tools)")
     ap.add_argument("--model", default=None, help="checkpoint to evaluate (default: the shipped one)")
-    ap.add_argument("--train-model", action="store_true", help="retrain on --train, time it, evaluate that")
+    ap.add_argument("--train-model", action="store_true",
+                    help="retrain --model's recipe (default: the shipped one's) on --train, time it, evaluate that")
     ap.add_argument("--redraws", type=int, default=0, help="roll every test grasp out K more times under new "
                     "physics draws: retest ceiling and the mean-over-draws target")
     ap.add_argument("--w-task", type=float, default=ScoreWeights().w_task,
@@ -341,7 +342,8 @@ def main(argv=None) -> dict:
             raise SystemExit(2)
         data, manifests = load_datasets(args.train)
         spec = manifests[0]["config"]["feature_spec"]
-        cfg = TrainConfig(epochs=20, patience=5) if args.quick else TrainConfig()
+        # the recipe of --model (default: the shipped checkpoint's), so the wall time is its time to train
+        cfg = TrainConfig(epochs=20, patience=5) if args.quick else load_model(args.model).train_config
         t0 = time.perf_counter()
         model = train(data, cfg, feature_spec=spec, progress=False, log=lambda *_: None)
         train_s = time.perf_counter() - t0

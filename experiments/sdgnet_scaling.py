@@ -34,7 +34,7 @@ from sdgnet_fidelity import GOALS, evaluate  # noqa: E402  (the same per-tool sc
 
 from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import GenerateConfig, generate, load_datasets  # noqa: E402
-from itup_jax.sdgnet import TrainConfig, load_model, train  # noqa: E402
+from itup_jax.sdgnet import load_model, train  # noqa: E402
 
 
 def first_tools(data: dict, k: int | None) -> np.ndarray:
@@ -50,6 +50,24 @@ def first_tools(data: dict, k: int | None) -> np.ndarray:
 def tools_per_task(data: dict) -> int:
     """The smallest number of distinct tools over the tasks of `data`."""
     return min(len(np.unique(data["tool_id"][data["task"] == t])) for t in np.unique(data["task"]))
+
+
+def parse_sizes(tools: str, available: int) -> list[tuple[int, bool]]:
+    """--tools "8,16,all" -> sorted [(k, every)]: k tools of every task, or with `every` ('all') all of
+    each task's tools (k is then their fewest, `available`: the tasks may have different counts).
+    ValueError names a size that is not 1..available or 'all'."""
+    sizes = []
+    for s in tools.split(","):
+        every = s.strip() == "all"
+        try:
+            k = available if every else int(s)
+        except ValueError:
+            k = 0
+        if not 1 <= k <= available:
+            raise ValueError(f"--tools {s!r}: need 1..{available} (tools per task in --train) or 'all'")
+        if (k, every) not in sizes:
+            sizes.append((k, every))
+    return sorted(sizes)
 
 
 def fit_log2(k: np.ndarray, rho: np.ndarray, goal: float) -> dict:
@@ -117,8 +135,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
     ap.add_argument("--out", default="results/scaling")
     args = ap.parse_args(argv)
-    shipped = load_model().spec["config"]
-    base = TrainConfig(**{**shipped, "hidden": tuple(shipped["hidden"])})
+    base = load_model().train_config
     if args.quick:
         os.makedirs(args.out, exist_ok=True)
         args.train = [os.path.join(args.out, "train")]
@@ -141,19 +158,15 @@ def main(argv=None) -> dict:
         print(f"sdgnet_scaling: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
         raise SystemExit(2)
     data, manifests = load_datasets(args.train)
-    available = tools_per_task(data)
-    sizes = []
-    for s in args.tools.split(","):
-        k = available if s.strip() == "all" else int(s)
-        if not 1 <= k <= available:
-            print(f"sdgnet_scaling: --tools {s!r}: need 1..{available} (tools per task in --train)", file=sys.stderr)
-            raise SystemExit(2)
-        if k not in sizes:
-            sizes.append(k)
+    try:
+        sizes = parse_sizes(args.tools, tools_per_task(data))
+    except ValueError as exc:
+        print(f"sdgnet_scaling: {exc}", file=sys.stderr)
+        raise SystemExit(2)
     feature_spec = manifests[0]["config"]["feature_spec"]
     results = []
-    for k in sorted(sizes):
-        keep = first_tools(data, k)
+    for k, every in sizes:
+        keep = first_tools(data, None if every else k)  # 'all' keeps a task's tools beyond the fewest too
         sub = {key: v[keep] for key, v in data.items()}
         runs = []
         for seed in range(args.seeds):
@@ -167,13 +180,14 @@ def main(argv=None) -> dict:
                          "median_rho": float(np.nanmedian(rho)),
                          "by_task": {t: float(np.nanmean([r["rho_sdgnet_projected"] for r in rows if r["task"] == t]))
                                      for t in sorted({r["task"] for r in rows})}})
-            print(f"{k:4d} tools/task seed {seed}: {int(keep.sum())} rows, {wall:.1f} s, val loss "
+            print(f"{'all' if every else k:>4} tools/task seed {seed}: {int(keep.sum())} rows, {wall:.1f} s, val loss "
                   f"{model.spec['best_val_loss']:.3f}, held-out Spearman median {runs[-1]['median_rho']:.3f}  "
                   + " ".join(f"{t} {v:.2f}" for t, v in runs[-1]["by_task"].items()), flush=True)
         med = np.array([r["median_rho"] for r in runs])
         tasks = list(runs[0]["by_task"])
         results.append({
-            "tools_per_task": k, "rows": int(keep.sum()), "runs": runs,
+            "tools_per_task": k, "all_tools": every, "rows": int(keep.sum()), "runs": runs,
+            "tools_by_task": {str(t): int(len(np.unique(sub["tool_id"][sub["task"] == t]))) for t in np.unique(sub["task"])},
             "median_rho": {"mean": float(med.mean()), "std": float(med.std()), "min": float(med.min()),
                            "max": float(med.max())},
             "by_task": {t: {"mean": float(np.mean([r["by_task"][t] for r in runs]))} for t in tasks},

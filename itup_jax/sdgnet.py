@@ -61,8 +61,9 @@ class TrainConfig:
     per_task: bool = False  # one MLP per task, each trained (and early-stopped) on its task's rows alone
     # > 0: after the shared network, a copy per task trained on that task's rows for this many more
     # epochs (same held-out tools, same normalisation, AdamW at `finetune_lr`, kept only where it lowers
-    # that task's validation loss). 60 ranks held-out grasps better (Spearman +0.02) but its knock picks
-    # carry more torque and sometimes fail, so the default, and the shipped model, stay at 0 (models/README.md)
+    # that task's validation loss). The shipped checkpoint since session 11 uses 60 (`itup train
+    # --finetune-epochs 60`: Spearman +0.03 on held-out tools over the shared network alone on the same
+    # data; models/README.md); the default stays 0, one network for every task, the paper's model
     finetune_epochs: int = 0
     finetune_lr: float = 5e-4
     # N m: the torque target is log1p(tau / torque_scale). 0.02 (about the smallest peaks measured) ranks
@@ -144,6 +145,16 @@ class Model:
     def has_success_head(self) -> bool:
         """Whether the network also predicts the probability of task success."""
         return SUCCESS_TARGET in self.class_heads
+
+    @property
+    def train_config(self) -> TrainConfig:
+        """The recipe this model was trained with (`spec["config"]`; fields a checkpoint predates take
+        TrainConfig's defaults): what `train` needs to make it again on other data."""
+        fields = {f.name for f in dataclasses.fields(TrainConfig)}
+        cfg = {k: v for k, v in self.spec["config"].items() if k in fields}
+        if "hidden" in cfg:
+            cfg["hidden"] = tuple(int(h) for h in cfg["hidden"])
+        return TrainConfig(**cfg)
 
     @property
     def tasks(self) -> list[str] | None:

@@ -41,6 +41,18 @@ def test_checkpoint_carries_the_spec_and_predicts_the_same(tmp_path):
         assert np.array_equal(W, W2) and np.array_equal(b, b2)
 
 
+def test_checkpoint_gives_back_its_training_recipe(tmp_path):
+    cfg = TrainConfig(hidden=(16, 8), epochs=3, lr=1e-3, weight_decay=0.05, seed=4, finetune_epochs=2)
+    model = train(_synthetic(), cfg, feature_spec={"num_points": 8}, progress=False, log=lambda *a: None)
+    save_model(str(tmp_path / "m.npz"), model)
+    assert load_model(str(tmp_path / "m.npz")).train_config == cfg
+    # a checkpoint made before a field existed: that field takes TrainConfig's default
+    old = dataclasses.replace(model, spec={**model.spec, "config": {"hidden": [16], "lr": 1e-3}})
+    assert old.train_config == TrainConfig(hidden=(16,), lr=1e-3)
+    shipped = load_model().train_config  # the shipped recipe, what sdgnet_scaling / fidelity --train-model retrain
+    assert shipped.finetune_epochs == 60 and shipped.hidden == (128, 128, 128)
+
+
 def test_default_model_scores_in_one_jit_without_recompiling(tasks):
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 32, seed=0)
@@ -69,8 +81,9 @@ def test_predictions_are_decoded_with_the_checkpoints_own_target_scales(tasks, t
     s0, s1 = itup.score(tool, task, g, model=base), itup.score(tool, task, g, model=other)
     for i, name in enumerate(("tau", "slip", "align")):
         np.testing.assert_allclose(np.asarray(getattr(s1, name)), k[i] * np.asarray(getattr(s0, name)), rtol=1e-5, atol=1e-9)
-    feats = np.random.default_rng(0).normal(size=(8, len(base.spec["x_mean"]))) * base.spec["x_std"] + base.spec["x_mean"]
-    p0, p1 = predict_costs(base, feats), predict_costs(other, feats)
+    net = base.for_task("reach")  # the shipped model is fine-tuned per task: each task's own normalisation
+    feats = np.random.default_rng(0).normal(size=(8, len(net.spec["x_mean"]))) * net.spec["x_std"] + net.spec["x_mean"]
+    p0, p1 = predict_costs(base, feats, "reach"), predict_costs(other, feats, "reach")
     np.testing.assert_allclose(np.asarray(p1["tau"]), k[0] * np.asarray(p0["tau"]), rtol=1e-5)
     path = str(tmp_path / "bad.npz")
     save_model(path, dataclasses.replace(base, spec=dict(base.spec, target_scales=[1.0, -1.0, 0.1])))
@@ -141,12 +154,16 @@ def test_bench_score_takes_a_checkpoint_path(tmp_path):
     from itup_jax.features import FeatureSpec
 
     spec = FeatureSpec()
-    model = train(_synthetic(f=spec.size), TrainConfig(hidden=(16,), epochs=2), feature_spec=spec.to_dict(),
+    data = _synthetic(f=spec.size)
+    data["task"] = np.where(data["tool_id"] % 2 == 0, "hammer", "reach")
+    # fine-tuned per task (as the shipped model): one 16-wide network per task in one checkpoint
+    model = train(data, TrainConfig(hidden=(16,), epochs=2, finetune_epochs=1), feature_spec=spec.to_dict(),
                   progress=False, log=lambda *_: None)
+    assert model.tasks == ["hammer", "reach"]
     path = str(tmp_path / "m.npz")
     save_model(path, model)
     res = bench_score(n=64, repeats=1, task_kind="reach", model=path)
-    assert res["hidden"] == [16] and res["n"] == 64 and res["warm_ms"] > 0
+    assert res["hidden"] == [16] and res["n"] == 64 and res["warm_ms"] > 0  # the reach network's layers
 
 
 def test_a_feature_constant_in_training_is_not_blown_up():
