@@ -62,7 +62,7 @@ class TrainConfig:
     # > 0: after the shared network, a copy per task trained on that task's rows for this many more
     # epochs (same held-out tools, same normalisation, AdamW at `finetune_lr`, kept only where it lowers
     # that task's validation loss). The shipped checkpoint since session 11 uses 60 (`itup train
-    # --finetune-epochs 60`: Spearman +0.03 on held-out tools over the shared network alone on the same
+    # --finetune-epochs 60`: Spearman +0.02 to +0.03 on held-out tools over the shared network alone on the same
     # data; models/README.md); the default stays 0, one network for every task, the paper's model
     finetune_epochs: int = 0
     finetune_lr: float = 5e-4
