@@ -25,6 +25,7 @@ import dataclasses
 import os
 import sys
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -47,26 +48,27 @@ def first_tools(data: dict, k: int | None) -> np.ndarray:
     return keep
 
 
-def tools_per_task(data: dict) -> int:
-    """The smallest number of distinct tools over the tasks of `data`."""
-    return min(len(np.unique(data["tool_id"][data["task"] == t])) for t in np.unique(data["task"]))
+def tools_by_task(data: dict) -> dict[str, int]:
+    """{task: its number of distinct tools} in `data`."""
+    return {str(t): int(len(np.unique(data["tool_id"][data["task"] == t]))) for t in np.unique(data["task"])}
 
 
-def parse_sizes(tools: str, available: int) -> list[tuple[int, bool]]:
-    """--tools "8,16,all" -> sorted [(k, every)]: k tools of every task, or with `every` ('all') all of
-    each task's tools (k is then their fewest, `available`: the tasks may have different counts).
-    ValueError names a size that is not 1..available or 'all'."""
-    sizes = []
+def parse_sizes(tools: str, counts: Sequence[int]) -> list[tuple[int, bool]]:
+    """--tools "8,16,all" -> sorted, distinct [(k, every)]: the first k tools of every task, `counts` the
+    tasks' tool counts. 'all' is every tool of every task, k then the fewest (the tasks may have
+    different counts); `every` says whether a size keeps every tool, so a k that already does and 'all'
+    are one size, trained once. ValueError names a size that is not 1..min(counts) or 'all'."""
+    available = min(counts)
+    sizes = set()
     for s in tools.split(","):
-        every = s.strip() == "all"
+        all_ = s.strip() == "all"
         try:
-            k = available if every else int(s)
+            k = available if all_ else int(s)
         except ValueError:
             k = 0
         if not 1 <= k <= available:
             raise ValueError(f"--tools {s!r}: need 1..{available} (tools per task in --train) or 'all'")
-        if (k, every) not in sizes:
-            sizes.append((k, every))
+        sizes.add((k, all_ or k >= max(counts)))
     return sorted(sizes)
 
 
@@ -159,7 +161,7 @@ def main(argv=None) -> dict:
         raise SystemExit(2)
     data, manifests = load_datasets(args.train)
     try:
-        sizes = parse_sizes(args.tools, tools_per_task(data))
+        sizes = parse_sizes(args.tools, list(tools_by_task(data).values()))
     except ValueError as exc:
         print(f"sdgnet_scaling: {exc}", file=sys.stderr)
         raise SystemExit(2)
@@ -187,7 +189,7 @@ def main(argv=None) -> dict:
         tasks = list(runs[0]["by_task"])
         results.append({
             "tools_per_task": k, "all_tools": every, "rows": int(keep.sum()), "runs": runs,
-            "tools_by_task": {str(t): int(len(np.unique(sub["tool_id"][sub["task"] == t]))) for t in np.unique(sub["task"])},
+            "tools_by_task": tools_by_task(sub),
             "median_rho": {"mean": float(med.mean()), "std": float(med.std()), "min": float(med.min()),
                            "max": float(med.max())},
             "by_task": {t: {"mean": float(np.mean([r["by_task"][t] for r in runs]))} for t in tasks},

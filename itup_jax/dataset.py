@@ -256,8 +256,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
             old = json.load(fh)
         if old.get("config") != manifest["config"]:
             raise InputError(f"generate: {mpath} was made with another config; use a new folder")
-        if dataset_timesteps(old) != manifest["timesteps"]:  # a default step changed since
-            raise InputError(f"generate: {mpath} was simulated at {dataset_timesteps(old)} s, this run would use "
+        old_steps = dataset_timesteps(old)
+        if old_steps != manifest["timesteps"]:  # a default step changed since
+            raise InputError(f"generate: {mpath} was simulated at {old_steps} s, this run would use "
                              f"{manifest['timesteps']} s; resuming would mix their labels: use a new folder")
         if old.get("code_version") != __version__:  # labels may mean something else across versions
             raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "

@@ -356,13 +356,14 @@ def test_scaling_subsets_and_fit():
     spec.loader.exec_module(mod)
     data = {"task": np.array(["a"] * 6 + ["b"] * 4), "tool_id": np.array([0, 0, 1, 2, 2, 3, 0, 1, 5, 5])}
     np.testing.assert_array_equal(mod.first_tools(data, 2), [1, 1, 1, 0, 0, 0, 1, 1, 0, 0])
-    assert mod.first_tools(data, None).all() and mod.tools_per_task(data) == 3
+    assert mod.first_tools(data, None).all() and mod.tools_by_task(data) == {"a": 4, "b": 3}
     # 'all' is every tool of every task, even where the tasks have different counts (k: the fewest)
-    assert mod.parse_sizes("all,2,2", 3) == [(2, False), (3, True)]
-    assert mod.parse_sizes("3,all", 3) == [(3, False), (3, True)]
+    assert mod.parse_sizes("all,2,2", [4, 3]) == [(2, False), (3, True)]
+    assert mod.parse_sizes("3,all", [4, 3]) == [(3, False), (3, True)]
+    assert mod.parse_sizes("3,all", [3, 3]) == [(3, True)]  # 3 of 3 already keeps every tool: trained once
     for bad in ("0", "4", "x"):
         with pytest.raises(ValueError, match="--tools"):
-            mod.parse_sizes(bad, 3)
+            mod.parse_sizes(bad, [4, 3])
     fit = mod.fit_log2([4, 8, 16], [0.5, 0.6, 0.7], 0.9)  # +0.1 per doubling from 0.5 at 4: 0.9 at 64
     assert fit["per_doubling"] == pytest.approx(0.1) and fit["tools_per_task_at_goal"] == pytest.approx(64.0)
     assert mod.fit_log2([4, 8], [0.6, 0.5], 0.9)["tools_per_task_at_goal"] is None
