@@ -47,10 +47,11 @@ from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, load_shard, unit_tool
 from itup_jax.grasp import Grasps
 from itup_jax.scene import build_scene
-from itup_jax.scoring import ScoreWeights, sdgnet_total
+from itup_jax.scoring import Scores, ScoreWeights, sdgnet_total
 from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
 from itup_jax.stats import roc_auc, spearman
-from itup_jax.simulate import simulate
+from itup_jax.simulate import Randomization, simulate
+from itup_jax.verify import best_grasp_verified
 
 MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
 GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
@@ -124,13 +125,46 @@ def task_pick_stats(y: np.ndarray, success: np.ndarray, score: np.ndarray) -> di
     return {"success": float(ok[i]), "task_regret": regret}
 
 
+def _one_hot(n: int, i: int) -> np.ndarray:
+    """[n] a score whose lowest entry is i (to judge a pick made elsewhere with `pick_stats`)."""
+    z = np.ones(n)
+    z[i] = 0.0
+    return z
+
+
 def _draws(ok: np.ndarray, first: np.ndarray, extra: np.ndarray) -> np.ndarray:
     """[k + 1, N]: draw 0 (the shard's label, NaN where not valid) over the k redraws."""
     return np.vstack([np.where(ok, first.astype(float), np.nan)[None], extra])
 
 
+def verified_picks(model, config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray, pred_tau: np.ndarray,
+                   pred_total: np.ndarray, k: int, physics: str, timestep: float,
+                   weights: ScoreWeights) -> dict[str, int | float]:
+    """SDG-Net's shortlist of the k best of a shard's valid grasps, each rolled out once more and the best
+    measured taken (`best_grasp_verified`): by predicted C_tau then measured projected torque (`tau`), and
+    by the scorer's total then the measured total (`total`, `weights`). The check rollouts run under
+    nominal physics (`physics` = 'nominal') or one fresh draw each (`random`: the shard's seed + 2; the
+    redraws use + 1), never under draw 0, which judges the pick. Returns {pick_tau, pick_total (indices
+    into the valid rows), verify_s (wall time of both checks)}."""
+    tool, task = unit_tool(config, entry["task"], entry["variant"])
+    scene = build_scene(tool, task, timestep=timestep)
+    g = Grasps(a["grasp_p"][ok], a["grasp_q"][ok], a["grasp_width"][ok])
+    seed = json.loads(bytes(a["meta_json"]))["seed"] + 2
+    randomize = None if physics == "nominal" else Randomization()
+    only_tau = ScoreWeights(w_tau=1.0, w_slip=0.0, w_align=0.0, w_task=0.0, w_fail=0.0)
+    out: dict[str, int | float] = {}
+    t0 = time.perf_counter()
+    for name, total, w in (("tau", pred_tau, only_tau), ("total", pred_total, weights)):
+        z = np.zeros(len(total))
+        v = best_grasp_verified(tool, task, g, k=k, seed=seed, randomize=randomize, weights=w, scene=scene,
+                                scores=Scores(tau=z, slip=z, align=z, total=np.asarray(total, float), scorer="sdgnet"))
+        out[f"pick_{name}"] = v.index
+    out["verify_s"] = time.perf_counter() - t0
+    return out
+
+
 def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None,
-             weights: ScoreWeights = ScoreWeights()) -> dict:
+             weights: ScoreWeights = ScoreWeights(), verify: int = 0, verify_physics: str = "nominal") -> dict:
     """Per test shard: rank correlations and regrets of SDG-Net and the analytic cost against the measured
     torques. With `redraws` k >= 1 every grasp is rolled out k more times under new physics draws, which
     adds the retest correlation between two draws (`retest_rho` = r) and the target `mean` (the mean over
@@ -143,10 +177,14 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     k more times (a perfect scorer of the expected torque is its limit as k grows), with
     `regret_sdgnet_same_rows_projected` SDG-Net's on the same rows (valid in every draw). The task
     fields (`task_pick_stats`) judge the pick by `tau` and by `total` (weighted by `weights`) on draw 0;
-    with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws."""
+    with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws. With `verify` K >= 1,
+    the same for the verified picks (`verified_picks`: SDG-Net's K best rolled out once more under
+    `verify_physics`): `regret_verified_projected`, `percentile_verified_projected`, `*_verified_total`."""
     with open(os.path.join(test_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
+    config = GenerateConfig.from_json(manifest["config"])
+    steps = dataset_timesteps(manifest)
     rows, pooled = [], {}
     for entry in manifest["shards"]:
         a = load_shard(test_dir, entry)
@@ -169,6 +207,14 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_{name}"] = v
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
+        vp = (verified_picks(model, config, entry, a, ok, pred_all[ok], total_all[ok], verify, verify_physics,
+                             steps[entry["task"]], weights) if verify else None)
+        if vp is not None:
+            row["verify_s"] = vp["verify_s"]
+            for stat, v in pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
+                row[f"{stat}_verified_projected"] = v
+            for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_total"])).items():
+                row[f"{stat}_verified_total"] = v
         for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
             if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
                 pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
@@ -179,8 +225,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             succ = _draws(ok, a["label_success"], extra["success"])
             failed = _draws(ok, a["label_failed"], extra["failed"])
             draws = _draws(ok, a["label_peak_torque_projected"], extra["torque"])
-            for name, sc in (("tau", pred_all), ("total", total_all)):
-                i = int(np.argmin(np.where(ok, sc, np.inf)))
+            picks = {name: int(np.argmin(np.where(ok, sc, np.inf))) for name, sc in (("tau", pred_all), ("total", total_all))}
+            if vp is not None:
+                picks["verified_total"] = int(np.nonzero(ok)[0][vp["pick_total"]])
+            for name, i in picks.items():
                 row[f"success_draws_{name}"] = float(np.nanmean(succ[:, i]))
                 row[f"failed_draws_{name}"] = float(np.nanmean(failed[:, i]))
                 row[f"torque_draws_{name}"] = float(np.nanmean(draws[:, i]))
@@ -231,7 +279,7 @@ def summarise(rows: list[dict]) -> dict:
         s = {"tools": len(sel)}
         keys = [k for k in dict.fromkeys(k for r in sel for k in r)
                 if k.startswith(("rho_", "regret_", "percentile_", "over_p10_", "retest_", "success_", "task_regret_",
-                                 "failed_", "torque_draws_"))]
+                                 "failed_", "torque_draws_", "verify_"))]
         for k in keys:
             v = np.array([r.get(k, np.nan) for r in sel], float)
             s[k] = {"median": _nan_stat(np.nanmedian, v), "mean": _nan_stat(np.nanmean, v)}
@@ -247,8 +295,11 @@ def summarise(rows: list[dict]) -> dict:
                            "success_tau", "success_total", "success_draws_tau", "success_draws_total",
                            "failed_draws_tau", "failed_draws_total", "torque_draws_tau", "torque_draws_total",
                            "task_regret_retest", "success_retest",
-                           "task_regret_tau", "task_regret_total", "success_auc") if any(k in r for r in tr)}
-            for k in ("task_regret_total", "task_regret_retest"):
+                           "task_regret_tau", "task_regret_total", "success_auc", "regret_verified_projected",
+                           "percentile_verified_projected", "success_verified_total", "task_regret_verified_total",
+                           "success_draws_verified_total", "failed_draws_verified_total", "torque_draws_verified_total",
+                           "verify_s") if any(k in r for r in tr)}
+            for k in ("task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total"):
                 by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
         s["by_task"] = by_task
         out[subset] = s
@@ -275,13 +326,18 @@ def plot(rows: list[dict], path: str) -> None:
     ax[0].set_ylabel("Spearman rho (per tool, mean)")
     ax[0].set_title("predicted C_tau vs measured torque")
     ax[0].legend(fontsize=8)
-    for j, (scorer, c) in enumerate((("sdgnet", "C0"), ("analytic", "C1"), ("random", "C7"))):
+    scorers = [("sdgnet", "C0", "sdgnet")]
+    if any("regret_verified_projected" in r for r in held):
+        scorers.append(("verified", "C2", "sdgnet + verify"))
+    scorers += [("analytic", "C1", "analytic"), ("random", "C7", "random")]
+    wd = 0.8 / len(scorers)
+    for j, (scorer, c, label) in enumerate(scorers):
         v = [100 * np.nanmean([r[f"regret_{scorer}_projected"] for r in held if r["task"] == t]) for t in tasks]
-        ax[1].bar(x + 0.27 * (j - 1), v, 0.27, label=scorer, color=c)
+        ax[1].bar(x + wd * (j - (len(scorers) - 1) / 2), v, wd, label=label, color=c)
     ax[1].axhline(100 * GOALS["regret"], color="k", ls="--", lw=0.8, label="goal")
     ax[1].set_xticks(x, tasks)
     ax[1].set_yscale("symlog", linthresh=10)  # the analytic and random regrets reach 1e4 %
-    ax[1].set_ylabel("top-1 regret (%)")
+    ax[1].set_ylabel("top-1 regret (%, mean over tools)")
     ax[1].set_title("measured torque of the pick over the best")
     ax[1].set_ylim(0, 1e6)
     ax[1].legend(fontsize=8, loc="upper center", ncol=2)
@@ -317,7 +373,12 @@ def main(argv=None) -> dict:
                     help="weight of the predicted probability of failing in the grip (default: the scorer's)")
     ap.add_argument("--w-align", type=float, default=ScoreWeights().w_align,
                     help="weight of the predicted alignment drift, 1/rad (default: the scorer's)")
-    ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 1 redraw (for the tests)")
+    ap.add_argument("--verify", type=int, default=0, metavar="K",
+                    help="also judge the verified pick: SDG-Net's K best of each tool rolled out once more, the best "
+                    "measured taken (itup.best_grasp_verified)")
+    ap.add_argument("--verify-physics", choices=("nominal", "random"), default="nominal",
+                    help="the check rollouts' physics: the priors' nominal values (default) or one fresh draw each")
+    ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 1 redraw, --verify 2 (for the tests)")
     ap.add_argument("--out", default="results/fidelity")
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
@@ -326,10 +387,11 @@ def main(argv=None) -> dict:
         args.test = os.path.join(args.out, "test")
         generate(args.train[0], GenerateConfig(tasks=("hammer",), tools_per_task=3, grasps=12, seed=0), progress=False)
         generate(args.test, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
-        args.train_model, args.redraws = True, 1
-    if args.redraws < 0:
-        print(f"sdgnet_fidelity: --redraws must be >= 0, got {args.redraws}", file=sys.stderr)
-        raise SystemExit(2)
+        args.train_model, args.redraws, args.verify = True, 1, 2
+    for flag, v in (("--redraws", args.redraws), ("--verify", args.verify)):
+        if v < 0:
+            print(f"sdgnet_fidelity: {flag} must be >= 0, got {v}", file=sys.stderr)
+            raise SystemExit(2)
     if not args.test or not os.path.exists(os.path.join(args.test, MANIFEST)):
         print(f"sdgnet_fidelity: --test {args.test!r} holds no dataset manifest", file=sys.stderr)
         raise SystemExit(2)
@@ -351,10 +413,12 @@ def main(argv=None) -> dict:
     else:
         model = load_model(args.model)
     weights = ScoreWeights(w_task=args.w_task, w_fail=args.w_fail, w_align=args.w_align)
-    res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights)
+    res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights,
+                   verify=args.verify, verify_physics=args.verify_physics)
     summary = summarise(res["rows"])
     out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
-           "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws, "goals": GOALS,
+           "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws,
+           "verify": args.verify, "verify_physics": args.verify_physics if args.verify else None, "goals": GOALS,
            "success_head": model.has_success_head, "class_heads": model.class_heads, "weights": dataclasses.asdict(weights), "summary": summary,
            "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
            "per_tool": res["rows"], "test_config": res["test_config"]}
@@ -407,6 +471,22 @@ def main(argv=None) -> dict:
             print(f"  {t:7s} retest {v['retest_rho']:+.2f} (ceiling {v['retest_ceiling_rho']:+.2f}) | vs mean: rho sdgnet {v['rho_sdgnet_mean']:+.2f} analytic "
                   f"{v['rho_analytic_mean']:+.2f} regret sdgnet {100 * v['regret_sdgnet_mean']:.0f}% percentile "
                   f"{100 * v['percentile_sdgnet_mean']:.0f}")
+    if args.verify:
+        print(f"verified pick (SDG-Net's {args.verify} best per tool rolled out once more, {args.verify_physics} physics, "
+              f"{h['verify_s']['mean']:.2f} s per tool for both checks): top-1 regret median "
+              f"{100 * h['regret_verified_projected']['median']:.0f}% (SDG-Net alone "
+              f"{100 * h['regret_sdgnet_projected']['median']:.0f}%), mean {100 * h['regret_verified_projected']['mean']:.0f}%, "
+              f"within the goal in {100 * np.mean([r['regret_verified_projected'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
+              f"of tools; by the total: task achieved {100 * h['success_verified_total']['mean']:.0f}% (draw 0), task regret median "
+              f"{100 * h['task_regret_verified_total']['median']:.0f}%"
+              + (f"; over draws 0-{args.redraws}: success {100 * h['success_draws_verified_total']['mean']:.0f}%, "
+                 f"fails in the grip {100 * h['failed_draws_verified_total']['mean']:.1f}%, torque "
+                 f"{h['torque_draws_verified_total']['mean']:.3f} N m (unverified {h['torque_draws_total']['mean']:.3f})"
+                 if draws else ""))
+        for t, v in h["by_task"].items():
+            print(f"  {t:7s} regret verified {100 * v['regret_verified_projected_median']:.0f}% (median; mean "
+                  f"{100 * v['regret_verified_projected']:.0f}%) | task regret verified median "
+                  f"{100 * v['task_regret_verified_total_median']:.0f}% | success {100 * v['success_verified_total']:.0f}%")
     return out
 
 

@@ -143,11 +143,11 @@ def main(argv=None) -> dict:
     ap.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     ap.add_argument("--timestep", type=float, default=None, help="s, every scene's integration step (default: "
                     "each task's, scene.TASK_TIMESTEP: the coarsest that converges, timestep_convergence.py)")
-    ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 16 candidates, 1 seed, 3 methods")
+    ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 16 candidates, 1 seed, 4 methods")
     ap.add_argument("--out", default="results/table1")
     a = ap.parse_args(argv)
     if a.quick:
-        a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,force_closure,random"
+        a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,sdgnet_verified,force_closure,random"
     tasks = [t for t in a.tasks.split(",") if t]
     methods = tuple(m for m in a.methods.split(",") if m)
     try:
@@ -177,7 +177,7 @@ def main(argv=None) -> dict:
     atomic_write_json(os.path.join(a.out, "table1.json"), out, indent=1)
     atomic_write(os.path.join(a.out, "table1.csv"), to_csv(res["table"]).encode())
     plot(res["table"], methods, os.path.join(a.out, "table1.png"))
-    print(f"\n{'task':7s} {'method':>14s} {'tau_proj N m':>14s} {'tau_raw N m':>13s} {'slip mm':>11s} "
+    print(f"\n{'task':7s} {'method':>15s} {'tau_proj N m':>14s} {'tau_raw N m':>13s} {'slip mm':>11s} "
           f"{'alpha deg':>10s} {'fail':>5s} {'succ':>5s}")
     for kind in tasks:
         for m in methods:
@@ -185,7 +185,7 @@ def main(argv=None) -> dict:
 
             def f(k, s=1.0, p=2):
                 return "-" if c[k]["mean"] is None else f"{s * c[k]['mean']:.{p}f}±{s * c[k]['std']:.{p}f}"
-            print(f"{kind:7s} {m:>14s} {f('peak_torque_projected'):>14s} {f('peak_torque'):>13s} "
+            print(f"{kind:7s} {m:>15s} {f('peak_torque_projected'):>14s} {f('peak_torque'):>13s} "
                   f"{f('slip_translation', 1e3, 1):>11s} {f('alignment_drift', 57.2958, 1):>10s} "
                   f"{c['failed']['mean'] if c['failed']['mean'] is not None else float('nan'):5.2f} "
                   f"{c['success']['mean'] if c['success']['mean'] is not None else float('nan'):5.2f}")

@@ -6,7 +6,8 @@ Grasps for tools are chosen by minimising the wrench that the task trajectory in
   1-2 grounding (tool, target, contact and grasp region)  -> `tool` (Tool, load_tool), `task` (Omega)
   3   trajectory synthesis xi(t)                          -> `trajectory`, `task.make_task`
   4   grasp candidates G                                  -> `grasp` (frame), `grasp_sampler`
-  5   wrench-conditioned scoring                          -> `wrench` (physics), `costs`
+  5   wrench-conditioned scoring                          -> `wrench` (physics), `costs`, `scoring` (SDG-Net),
+                                                             `verify` (SDG-Net's shortlist checked in MuJoCo)
   6   execution along xi in MuJoCo                        -> `scene` (MjSpec composition), `ik`, `simulate`
 
 Notebook API::
@@ -37,6 +38,7 @@ from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
 from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
 from itup_jax.task import TASK_KINDS, Task, make_task
 from itup_jax.tool import Tool, ToolParams, load_tool
+from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.trajectory import Trajectory
 from itup_jax.wrench import Loads, task_loads
 
@@ -48,5 +50,5 @@ __all__ = [
     "from_graspnet", "grasp_cost_trace", "grasp_costs", "load_tool", "make_grasps", "make_task",
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
     "Scene", "TASK_TIMESTEP", "build_scene", "task_timestep", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
-    "Scores", "ScoreWeights", "best_grasp", "score",
+    "Scores", "ScoreWeights", "best_grasp", "score", "Verified", "best_grasp_verified",
 ]

@@ -2,9 +2,11 @@
 
   itup demo [--task hammer] [--out itup-demo/]
   itup evaluate --task T [--tool MESH --tool-spec SPEC] --methods sdgnet,force_closure,... --seeds K --json OUT
-  itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--json OUT]
+  itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--verify 5] [--json OUT]
   itup bench costs [--n 100000] [--t 64] [--json]
   itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
+  itup bench score [--n 10000] [--json]
+  itup bench verify [--n 1000] [--k 5] [--json]
   itup tools
 
 Bad input exits with status 2 and a message that names the problem; nothing is half-written.
@@ -28,11 +30,12 @@ EXAMPLES = """examples:
   itup plan                                   # hammer task, built-in claw hammer, 1000 candidates, SDG-Net
   itup plan --scorer analytic                 # the analytic wrench cost instead
   itup plan --task reach --n 2000 --json best.json
-  itup plan --task hammer --verify 5           # and check the 5 best in MuJoCo
+  itup plan --task hammer --verify 5           # roll the 5 best out in MuJoCo, pick the best measured
   itup plan --task hammer --tool my.stl --tool-spec my.toml
   itup bench costs --n 100000 --t 64 --json
   itup bench rollout --json
   itup bench score --n 10000 --json
+  itup bench verify --json
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup train --data data/ --out model.npz
@@ -98,6 +101,13 @@ def cmd_plan(args) -> int:
     order = np.argsort(total)[: args.top]
     regime = itup.classify_regime(tool, task)
     gn = to_graspnet(grasps)
+    # whether the arm can follow the task trajectory with each listed grasp (closed-form IK; the scorers
+    # rank grasps, not the arm's reach: `--verify` skips unreachable ones)
+    from itup_jax.scene import build_scene
+    from itup_jax.simulate import plan as plan_rollouts, sample_physics
+
+    reachable = dict(zip(order.tolist(), (~plan_rollouts(build_scene(tool, task), task, grasps[order],
+                                                         sample_physics(tool, len(order), spread=None)).infeasible).tolist()))
 
     def row(i: int) -> dict[str, Any]:
         return {
@@ -105,6 +115,7 @@ def cmd_plan(args) -> int:
             "p_tool_grasp_m": np.asarray(grasps.p_tool_grasp[i], float).round(6).tolist(),
             "q_tool_grasp_wxyz": np.asarray(grasps.q_tool_grasp[i], float).round(6).tolist(),
             "width_m": round(float(grasps.width[i]), 6),
+            "reachable": reachable.get(int(i)),
             "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
             "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
                                                                           "p_success", "p_failed")
@@ -134,32 +145,56 @@ def cmd_plan(args) -> int:
     p_fail = getattr(costs, "p_failed", None) is not None  # and with a failure head: P(fails in the grip)
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
           + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
-          + f"{'C':>9}  grasp origin (tool frame, m)")
+          + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
     for rank, i in enumerate(order):
         c = result["top"][rank]["costs"]
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
-              + f"{c['total']:>9.3f}  "
+              + f"{c['total']:>9.3f} {'yes' if reachable[int(i)] else 'no':>5}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
+    if not all(reachable.values()):
+        print("reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); "
+              "--verify K rolls out the K best reachable ones")
     s = result["summary"]
     print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
     if args.verify > 0:
-        k = min(args.verify, len(order))
-        res = itup.simulate(tool, task, grasps[order[:k]], seed=args.seed)
-        L = res.labels
-        print(f"MuJoCo ({res.backend}, randomised physics, seed {args.seed}) for the {k} best:")
-        print(f"{'rank':>4} {'valid':>5} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
-              f"{'failed':>6} {'success':>7}")
+        from itup_jax.scoring import ScoreWeights
+        from itup_jax.simulate import Randomization
+        from itup_jax.verify import best_grasp_verified
+
+        # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
+        # weights, whatever the scorer (the analytic cost's weights are for N, not m)
+        measure_w = sw if args.scorer == "sdgnet" else ScoreWeights()
+        v = best_grasp_verified(tool, task, grasps, k=args.verify, seed=args.seed, scores=costs, weights=measure_w,
+                                randomize=None if args.verify_physics == "nominal" else Randomization())
+        L = v.labels
+        print(f"MuJoCo ({args.verify_physics} physics{', seed ' + str(args.seed) if args.verify_physics == 'random' else ''}) "
+              f"for the {len(v.shortlist)} best reachable grasps by the scorer: the pick is the lowest measured total (*)")
+        print(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
+              f"{'failed':>6} {'success':>7} {'measured C':>10}")
         rows = []
-        for r in range(k):
-            row = {f: (bool(v) if v.dtype == bool else float(v)) for f, v in ((f, getattr(L, f)[r]) for f in
-                   ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
-                    "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
-            rows.append(row)
-            print(f"{r + 1:>4} {str(row['valid']):>5} {row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
-                  f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
-                  f"{str(row['failed']):>6} {str(row['success']):>7}")
-        result["verified"] = {"backend": res.backend, "labels": rows}
+        for r, i in enumerate(v.shortlist):
+            row_r = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[r]) for f in
+                     ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
+                      "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
+            row_r["index"] = int(i)
+            row_r["measured_total"] = float(v.measured_total[r]) if np.isfinite(v.measured_total[r]) else None
+            rows.append(row_r)
+            status = "ok" if row_r["valid"] else "diverged"
+            print(f"{r + 1:>4} {int(i):>5} {status:>8} {row_r['peak_torque_induced']:>11.3f} "
+                  f"{row_r['peak_torque_projected']:>12.3f} {1e3 * row_r['slip_translation']:>8.2f} "
+                  f"{np.degrees(row_r['slip_rotation']):>7.2f} {str(row_r['failed']):>6} {str(row_r['success']):>7} "
+                  f"{v.measured_total[r]:>10.3f}{' *' if int(i) == v.index else ''}")
+        ahead = int(np.sum(total[v.unreachable] <= total[v.shortlist[-1]])) if len(v.shortlist) else len(v.unreachable)
+        if ahead:
+            print(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
+        if v.chosen_by == "score":
+            print("no rollout was valid: the scorer's pick stands (it may be unreachable)")
+        result["verified"] = {"k": args.verify, "tried": len(v.shortlist), "backend": v.backend,
+                              "unreachable": [int(i) for i in v.unreachable],
+                              "physics": args.verify_physics, "weights": dataclasses.asdict(measure_w),
+                              "chosen_by": v.chosen_by, "pick": {**row(v.index), "reachable": v.chosen_by == "measured" or None},
+                              "labels": rows}
     if args.json:
         _atomic_write_json(args.json, result)
         print(f"wrote {args.json}")
@@ -234,8 +269,20 @@ def cmd_bench(args) -> int:
               f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
               f"{res['matmul_flops_per_s']:.3g}) on {res['machine']['cpu']}")
         return 0
+    if args.what == "verify":
+        from itup_jax.bench import bench_verify
+
+        n = 1000 if args.n == 100_000 else args.n
+        if n < 1 or args.k < 1:
+            raise_input(f"bench verify: need --n >= 1 and --k >= 1, got --n {n} --k {args.k}")
+        res = bench_verify(n=n, k=args.k, repeats=max(args.repeats // 2, 1), model=args.model)
+        print(json.dumps(res) if args.json else "\n".join(
+            f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
+            f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
+            f"{r['scene_build_s']:.2f} s" for r in res["tasks"]))
+        return 0
     if args.what != "costs":
-        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score")
+        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score, verify")
     if args.n < 1 or args.t < 8:
         raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
     res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
@@ -248,27 +295,26 @@ def cmd_bench(args) -> int:
 
 
 def _print_eval_table(res: dict) -> None:
-    print(f"{'method':>14} {'tau_proj N·m':>14} {'tau_raw N·m':>13} {'slip mm':>12} {'alpha deg':>11} "
+    print(f"{'method':>15} {'tau_proj N·m':>14} {'tau_raw N·m':>13} {'slip mm':>12} {'alpha deg':>11} "
           f"{'fail':>5} {'success':>7}  grasp origin (tool frame, m)")
     for name, r in res["methods"].items():
         m = r["measured"]
 
         def ms(k, scale=1.0, w=5, p=2):
             return f"{scale * m[k]['mean']:{w}.{p}f}±{scale * m[k]['std']:<{w}.{p}f}"
-        print(f"{name:>14} {ms('peak_torque_projected', w=6)} {ms('peak_torque', w=5)} "
+        print(f"{name:>15} {ms('peak_torque_projected', w=6)} {ms('peak_torque', w=5)} "
               f"{ms('slip_translation', 1e3, 5, 1)} {ms('alignment_drift', 180 / np.pi, 4, 1)} "
               f"{m['failed']['mean']:>5.2f} {m['success']['mean']:>7.2f}  {r['grasp']['p_tool_grasp_m']}")
 
 
 def cmd_evaluate(args) -> int:
     import itup_jax as itup
-    from itup_jax.evaluate import evaluate
-    from itup_jax.scoring import SCORERS
+    from itup_jax.evaluate import METHODS, evaluate
 
     methods = tuple(m for m in args.methods.split(",") if m)
-    bad = [m for m in methods if m not in SCORERS]
+    bad = [m for m in methods if m not in METHODS]
     if bad or not methods:
-        raise_input(f"--methods: unknown {bad or 'empty list'}; choose from {','.join(SCORERS)}")
+        raise_input(f"--methods: unknown {bad or 'empty list'}; choose from {','.join(METHODS)}")
     if args.seeds < 1 or args.n < 1:
         raise_input(f"--seeds and --n must be >= 1, got --seeds {args.seeds} --n {args.n}")
     if args.json:
@@ -381,6 +427,7 @@ def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from itup_jax.evaluate import METHODS, VERIFY_K
     from itup_jax.scene import TASK_TIMESTEP
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
@@ -406,17 +453,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet: weight of the predicted probability of missing the task (default scoring.W_TASK)")
     p.add_argument("--w-fail", type=float, default=None,
                    help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
-    p.add_argument("--verify", type=int, default=0, help="roll the N best grasps out in MuJoCo and report")
+    p.add_argument("--verify", type=int, default=0, metavar="K",
+                   help="roll the K best grasps out in MuJoCo and pick the lowest measured total (5 is a good choice)")
+    p.add_argument("--verify-physics", choices=("nominal", "random"), default="nominal",
+                   help="physics of the --verify rollouts: the priors' nominal values (default) or one draw each from --seed")
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/1)")
     p.set_defaults(fn=cmd_plan)
 
-    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score")
-    b.add_argument("what", help="costs | rollout | score")
+    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify")
+    b.add_argument("what", help="costs | rollout | score | verify")
     b.add_argument("--n", type=int, default=100_000,
-                   help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts (default 64)")
+                   help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
+                   "(default 64); verify: candidates (default 1000)")
+    b.add_argument("--k", type=int, default=5, help="verify: valid rollouts per verified pick (default 5)")
     b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
     b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
@@ -476,7 +528,8 @@ def build_parser() -> argparse.ArgumentParser:
                         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_verify_args(ev, TASK_KINDS)
     ev.add_argument("--methods", default="sdgnet,force_closure,geometric,random",
-                    help=f"comma-separated, from {','.join(SCORERS)}")
+                    help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's "
+                    f"{VERIFY_K} best rolled out under nominal physics, the best measured kept)")
     ev.add_argument("--json", default=None, help="write the result (schema itup.evaluate/1)")
     ev.set_defaults(fn=cmd_evaluate)
 

@@ -8,7 +8,8 @@ Candidates are antipodal samples whose task trajectory the arm can reach (closed
 physics): an unreachable grasp is flagged and dropped here before any method sees the set, so no
 method is credited or blamed for reachability. Each pick is rolled out `seeds` times; rollout k of
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
-the same draw for every method).
+the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
+(`VERIFIED`); its time (`score_s`) includes those check rollouts.
 """
 
 from __future__ import annotations
@@ -27,11 +28,18 @@ from itup_jax.scoring import SCORERS, score
 from itup_jax.simulate import Randomization, plan, sample_physics, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
+from itup_jax.verify import best_grasp_verified
 
 #: Labels summarised per method: mean and std over seeds.
 MEASURED = ("peak_torque", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
             "alignment_drift", "failed", "success")
-DEFAULT_METHODS = ("sdgnet", "analytic", "static", "force_closure", "geometric", "random")
+#: SDG-Net's VERIFY_K best rolled out once more under nominal physics, the best measured kept
+#: (`verify.best_grasp_verified`); its check rollouts are not among the evaluation's draws.
+VERIFIED = "sdgnet_verified"
+VERIFY_K = 5
+#: Every method `evaluate` takes: the scorers and the verified pick.
+METHODS = SCORERS + (VERIFIED,)
+DEFAULT_METHODS = ("sdgnet", VERIFIED, "analytic", "static", "force_closure", "geometric", "random")
 
 
 def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0, scene: Scene | None = None,
@@ -58,11 +66,13 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     """Each method's pick among the same candidates and its MuJoCo-measured labels over `seeds` rollouts.
 
     Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
-    "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}.
+    "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` also has
+    "verified": {k, physics, tried (the candidates rolled out to check), chosen_by, unreachable (count of
+    candidates skipped as unreachable: 0 here, the candidates being reachable)}.
     """
-    unknown = [m for m in methods if m not in SCORERS]
+    unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:
-        raise InputError(f"evaluate: methods must be among {SCORERS}, got {list(methods)}")
+        raise InputError(f"evaluate: methods must be among {METHODS}, got {list(methods)}")
     if seeds < 1 or n < 1:
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
     scene = scene or build_scene(tool, task)
@@ -74,10 +84,19 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
                            "candidates": counts, "methods": {}}
     for name in methods:
         t0 = time.perf_counter()
-        s = score(tool, task, candidates, model=(model if name == "sdgnet" and model is not None else name), seed=seed)
+        sdg = name in ("sdgnet", VERIFIED)
+        s = score(tool, task, candidates, model=(model if sdg and model is not None else "sdgnet" if sdg else name),
+                  seed=seed)
+        verified = None
+        if name == VERIFIED:
+            v = best_grasp_verified(tool, task, candidates, k=VERIFY_K, seed=seed, scores=s, scene=scene)
+            i = v.index
+            verified = {"k": VERIFY_K, "physics": "nominal", "tried": [int(j) for j in v.shortlist],
+                        "chosen_by": v.chosen_by, "unreachable": len(v.unreachable)}
+        else:
+            i = int(np.argmin(np.asarray(s.total, float)))
         dt = time.perf_counter() - t0
         total = np.asarray(s.total, float)
-        i = int(np.argmin(total))
         g = candidates[i]
         reps = Grasps(*(np.repeat(np.asarray(a)[None], seeds, axis=0) for a in
                         (g.p_tool_grasp, g.q_tool_grasp, g.width)))
@@ -98,6 +117,8 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
             "measured": {f: _summary(v) for f, v in rollouts.items()},
             "rollouts": {f: [None if not np.isfinite(x) else float(x) for x in v] for f, v in rollouts.items()},
         }
+        if verified is not None:
+            out["methods"][name]["verified"] = verified
     return out
 
 

@@ -404,6 +404,8 @@ LABEL_FIELDS = (
     "peak_force_induced", "peak_pad_force", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
     "task_metric", "diverged", "infeasible", "over_speed", "valid",
 )
+#: The boolean ones.
+LABEL_FLAGS = ("failed", "success", "diverged", "infeasible", "over_speed", "valid")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -443,6 +445,13 @@ class Labels:
 
     def as_dict(self) -> dict[str, np.ndarray]:
         return {f: getattr(self, f) for f in LABEL_FIELDS}
+
+    @classmethod
+    def unmeasured(cls, n: int) -> Labels:
+        """[n] rows with nothing measured: NaN measurements, every flag False."""
+        full = {f: np.full(n, np.nan) for f in LABEL_FIELDS}
+        full.update({f: np.zeros(n, bool) for f in LABEL_FLAGS})
+        return cls(**full)
 
 
 def _peak_norm(x: np.ndarray) -> np.ndarray:
@@ -584,8 +593,7 @@ def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, run_pla
     with their qvel peaks and sensors (leading axis len(run)); the others (infeasible, not stepped) get NaN
     measurements, flags False."""
     n = len(p.infeasible)
-    full = {f: np.full(n, np.nan) for f in LABEL_FIELDS}
-    full.update({f: np.zeros(n, bool) for f in ("failed", "success", "diverged", "valid")})
+    full = Labels.unmeasured(n).as_dict()
     full.update(infeasible=p.infeasible.copy(), over_speed=p.over_speed.copy())
     if len(run):
         sub = compute_labels(scene, task, run_plan, qvel_peak, sensordata, config)

@@ -10,7 +10,7 @@ import pytest
 from itup_jax.cli import main
 
 PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "seed", "scorer", "weights", "best", "top", "summary"}
-GRASP_KEYS = {"index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
+GRASP_KEYS = {"reachable", "index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
 BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", "machine", "max_rel_diff_vs_numpy"}
 
 
@@ -56,8 +56,14 @@ def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
     out = tmp_path / "v.json"
     assert main(["plan", "--task", "sweep", "--n", "30", "--verify", "2", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert len(res["verified"]["labels"]) == 2 and res["verified"]["backend"] == "native"
-    assert {"valid", "peak_torque_induced", "slip_translation", "failed"} <= set(res["verified"]["labels"][0])
+    ver = res["verified"]
+    assert ver["backend"] == "native" and ver["physics"] == "nominal" and ver["k"] == 2
+    # unreachable grasps are skipped: 2 reachable ones are rolled out
+    assert sum(r["valid"] for r in ver["labels"]) == 2 and not {r["index"] for r in ver["labels"]} & set(ver["unreachable"])
+    assert {"valid", "peak_torque_induced", "slip_translation", "failed", "measured_total"} <= set(ver["labels"][0])
+    # the pick is the tried grasp with the lowest measured total
+    tried = [r for r in ver["labels"] if r["measured_total"] is not None]
+    assert ver["pick"]["index"] == min(tried, key=lambda r: r["measured_total"])["index"]
     assert "MuJoCo" in capsys.readouterr().out
 
 

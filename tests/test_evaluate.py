@@ -140,7 +140,16 @@ def test_cli_plan_json_matches_its_schema(tmp_path, scorer):
     assert main(["plan", "--n", "50", "--scorer", scorer, "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     jsonschema.validate(doc, load_schema("plan"))
-    assert doc["scorer"] == scorer
+    assert doc["scorer"] == scorer and all(isinstance(r["reachable"], bool) for r in doc["top"])
+
+
+def test_cli_plan_verify_json_matches_its_schema(tmp_path):
+    out = tmp_path / "p.json"
+    assert main(["plan", "--task", "reach", "--n", "60", "--verify", "1", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    jsonschema.validate(doc, load_schema("plan"))
+    # the verified pick is reachable, whatever the scorer ranked first
+    assert doc["verified"]["pick"]["reachable"] is True and doc["verified"]["labels"][0]["valid"]
 
 
 @pytest.mark.parametrize("argv, words", [
@@ -178,7 +187,10 @@ def test_table1_quick(tmp_path, monkeypatch):
     valid = sum(r["methods"]["sdgnet"]["valid_rollouts"] for r in doc["per_tool"])
     assert cell["peak_torque_projected"]["n"] == valid and len(doc["per_tool"]) == 1
     assert "force_closure" in doc["table"]["hammer"]["sdgnet_torque_reduction_pct"]
-    assert (tmp_path / "table1.png").stat().st_size > 5_000 and (tmp_path / "table1.csv").read_text().count("\n") == 4
+    assert (tmp_path / "table1.png").stat().st_size > 5_000 and (tmp_path / "table1.csv").read_text().count("\n") == 5
+    # the verified pick is one of the candidates SDG-Net shortlisted and checked in MuJoCo
+    ver = doc["per_tool"][0]["methods"]["sdgnet_verified"]
+    assert ver["index"] in ver["verified"]["tried"] and ver["verified"]["chosen_by"] in ("measured", "score")
 
 
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
@@ -202,6 +214,9 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     # the task: the quick model has a success head; every row judges both picks against the task
     assert doc["success_head"] and doc["weights"]["w_task"] > 0 and doc["class_heads"] == ["label_success", "label_failed"]
     assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
+    # --verify 2: the verified picks are judged on draw 0 like SDG-Net's own
+    assert doc["verify"] == 2 and all(r["regret_verified_projected"] >= 0 and r["verify_s"] > 0 for r in rows)
+    assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
     # the redraws were kept: a second run on the same test set reads them instead of simulating again
     assert (tmp_path / "redraws.npz").exists()
     fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))

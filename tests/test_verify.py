@@ -1,0 +1,88 @@
+"""Verified picks (`itup_jax.verify`): the measured total in closed form and against SDG-Net's total, and
+the shortlist-then-simulate pick against single rollouts of native MuJoCo."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax.scene import build_scene
+from itup_jax.scoring import Scores, ScoreWeights, sdgnet_total
+from itup_jax.simulate import Labels, plan, sample_physics
+from itup_jax.verify import best_grasp_verified, measured_total
+
+
+def _labels(**given) -> Labels:
+    base = Labels.unmeasured(len(next(iter(given.values())))).as_dict()
+    base.update({k: np.asarray(v) for k, v in given.items()})
+    return Labels(**base)
+
+
+def test_measured_total_closed_form_and_sdgnet_total():
+    L = _labels(peak_torque_projected=[0.5, 0.2, 3.0], slip_translation=[0.001, 0.004, 0.0],
+                alignment_drift=[0.1, 0.05, 0.0], success=[True, False, True], failed=[False, True, False],
+                valid=[True, True, False])
+    w = ScoreWeights(w_tau=2.0, w_slip=100.0, w_align=1.0, w_task=10.0, w_fail=5.0)
+    m = measured_total(L, w)
+    assert m[0] == pytest.approx(2 * 0.5 + 100 * 0.001 + 0.1)
+    assert m[1] == pytest.approx(2 * 0.2 + 100 * 0.004 + 0.05 + 10.0 + 5.0)  # missed the task and failed
+    assert m[2] == np.inf  # not a valid rollout: it cannot be picked
+    # SDG-Net's total with every prediction replaced by its measurement (outcomes as probabilities 1/0)
+    costs = np.stack([L.peak_torque_projected, L.slip_translation, L.alignment_drift], 1)
+    probs = np.stack([L.success, L.failed], 1).astype(float)
+    ref = sdgnet_total(jnp.asarray(costs), jnp.asarray(probs), w.costs(jnp.float64),
+                       w.heads(("label_success", "label_failed"), jnp.float64))
+    np.testing.assert_allclose(m[:2], np.asarray(ref)[:2], rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def hammer_case(tasks):
+    """The hammer's scene, 24 sampled grasps and which of them the arm can reach (nominal physics)."""
+    tool, task = tasks["hammer"]
+    scene = build_scene(tool, task)
+    g = itup.sample_grasps(tool, 24, seed=3)
+    reach = ~plan(scene, task, g, sample_physics(tool, len(g), spread=None)).infeasible
+    return tool, task, scene, g, reach
+
+
+def _scores(total) -> Scores:
+    z = jnp.zeros(len(total))
+    return Scores(tau=z, slip=z, align=z, total=jnp.asarray(total, float), scorer="sdgnet")
+
+
+def test_verified_pick_is_the_lowest_measured_of_the_best_scored(hammer_case):
+    tool, task, scene, g, reach = hammer_case
+    assert reach.sum() >= 3 and (~reach).sum() >= 1, "the fixture needs reachable and unreachable grasps"
+    # an unreachable grasp scored best, then three reachable ones
+    bad, good = np.nonzero(~reach)[0][0], np.nonzero(reach)[0][:3]
+    total = np.full(len(g), 10.0)
+    total[bad], total[good] = 0.0, [1.0, 2.0, 3.0]
+    v = best_grasp_verified(tool, task, g, k=2, scores=_scores(total), scene=scene)
+    # the unreachable one is skipped before any rollout, and the next two best-scored are rolled out
+    assert v.shortlist.tolist() == [good[0], good[1]] and v.unreachable[0] == bad
+    assert not set(v.unreachable) & set(v.shortlist) and v.labels.valid.all()
+    assert v.index in good[:2] and v.chosen_by == "measured" and v.backend == "native"
+    assert v.measured_total[list(v.shortlist).index(v.index)] == v.measured_total.min()
+    # nominal physics: rolled out alone, each checked grasp measures what it measured in the batch
+    for j in (0, 1):
+        alone = itup.simulate(tool, task, g[v.shortlist[j:j + 1]], randomize=None, scene=scene).labels
+        assert alone.peak_torque_projected[0] == pytest.approx(v.labels.peak_torque_projected[j], rel=1e-9)
+    # k = 1 keeps the best-scored reachable grasp
+    one = best_grasp_verified(tool, task, g, k=1, scores=_scores(total), scene=scene)
+    assert one.index == good[0] and one.shortlist.tolist() == [good[0]]
+
+
+def test_verified_pick_falls_back_to_the_score_when_nothing_is_reachable(hammer_case):
+    tool, task, scene, g, reach = hammer_case
+    bad = np.nonzero(~reach)[0][:1]
+    v = best_grasp_verified(tool, task, g[bad], k=1, scores=_scores([0.0]), scene=scene)
+    assert v.index == 0 and v.chosen_by == "score" and v.unreachable.tolist() == [0]
+    assert len(v.shortlist) == 0 and len(v.labels.valid) == 0 and len(v.measured_total) == 0
+
+
+@pytest.mark.parametrize("kw, match", [({"k": 0}, "k must be"), ({"k": True}, "k must be"),
+                                       ({"k": 1, "scores": _scores([0.0, 1.0])}, "scores.total must have shape")])
+def test_verified_pick_refuses_bad_arguments(hammer_case, kw, match):
+    tool, task, scene, g, _ = hammer_case
+    with pytest.raises(itup.InputError, match=match):
+        best_grasp_verified(tool, task, g, scene=scene, **kw)
