@@ -67,8 +67,8 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
 
     Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
     "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` also has
-    "verified": {k, physics, tried (the candidates rolled out to check), chosen_by, unreachable (count of
-    candidates skipped as unreachable: 0 here, the candidates being reachable)}.
+    "verified": {k, physics, tried (the candidates rolled out to check), chosen_by, unreachable (how many
+    candidates were skipped as unreachable: 0 unless `candidates` given here holds unreachable ones)}.
     """
     unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:
