@@ -137,7 +137,7 @@ def _draws(ok: np.ndarray, first: np.ndarray, extra: np.ndarray) -> np.ndarray:
     return np.vstack([np.where(ok, first.astype(float), np.nan)[None], extra])
 
 
-def verified_picks(model, config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray, pred_tau: np.ndarray,
+def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray, pred_tau: np.ndarray,
                    pred_total: np.ndarray, k: int, physics: str, timestep: float,
                    weights: ScoreWeights) -> dict[str, int | float]:
     """SDG-Net's shortlist of the k best of a shard's valid grasps, each rolled out once more and the best
@@ -207,7 +207,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_{name}"] = v
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
-        vp = (verified_picks(model, config, entry, a, ok, pred_all[ok], total_all[ok], verify, verify_physics,
+        vp = (verified_picks(config, entry, a, ok, pred_all[ok], total_all[ok], verify, verify_physics,
                              steps[entry["task"]], weights) if verify else None)
         if vp is not None:
             row["verify_s"] = vp["verify_s"]

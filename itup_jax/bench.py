@@ -128,14 +128,13 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
     from itup_jax.grasp_sampler import sample_grasps
     from itup_jax.scene import build_scene
     from itup_jax.simulate import (MJX_CPU_MAX_BATCH, _initial_states, _mjx_rollout_fn, _slice_physics,
-                                   mjx_model_fields, plan, randomized_model, sample_physics, simulate)
+                                   mjx_model_fields, plan, randomized_model, reachable, sample_physics, simulate)
 
     tool = load_tool("hammer")
     task = make_task("hammer", tool)
     scene = build_scene(tool, task)
     grasps = sample_grasps(tool, 4 * n, seed=seed)
-    probe = plan(scene, task, grasps, sample_physics(tool, len(grasps), spread=None))
-    feasible = np.nonzero(~probe.infeasible)[0][:n]
+    feasible = np.nonzero(reachable(task, grasps))[0][:n]
     grasps = grasps[feasible]
     n = len(feasible)
     physics = sample_physics(tool, n, seed)

@@ -103,11 +103,9 @@ def cmd_plan(args) -> int:
     gn = to_graspnet(grasps)
     # whether the arm can follow the task trajectory with each listed grasp (closed-form IK; the scorers
     # rank grasps, not the arm's reach: `--verify` skips unreachable ones)
-    from itup_jax.scene import build_scene
-    from itup_jax.simulate import plan as plan_rollouts, sample_physics
+    from itup_jax.simulate import reachable as arm_reaches
 
-    reachable = dict(zip(order.tolist(), (~plan_rollouts(build_scene(tool, task), task, grasps[order],
-                                                         sample_physics(tool, len(order), spread=None)).infeasible).tolist()))
+    reachable = dict(zip(order.tolist(), arm_reaches(task, grasps[order]).tolist()))
 
     def row(i: int) -> dict[str, Any]:
         return {
@@ -360,7 +358,7 @@ def cmd_demo(args) -> int:
     scene = build_scene(tool, task)
     print(f"itup demo: task {args.task}, tool {tool.name} ({tool.mass:.3f} kg); sampling {args.n} reachable "
           "antipodal candidates ...", flush=True)
-    cands, counts = feasible_candidates(tool, task, args.n, seed=args.seed, scene=scene)
+    cands, counts = feasible_candidates(tool, task, args.n, seed=args.seed)
     methods = ("sdgnet", "force_closure")
     res = evaluate(tool, task, methods, seeds=args.seeds, seed=args.seed, scene=scene, candidates=cands, model=args.model)
     res["candidates"] = counts

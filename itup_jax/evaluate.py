@@ -4,8 +4,8 @@ picks are rolled out with the same trajectories, contacts and randomised physics
     res = evaluate(tool, task, methods=("sdgnet", "force_closure", "geometric", "random"), n=256, seeds=5)
     res["methods"]["sdgnet"]["measured"]["peak_torque_projected"]["mean"]
 
-Candidates are antipodal samples whose task trajectory the arm can reach (closed-form IK, nominal
-physics): an unreachable grasp is flagged and dropped here before any method sees the set, so no
+Candidates are antipodal samples whose task trajectory the arm can reach (closed-form IK,
+`simulate.reachable`): an unreachable grasp is flagged and dropped here before any method sees the set, so no
 method is credited or blamed for reachability. Each pick is rolled out `seeds` times; rollout k of
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
 the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
@@ -25,7 +25,7 @@ from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import Scene, build_scene
 from itup_jax.scoring import SCORERS, score
-from itup_jax.simulate import Randomization, plan, sample_physics, simulate
+from itup_jax.simulate import Randomization, reachable, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.verify import best_grasp_verified
@@ -42,13 +42,12 @@ METHODS = SCORERS + (VERIFIED,)
 DEFAULT_METHODS = ("sdgnet", VERIFIED, "analytic", "static", "force_closure", "geometric", "random")
 
 
-def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0, scene: Scene | None = None,
+def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0,
                         oversample: int = 4) -> tuple[Grasps, dict]:
-    """Up to n sampled grasps whose trajectory is reachable; also {'sampled', 'feasible'} counts."""
-    scene = scene or build_scene(tool, task)
+    """Up to n sampled grasps whose trajectory the arm can follow (`simulate.reachable`); also {'sampled',
+    'feasible', 'used'} counts."""
     g = sample_grasps(tool, oversample * n, seed=seed)
-    p = plan(scene, task, g, sample_physics(tool, len(g), spread=None))
-    ok = np.nonzero(~p.infeasible)[0]
+    ok = np.nonzero(reachable(task, g))[0]
     if len(ok) == 0:
         raise InputError(f"evaluate: none of {len(g)} sampled grasps of {tool.name!r} can follow the "
                          f"{task.kind} trajectory (all IK-infeasible)")
@@ -77,7 +76,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
     scene = scene or build_scene(tool, task)
     if candidates is None:
-        candidates, counts = feasible_candidates(tool, task, n, seed=seed, scene=scene)
+        candidates, counts = feasible_candidates(tool, task, n, seed=seed)
     else:
         counts = {"given": len(candidates)}
     out: dict[str, Any] = {"task": task.kind, "tool": tool.name, "seeds": seeds, "seed": seed,

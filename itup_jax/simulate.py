@@ -168,20 +168,44 @@ def _as_slice(idx: np.ndarray):
     return idx
 
 
+def _tool_grasp_poses(grasps: Grasps) -> np.ndarray:
+    """[N, 4, 4] the grasp frames in the tool frame."""
+    return _pose_matrix(_quat_to_matrix(np.asarray(grasps.q_tool_grasp, float)), np.asarray(grasps.p_tool_grasp, float))
+
+
+def _grasp_flange_pose() -> np.ndarray:
+    """[4, 4] the flange in the grasp frame."""
+    return _pose_matrix(np.eye(3), np.array([0.0, 0.0, -FLANGE_TO_GRASP]))
+
+
+def arm_trajectory(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
+    """The arm's joint trajectory that carries each grasp along the task: q_traj [N, T, 6] (rad, closed-form
+    IK at the trajectory's samples; NaN where IK fails) and infeasible [N] (IK failed somewhere or a joint
+    leaves its limits). Kinematics only: no scene, no physics."""
+    tr = task.traj
+    T_world_tool = _pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))  # [T]
+    T06 = T_world_tool[None] @ _tool_grasp_poses(grasps)[:, None] @ _grasp_flange_pose()  # [N, T, 4, 4]
+    q_traj = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
+    infeasible = np.isnan(q_traj).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q_traj)) > JOINT_LIMITS).any(axis=(1, 2))
+    return q_traj, infeasible
+
+
+def reachable(task: Task, grasps: Grasps) -> np.ndarray:
+    """[N] bool: whether the arm can follow the task's trajectory holding each grasp (`arm_trajectory`;
+    the complement of `plan(...).infeasible`, without building controls)."""
+    return ~arm_trajectory(task, grasps)[1]
+
+
 def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig = SimConfig()) -> Plan:
     """Initial states and control sequences (IK of the grasp-frame trajectory), host side."""
     m = scene.model
     dt = m.opt.timestep
     n = len(grasps)
     tr = task.traj
-    T_world_tool = _pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))  # [T]
-    T_tool_grasp = _pose_matrix(_quat_to_matrix(np.asarray(grasps.q_tool_grasp, float)),
-                                np.asarray(grasps.p_tool_grasp, float))  # [N]
-    T_grasp_flange = _pose_matrix(np.eye(3), np.array([0.0, 0.0, -FLANGE_TO_GRASP]))
-    T06 = T_world_tool[None] @ T_tool_grasp[:, None] @ T_grasp_flange  # [N, T, 4, 4]
-    q_traj = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
+    T_tool_grasp = _tool_grasp_poses(grasps)  # [N]
+    T_grasp_flange = _grasp_flange_pose()
+    q_traj, infeasible = arm_trajectory(task, grasps)
     t_traj = np.asarray(tr.t, float)
-    infeasible = np.isnan(q_traj).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q_traj)) > JOINT_LIMITS).any(axis=(1, 2))
     q_safe = np.where(infeasible[:, None, None], HOME_Q, q_traj)
     over_speed = (np.abs(np.diff(q_safe, axis=1)) / np.diff(t_traj)[None, :, None] > units.UR5E_MAX_JOINT_SPEED * 1.001).any(axis=(1, 2))
 

@@ -7,7 +7,7 @@ import pytest
 import itup_jax as itup
 from itup_jax.grasp import make_grasps
 from itup_jax.scene import build_scene
-from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, sample_physics, simulate
+from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, reachable, sample_physics, simulate
 
 # Static holding torque: the settled arm still creeps (servo residuals, pad creep): 1 %.
 STATIC_RTOL = 0.01
@@ -36,13 +36,15 @@ def hammer_native(hammer):
     return g, simulate(tool, task, g, scene=scene, randomize=None, backend="native")
 
 
-def test_labels_have_the_documented_schema(hammer_native):
+def test_labels_have_the_documented_schema(hammer, hammer_native):
     g, res = hammer_native
     for f in LABEL_FIELDS:
         assert getattr(res.labels, f).shape == (len(g),), f
     L = res.labels
     np.testing.assert_array_equal(L.valid, ~(L.diverged | L.infeasible))
     assert L.valid.sum() >= 4 and L.infeasible.sum() >= 1  # from-below grasps cannot be reached
+    # the kinematic check alone (no scene, no physics) flags exactly the rollouts that were not stepped
+    np.testing.assert_array_equal(reachable(hammer[1], g), ~L.infeasible)
     for f in ("peak_torque", "slip_translation", "alignment_drift"):
         assert np.all(np.isfinite(getattr(L, f)[L.valid]))
 
