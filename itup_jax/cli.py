@@ -224,7 +224,8 @@ def cmd_train(args) -> int:
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
                                     success_weight=args.success_weight,
                                     failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
-                                    finetune_lr=args.finetune_lr).items() if v is not None}
+                                    finetune_lr=args.finetune_lr, rank_weight=args.rank_weight,
+                                    rank_temperature=args.rank_temperature).items() if v is not None}
     if args.per_task:  # from scratch per task: nothing shared to fine-tune
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
@@ -516,6 +517,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="epochs of fine-tuning a copy of the shared network on each task's rows, one network per "
                          "task in the checkpoint; 0: the shared network alone (default: TrainConfig's, 0)")
     tr.add_argument("--finetune-lr", type=float, default=None, help="fine-tuning's peak learning rate (default: TrainConfig's)")
+    tr.add_argument("--rank-weight", type=float, default=None,
+                    help="weight of the within-tool listwise loss on the torque output (the top-1 pick of each "
+                         "tool's grasps); 0: the paper's loss alone (default: TrainConfig's, 0)")
+    tr.add_argument("--rank-temperature", type=float, default=None,
+                    help="temperature of that loss on the normalised log-torque scale; smaller weighs a tool's "
+                         "lowest grasps more (default: TrainConfig's)")
     tr.add_argument("--per-task", action="store_true",
                     help="one MLP per task trained from scratch (own normalisation, split and early stopping), "
                          "one checkpoint; no fine-tuning")

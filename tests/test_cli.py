@@ -122,6 +122,8 @@ def test_bad_input_exits_non_zero_with_a_message(argv, match, capsys, tmp_path):
     (["--hidden", "128,x"], "--hidden: comma-separated layer widths"),
     (["--hidden", "128,0"], "hidden must be a tuple of layer widths >= 1"),
     (["--seed", "-1"], "seed must be an integer >= 0"),
+    (["--rank-weight", "-1"], "rank_weight must be a finite number >= 0"),
+    (["--rank-temperature", "0"], "rank_temperature must be a finite number > 0"),
 ])
 def test_bad_training_recipe_is_refused_before_anything_is_read_or_written(flags, match, capsys, tmp_path):
     out = tmp_path / "m.npz"

@@ -242,7 +242,8 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     assert spec["n_train"] + spec["n_val"] == len(both["features"])
     # fine-tuned per task from the CLI: one network per task, the shared network's figures kept beside them
     assert main(["train", "--data", out, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--finetune-epochs", "2",
-                 "--quiet"]) == 0
+                 "--rank-weight", "0.5", "--rank-temperature", "0.4", "--quiet"]) == 0
     spec = load(ckpt)[1]
     assert list(spec["by_task"]) == ["reach"] and spec["config"]["finetune_epochs"] == 2
+    assert spec["config"]["rank_weight"] == 0.5 and spec["config"]["rank_temperature"] == 0.4
     assert spec["shared"]["n_val"] == spec["n_val"]

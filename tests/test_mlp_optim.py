@@ -158,3 +158,31 @@ def test_pickled_truncated_and_foreign_files_are_refused(tmp_path):
     np.savez(plain, W0=np.zeros(3))
     with pytest.raises(itup.InputError, match="not an itup checkpoint"):
         checkpoint.load(str(plain))
+
+
+def test_listwise_loss_is_the_kl_of_top1_distributions_and_its_gradient_matches_fd(rng):
+    """sdgnet.listwise_loss on two grasps: q1 = sigmoid((t2 - t1) / T), p1 = sigmoid((a2 - a1) / T) and
+    the loss is KL(q || p); it vanishes when the predictions are the targets plus a constant (the offset
+    between tools is ignored), a padded entry changes nothing, and the float64 gradient, padding
+    included, matches central finite differences."""
+    from itup_jax.sdgnet import listwise_loss
+
+    T = 0.3
+    a, t = np.array([0.2, -0.5]), np.array([-0.1, 0.4])
+    sig = lambda z: 1 / (1 + np.exp(-z))  # noqa: E731
+    q1, p1 = sig((t[1] - t[0]) / T), sig((a[1] - a[0]) / T)
+    kl = q1 * np.log(q1 / p1) + (1 - q1) * np.log((1 - q1) / (1 - p1))
+    assert float(listwise_loss(jnp.asarray([a]), jnp.asarray([t]), T)) == pytest.approx(kl, rel=1e-12)
+    padded = listwise_loss(jnp.asarray([[*a, 9.0]]), jnp.asarray([[*t, -9.0]]), T, jnp.asarray([[True, True, False]]))
+    assert float(padded) == pytest.approx(kl, rel=1e-12)
+    pred, target = jnp.asarray(rng.normal(size=(3, 5))), jnp.asarray(rng.normal(size=(3, 5)))
+    shifted = target + jnp.asarray([[2.0], [-7.0], [0.5]])
+    assert float(listwise_loss(shifted, target, T)) == pytest.approx(0.0, abs=1e-12)
+    assert float(listwise_loss(pred, target, T)) > 0.01
+    mask = jnp.asarray(rng.random((3, 5)) < 0.7).at[:, 0].set(True)
+    g = np.asarray(jax.grad(lambda p: listwise_loss(p, target, T, mask))(pred))
+    assert np.all(np.isfinite(g)) and np.all(g[~np.asarray(mask)] == 0)
+    flat = np.asarray(pred).ravel()
+    f = lambda v: float(listwise_loss(jnp.asarray(v.reshape(3, 5)), target, T, mask))  # noqa: E731
+    fd = np.array([(f(flat + FD_STEP * e) - f(flat - FD_STEP * e)) / (2 * FD_STEP) for e in np.eye(flat.size)])
+    np.testing.assert_allclose(g.ravel(), fd, rtol=FD_RTOL, atol=1e-8)

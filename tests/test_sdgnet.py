@@ -289,3 +289,42 @@ def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_w
         TrainConfig(per_task=True, finetune_epochs=60)
     with pytest.raises(itup.InputError, match="finetune_epochs"):
         TrainConfig(finetune_epochs=-1)
+
+
+def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage():
+    """With rank_weight > 0 the recorded validation loss is the paper's loss plus rank_weight x the
+    listwise loss of every held-out tool's grasps as one group (recomputed here from the network it
+    kept); with fine-tuning, the shared network before it is trained on the paper's loss alone."""
+    import jax
+    import jax.numpy as jnp
+
+    from itup_jax import sdgnet
+
+    data = _synthetic(n=480, seed=3)
+    data["tool_id"] = np.arange(480) // 40  # 12 tools of 40 grasps; each tool's torque has its own offset
+    data[TARGETS[0]] = data[TARGETS[0]] * np.exp(0.5 * data["tool_id"])
+    cfg = TrainConfig(hidden=(16,), epochs=6, patience=6, rank_weight=2.0, rank_temperature=0.5, rank_tools=3,
+                      rank_group=8)
+    model = train(data, cfg, progress=False, log=lambda *_: None)
+    sp = model.spec
+    rows = np.isin(sdgnet._tool_names(data), list(sdgnet._val_tools(data, cfg.val_fraction, cfg.seed)))
+    f32 = lambda v: jnp.asarray(v, jnp.float32)  # noqa: E731
+    x = f32((data["features"][rows] - np.array(sp["x_mean"])) / np.array(sp["x_std"]))
+    y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
+    y = f32((y - np.array(sp["y_mean"])) / np.array(sp["y_std"]))
+    s = f32(np.stack([data[t][rows] for t in CLASS_TARGETS], 1))
+    params = jax.tree_util.tree_map(f32, model.params)
+    plain = float(sdgnet.training_loss(params, x, y, s, f32(list(cfg.class_weights.values()))))
+    pred = np.asarray(jax.vmap(sdgnet.mlp.apply, in_axes=(None, 0))(params, x))[:, 0]
+    tools = data["tool_id"][rows]
+    groups = [np.flatnonzero(tools == t) for t in np.unique(tools)]
+    assert len(groups) == 3
+    rank = np.mean([float(sdgnet.listwise_loss(f32(pred[g][None]), y[g, 0][None], cfg.rank_temperature))
+                    for g in groups])
+    assert rank > 0 and sp["best_val_loss"] == pytest.approx(plain + 2.0 * rank, rel=1e-4)
+    tuned = train(data, dataclasses.replace(cfg, finetune_epochs=2), progress=False, log=lambda *_: None)
+    alone = train(data, dataclasses.replace(cfg, rank_weight=0.0), progress=False, log=lambda *_: None)
+    assert tuned.spec["shared"]["best_val_loss"] == alone.spec["best_val_loss"]
+    for bad in (dict(rank_weight=-1.0), dict(rank_temperature=0.0), dict(rank_group=1), dict(rank_tools=0)):
+        with pytest.raises(itup.InputError, match=next(iter(bad))):
+            TrainConfig(**bad)
