@@ -119,10 +119,9 @@ class TrainConfig:
             raise InputError(f"train: rank_weight must be a finite number >= 0, got {self.rank_weight!r}")
         if not (np.isfinite(self.rank_temperature) and self.rank_temperature > 0):
             raise InputError(f"train: rank_temperature must be a finite number > 0, got {self.rank_temperature!r}")
-        for name in ("rank_tools", "rank_group"):
-            if not (integer(getattr(self, name)) and getattr(self, name) >= 2 - (name == "rank_tools")):
-                raise InputError(f"train: {name} must be an integer >= {2 - (name == 'rank_tools')}, "
-                                 f"got {getattr(self, name)!r}")
+        for name, least in (("rank_tools", 1), ("rank_group", 2)):  # a group of one grasp ranks nothing
+            if not (integer(getattr(self, name)) and getattr(self, name) >= least):
+                raise InputError(f"train: {name} must be an integer >= {least}, got {getattr(self, name)!r}")
         if self.per_task and self.finetune_epochs:
             raise InputError("train: per_task trains each task's network from scratch and finetune_epochs "
                              "fine-tunes a shared one per task; set finetune_epochs=0 with per_task")
@@ -232,6 +231,15 @@ def _tool_groups(names: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     order = np.argsort(names, kind="stable")
     _, starts, counts = np.unique(names[order], return_index=True, return_counts=True)
     return order, starts, counts
+
+
+def _draw_groups(key, order, starts, counts, tools: int, group: int):
+    """[tools, group] row indices: `tools` tools drawn uniformly, then `group` of each one's rows drawn with
+    replacement (order, starts, counts: `_tool_groups`, as arrays). Pure; runs inside the jitted epoch."""
+    kt, kg = jax.random.split(key)
+    t = jax.random.randint(kt, (tools,), 0, len(counts))
+    u = jax.random.uniform(kg, (tools, group))
+    return order[starts[t][:, None] + jnp.floor(u * counts[t][:, None]).astype(starts.dtype)]
 
 
 def _padded_groups(names: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -385,14 +393,6 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
             out = out + config.rank_weight * listwise_loss(pred[..., 0], group[1][..., 0], config.rank_temperature, mask)
         return out
 
-    def draw_groups(k):
-        """`rank_tools` training tools and `rank_group` of each one's rows (with replacement)."""
-        kt, kg = jax.random.split(k)
-        t = jax.random.randint(kt, (config.rank_tools,), 0, len(g_count))
-        u = jax.random.uniform(kg, (config.rank_tools, config.rank_group))
-        gi = g_order[g_start[t][:, None] + jnp.floor(u * g_count[t][:, None]).astype(g_start.dtype)]
-        return Xtr[gi], Ytr[gi]
-
     @jax.jit  # the outer call: one jitted epoch (shuffle, then scan over minibatches)
     def epoch(p, s, k):
         if rank:
@@ -402,7 +402,10 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
 
         def step(carry, xs):
             (p, s), (idx, kg) = carry, xs
-            group = draw_groups(kg) if rank else None
+            group = None
+            if rank:
+                gi = _draw_groups(kg, g_order, g_start, g_count, config.rank_tools, config.rank_group)
+                group = (Xtr[gi], Ytr[gi])
             l, g = jax.value_and_grad(loss_fn)(p, Xtr[idx], Ytr[idx], Str[idx], group)
             p, s = adam_update(g, s, p, adam)
             return (p, s), l

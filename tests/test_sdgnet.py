@@ -325,6 +325,12 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
     tuned = train(data, dataclasses.replace(cfg, finetune_epochs=2), progress=False, log=lambda *_: None)
     alone = train(data, dataclasses.replace(cfg, rank_weight=0.0), progress=False, log=lambda *_: None)
     assert tuned.spec["shared"]["best_val_loss"] == alone.spec["best_val_loss"]
+    # the groups a step draws: each holds rows of one tool only, and every row of a tool can be drawn
+    names = np.array(["b", "a", "c", "a", "b", "a", "c", "c", "b", "a"])
+    order, starts, counts = (jnp.asarray(v) for v in sdgnet._tool_groups(names))
+    gi = np.asarray(sdgnet._draw_groups(jax.random.key(0), order, starts, counts, 200, 16))
+    assert gi.shape == (200, 16) and all(len(set(names[row])) == 1 for row in gi)
+    assert set(gi.ravel()) == set(range(len(names)))
     for bad in (dict(rank_weight=-1.0), dict(rank_temperature=0.0), dict(rank_group=1), dict(rank_tools=0)):
         with pytest.raises(itup.InputError, match=next(iter(bad))):
             TrainConfig(**bad)
