@@ -98,14 +98,26 @@ def cmd_plan(args) -> int:
         model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
         costs = itup.score(tool, task, grasps, model=model, seed=args.seed, weights=sw)
     total = np.asarray(costs.total)
-    order = np.argsort(total)[: args.top]
+    ranking = np.argsort(total, kind="stable")
+    order = ranking[: args.top]
     regime = itup.classify_regime(tool, task)
     gn = to_graspnet(grasps)
     # whether the arm can follow the task trajectory with each listed grasp (closed-form IK; the scorers
-    # rank grasps, not the arm's reach: `--verify` skips unreachable ones)
-    from itup_jax.simulate import reachable as arm_reaches
+    # rank grasps, not the arm's reach): the pick is the best-scored reachable grasp, found by walking
+    # the ranking past the listed ones if need be
+    from itup_jax.simulate import reachability_in_order
 
-    reachable = dict(zip(order.tolist(), arm_reaches(task, grasps[order]).tolist()))
+    reachable: dict[int, bool] = {}
+    pick = None
+    for i, ok in reachability_in_order(task, grasps, ranking):
+        reachable[i] = ok
+        if ok and pick is None:
+            pick = i
+        if pick is not None and len(reachable) >= len(order):
+            break
+    pick_rank = int(np.nonzero(ranking == pick)[0][0]) if pick is not None else 0
+    if pick is None:  # nothing reachable: the scorer's first stands, flagged
+        pick = int(ranking[0])
 
     def row(i: int) -> dict[str, Any]:
         return {
@@ -121,7 +133,7 @@ def cmd_plan(args) -> int:
         }
 
     result = {
-        "schema": "itup.plan/1",
+        "schema": "itup.plan/2",
         "task": args.task,
         "tool": {"name": tool.name, "category": tool.category, "mass_kg": round(tool.mass, 6)},
         "regime": regime.name.lower(),
@@ -129,7 +141,7 @@ def cmd_plan(args) -> int:
         "seed": args.seed,
         "scorer": args.scorer,
         "weights": weights,
-        "best": row(order[0]),
+        "best": {**row(pick), "rank": pick_rank + 1},
         "top": [row(i) for i in order],
         "summary": {k: {"min": float(np.min(getattr(costs, k))), "median": float(np.median(getattr(costs, k))),
                         "max": float(np.max(getattr(costs, k)))} for k in ("tau", "slip", "align", "total")},
@@ -144,15 +156,23 @@ def cmd_plan(args) -> int:
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
           + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
           + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
-    for rank, i in enumerate(order):
-        c = result["top"][rank]["costs"]
+    listed = [(rank, int(i)) for rank, i in enumerate(order)]
+    if pick_rank >= len(order):  # the pick lies below the listed ones: its row follows them
+        listed.append((pick_rank, pick))
+    for rank, i in listed:
+        c = row(i)["costs"]
+        if rank > len(order):  # a gap between the listed rows and the pick
+            print(f"{'...':>4}")
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
-              + f"{c['total']:>9.3f} {'yes' if reachable[int(i)] else 'no':>5}  "
-              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}")
-    if not all(reachable.values()):
-        print("reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); "
-              "--verify K rolls out the K best reachable ones")
+              + f"{c['total']:>9.3f} {'yes' if reachable[i] else 'no':>5}  "
+              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}{' <- pick' if i == pick else ''}")
+    if not reachable[pick]:
+        print(f"warning: none of the {args.n} candidates is reachable for the arm along the task (closed-form IK); "
+              "the pick is the scorer's best, which the arm cannot carry: sample more (--n) or another --seed")
+    elif pick_rank > 0:
+        print(f"reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); the pick is "
+              f"the best-scored reachable grasp (rank {pick_rank + 1}); --verify K rolls out the K best reachable ones")
     s = result["summary"]
     print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
     if args.verify > 0:
@@ -435,14 +455,15 @@ def build_parser() -> argparse.ArgumentParser:
                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
 
-    p = sub.add_parser("plan", help="best grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
+    p = sub.add_parser("plan", help="best reachable grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--task", default="hammer", choices=TASK_KINDS)
     p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
     p.add_argument("--tool-spec", default=None, help="TOML spec of a mesh tool")
     p.add_argument("--n", type=int, default=1000, help="grasp candidates (default 1000)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--top", type=int, default=5, help="rows to print")
+    p.add_argument("--top", type=int, default=5, help="rows of the ranking to print (the pick, the best-scored reachable "
+                   "grasp, is printed too when it lies below them)")
     p.add_argument("--w-tau", type=float, default=None, help="weight of C_tau, 1/(N m) (default 1)")
     p.add_argument("--w-slip", type=float, default=None,
                    help="weight of C_s: 1/N for --scorer analytic (default 1), 1/m for sdgnet (default 100)")
@@ -459,7 +480,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/1)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/2)")
     p.set_defaults(fn=cmd_plan)
 
     b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify")

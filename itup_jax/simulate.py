@@ -196,6 +196,22 @@ def reachable(task: Task, grasps: Grasps) -> np.ndarray:
     return ~arm_trajectory(task, grasps)[1]
 
 
+def reachability_in_order(task: Task, grasps: Grasps, order, chunk: int = 16):
+    """Yield (index, reachable) for the candidates `order` [M] (indices into grasps), in that order,
+    checking `reachable` `chunk` candidates at a time (closed-form IK, ~0.2 ms a grasp warm): a caller
+    that stops at the first reachable grasps of a ranking checks only as many chunks as it needs."""
+    order = np.asarray(order, np.int64)
+    if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+        raise InputError(f"reachability_in_order: chunk must be an integer >= 1, got {chunk!r}")
+
+    def walk():
+        for s in range(0, len(order), chunk):
+            idx = order[s: s + chunk]
+            yield from zip(idx.tolist(), reachable(task, grasps[idx]).tolist())
+
+    return walk()
+
+
 def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig = SimConfig()) -> Plan:
     """Initial states and control sequences (IK of the grasp-frame trajectory), host side."""
     m = scene.model

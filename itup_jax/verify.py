@@ -29,7 +29,7 @@ from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.scene import Scene, build_scene
-from itup_jax.simulate import LABEL_FIELDS, Labels, Randomization, default_backend, reachable, simulate
+from itup_jax.simulate import LABEL_FIELDS, Labels, Randomization, default_backend, reachability_in_order, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 
@@ -43,7 +43,7 @@ class Verified:
     measured total (inf where the rollout is not valid).  chosen_by: "measured", or "score" when no
     rollout was valid (then the best-scored grasp stands, reachable or not).  backend: the rollouts'
     backend.  unreachable: the candidates skipped because the arm cannot follow their trajectory, best
-    score first (those scored ahead of the last one rolled out, and any others checked with them).
+    score first (those scored ahead of the last one rolled out; every candidate when none is reachable).
     """
 
     index: int
@@ -103,19 +103,18 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
                          f"got {total.shape}")
     scene = scene or build_scene(tool, task)
     order = np.argsort(total, kind="stable")
-    chunk = max(4 * int(k), 16)  # reachability is checked this many candidates at a time (IK ~0.2 ms each, warm)
+    # reachability is checked this many candidates at a time (IK ~0.2 ms each, warm)
+    walk = reachability_in_order(task, grasps, order, chunk=max(4 * int(k), 16))
     queue: list[int] = []  # reachable, not yet rolled out, in score order
     unreachable: list[int] = []
     tried: list[int] = []
     parts: list[Labels] = []
-    checked, n_valid, r, backend_used = 0, 0, 0, backend or default_backend()
+    n_valid, r, backend_used = 0, 0, backend or default_backend()
     while n_valid < k:
-        while len(queue) < k - n_valid and checked < len(order):
-            idx = order[checked: checked + chunk]
-            checked += len(idx)
-            infeasible = ~reachable(task, grasps[idx])
-            queue += [int(i) for i in idx[~infeasible]]
-            unreachable += [int(i) for i in idx[infeasible]]
+        for i, ok in walk:
+            (queue if ok else unreachable).append(i)
+            if len(queue) >= k - n_valid:
+                break
         if not queue:
             break
         batch, queue = queue[: k - n_valid], queue[k - n_valid:]

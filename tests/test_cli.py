@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from itup_jax.cli import main
@@ -18,12 +19,40 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     out = tmp_path / "best.json"
     assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/1"
-    assert set(res["best"]) == GRASP_KEYS and len(res["top"]) == 3
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/2"
+    assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
     totals = [r["costs"]["total"] for r in res["top"]]
-    assert totals == sorted(totals) and res["best"]["costs"]["total"] == pytest.approx(res["summary"]["total"]["min"])
-    assert res["regime"] == "quasi_static"
-    assert "rank" in capsys.readouterr().out
+    assert totals == sorted(totals) and res["regime"] == "quasi_static"
+    # the pick is the best-scored grasp the arm can reach: here (the reach task's L-stick) the scorer's
+    # first ones are not, so it lies further down the ranking, every grasp above it unreachable
+    import itup_jax as itup
+    from itup_jax.simulate import reachable
+
+    from itup_jax.task import DEFAULT_TOOL
+
+    tool = itup.load_tool(DEFAULT_TOOL["reach"])
+    task = itup.make_task("reach", tool)
+    g = itup.sample_grasps(tool, 40, seed=0)
+    order = np.argsort(np.asarray(itup.score(tool, task, g).total), kind="stable")
+    ok = reachable(task, g[order])
+    best = res["best"]
+    assert best["reachable"] and best["rank"] == int(np.argmax(ok)) + 1 > 1 and best["index"] == order[best["rank"] - 1]
+    assert [r["reachable"] for r in res["top"]] == ok[:3].tolist()
+    assert best["costs"]["total"] >= res["summary"]["total"]["min"]
+    out_text = capsys.readouterr().out
+    assert "<- pick" in out_text and f"the pick is the best-scored reachable grasp (rank {best['rank']})" in out_text
+
+
+def test_plan_flags_a_pick_the_arm_cannot_reach_when_no_candidate_is(tmp_path, capsys, monkeypatch):
+    import importlib
+
+    sim = importlib.import_module("itup_jax.simulate")
+    monkeypatch.setattr(sim, "reachable", lambda task, g: np.zeros(len(g), bool))
+    out = tmp_path / "none.json"
+    assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--json", str(out)]) == 0
+    best = json.loads(out.read_text())["best"]
+    assert best["rank"] == 1 and best["reachable"] is False
+    assert "warning: none of the 20 candidates is reachable" in capsys.readouterr().out
 
 
 def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):

@@ -68,6 +68,26 @@ def test_default_model_scores_in_one_jit_without_recompiling(tasks):
     assert a.scorer == "analytic" and a.total.shape == (32,)
 
 
+def test_best_grasp_reachable_only_walks_the_ranking_to_the_first_reachable(tasks):
+    """For the reach task's L-stick SDG-Net's best-scored raw candidates are unreachable for the arm:
+    reachable_only returns the best-scored grasp that `simulate.reachable` accepts, and refuses a set
+    with none."""
+    from itup_jax.errors import InputError
+    from itup_jax.simulate import reachable
+
+    tool, task = tasks["reach"]
+    g = itup.sample_grasps(tool, 40, seed=0)
+    i_any, _, s = itup.best_grasp(tool, task, g)
+    order = np.argsort(np.asarray(s.total), kind="stable")
+    ok = reachable(task, g[order])
+    assert not ok[0] and ok.any(), "the case needs an unreachable best-scored grasp and a reachable one"
+    i, pick, _ = itup.best_grasp(tool, task, g, reachable_only=True)
+    assert i == order[np.argmax(ok)] and i != i_any
+    np.testing.assert_array_equal(np.asarray(pick.p_tool_grasp), np.asarray(g.p_tool_grasp[i]))
+    with pytest.raises(InputError, match="none of the 3 grasps is reachable"):
+        itup.best_grasp(tool, task, g[order[~ok][:3]], reachable_only=True)
+
+
 def test_predictions_are_decoded_with_the_checkpoints_own_target_scales(tasks, tmp_path):
     """A checkpoint trained with other log1p(y / scale) scales is decoded with its own (the spec's), by
     both `predict_costs` and the scorer: scales x (2, 3, 5) give exactly those multiples of the costs."""

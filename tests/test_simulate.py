@@ -49,6 +49,25 @@ def test_labels_have_the_documented_schema(hammer, hammer_native):
         assert np.all(np.isfinite(getattr(L, f)[L.valid]))
 
 
+def test_reachability_in_order_checks_chunks_lazily_in_the_given_order(hammer, hammer_native, monkeypatch):
+    """The walk yields (index, reachable) in the given order, equal to `reachable`, and checks no chunk
+    beyond the one the caller stops in; a bad chunk size is refused at the call."""
+    import importlib
+
+    sim = importlib.import_module("itup_jax.simulate")  # the package's `simulate` is the function
+    task, g = hammer[1], hammer_native[0]
+    order = np.arange(len(g))[::-1]
+    walked = list(sim.reachability_in_order(task, g, order, chunk=5))
+    assert [i for i, _ in walked] == order.tolist()
+    np.testing.assert_array_equal([ok for _, ok in walked], reachable(task, g[order]))
+    calls = []
+    monkeypatch.setattr(sim, "reachable", lambda t, gs: calls.append(len(gs)) or np.ones(len(gs), bool))
+    walk = sim.reachability_in_order(task, g, order, chunk=5)
+    assert next(walk) == (int(order[0]), True) and calls == [5]
+    with pytest.raises(sim.InputError, match="chunk must be an integer >= 1"):
+        sim.reachability_in_order(task, g, order, chunk=0)
+
+
 def test_static_wrist_torque_equals_m_g_times_the_lever_arm(hammer):
     """After settling, the sensor holds the gripper and tool: tau = -sum (c_i - p_site) x m_i g."""
     tool, task, scene = hammer
