@@ -242,7 +242,8 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
         "n": n,
         "t": task.num_steps,
         "features": spec.size,
-        "hidden": [int(W.shape[1]) for W, _ in m.for_task(task_kind).params[:-1]],  # the network scoring this task
+        "hidden": [int(W.shape[-1]) for W, _ in m.for_task(task_kind).params[:-1]],  # the network scoring this task
+        "ensemble_size": m.ensemble_size,  # networks run and averaged per candidate (`sdgnet.ensemble`)
         "class_heads": m.class_heads,
         "dtype": "float32",
         "compile_s": round(compile_s, 3),

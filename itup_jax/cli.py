@@ -7,6 +7,7 @@
   itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
   itup bench score [--n 10000] [--json]
   itup bench verify [--n 1000] [--k 5] [--json]
+  itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
 Bad input exits with status 2 and a message that names the problem; nothing is half-written.
@@ -39,6 +40,7 @@ EXAMPLES = """examples:
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup train --data data/ --out model.npz
+  itup ensemble --models m0.npz m1.npz m2.npz --out ens.npz   # average seeds (itup train --seed S)
   itup tools
 """
 
@@ -260,6 +262,20 @@ def cmd_train(args) -> int:
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
           f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
+    return 0
+
+
+def cmd_ensemble(args) -> int:
+    from itup_jax.sdgnet import ensemble, load_model, save_model
+
+    if os.path.abspath(args.out) in {os.path.abspath(m) for m in args.models}:
+        raise_input(f"--out {args.out!r} is one of the --models; write the ensemble to a new file")
+    model = ensemble([load_model(m) for m in args.models])
+    model.spec["ensemble"]["files"] = [os.path.abspath(m) for m in args.models]
+    model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
+    save_model(args.out, model)
+    print(f"wrote {args.out}: an ensemble of {model.ensemble_size} SDG-Nets (their log costs and probabilities "
+          f"averaged; {model.ensemble_size}x the MLP's cost per candidate)")
     return 0
 
 
@@ -549,6 +565,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "one checkpoint; no fine-tuning")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
+
+    en = sub.add_parser("ensemble", help="combine trained SDG-Net checkpoints into one that averages them",
+                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    en.add_argument("--models", nargs="+", required=True, metavar="M.npz",
+                    help=">= 2 checkpoints of one recipe (e.g. `itup train ... --seed S` for several S)")
+    en.add_argument("--out", required=True, help="checkpoint to write (.npz, arrays only); --model M for plan, "
+                    "evaluate, bench score")
+    en.set_defaults(fn=cmd_ensemble)
 
     ev = sub.add_parser("evaluate", help="each method's pick, measured in MuJoCo over randomised physics",
                         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)

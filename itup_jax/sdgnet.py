@@ -177,6 +177,11 @@ class Model:
         return TrainConfig(**cfg)
 
     @property
+    def ensemble_size(self) -> int:
+        """How many networks' predictions are averaged (`ensemble`); 1 for a trained model."""
+        return int(self.spec.get("ensemble", {}).get("size", 1))
+
+    @property
     def tasks(self) -> list[str] | None:
         """The tasks of a per-task model (one MLP each), or None for one shared MLP."""
         return list(self.spec["by_task"]) if "by_task" in self.spec else None
@@ -479,6 +484,58 @@ def save_model(path: str, model: Model) -> None:
     checkpoint.save(path, model.params, model.spec)
 
 
+#: Spec entries that are one per network (normalisation): stacked along the member axis in an ensemble.
+_NORMALISATION = ("x_mean", "x_std", "y_mean", "y_std")
+
+
+def ensemble(models) -> Model:
+    """One Model that averages the predictions of `models` (>= 2 trained models, e.g. the same recipe
+    with different `TrainConfig.seed`s): a deep ensemble. Each layer's weights are stacked along a
+    leading member axis ([M, n_in, n_out]) and so is each network's normalisation, so the scorer runs
+    the M networks as one batched MLP in its one jit (M times the MLP's flops) and averages their
+    log1p(y / scale) (a geometric mean of the costs) and their head probabilities.
+
+    The members must agree on everything but their weights: feature spec, targets and scales, binary
+    heads, layer shapes, and tasks (per-task networks: the same tasks and layer ranges). The spec is
+    the first member's with the normalisation stacked; `spec["ensemble"]` records each member's training
+    config, metrics and command (`train_config` gives the first member's recipe).
+    """
+    models = list(models)
+    if len(models) < 2 or not all(isinstance(m, Model) for m in models):
+        raise InputError(f"ensemble: needs >= 2 trained Models, got {len(models)} "
+                         f"({', '.join(sorted({type(m).__name__ for m in models})) or 'none'})")
+    first = models[0]
+    for k, m in enumerate(models):
+        if m.ensemble_size != 1:
+            raise InputError(f"ensemble: member {k} is itself an ensemble of {m.ensemble_size}; combine the trained "
+                             "models it was made of instead")
+        for key in ("feature_spec", "targets", "target_scales", "class_heads"):
+            if m.spec.get(key) != first.spec.get(key):
+                raise InputError(f"ensemble: member {k}'s {key} {m.spec.get(key)!r} differs from member 0's "
+                                 f"{first.spec.get(key)!r}; members must take the same inputs and give the same outputs")
+        shapes = [(np.shape(W), np.shape(b)) for W, b in m.params]
+        if shapes != [(np.shape(W), np.shape(b)) for W, b in first.params]:
+            raise InputError(f"ensemble: member {k}'s layers {shapes} differ from member 0's; members must share "
+                             "an architecture")
+        ranges = {t: e["layers"] for t, e in m.spec.get("by_task", {}).items()}
+        if ranges != {t: e["layers"] for t, e in first.spec.get("by_task", {}).items()}:
+            raise InputError(f"ensemble: member {k}'s per-task networks {ranges} differ from member 0's")
+    params = [(np.stack([np.asarray(m.params[i][0]) for m in models]), np.stack([np.asarray(m.params[i][1]) for m in models]))
+              for i in range(len(first.params))]
+    stack = lambda specs: {k: np.stack([np.asarray(s[k], np.float64) for s in specs]).tolist()  # noqa: E731
+                           for k in _NORMALISATION if k in specs[0]}
+    own = ("config", "command", "datasets", "n_train", "n_val", "best_val_loss", "train_seconds", "val_metrics")
+    spec = {k: v for k, v in first.spec.items() if k not in _NORMALISATION + own
+            + ("by_task", "history", "shared", "best_epoch", "ensemble")}
+    spec["config"] = first.spec.get("config")
+    spec.update(stack([m.spec for m in models]))
+    if "by_task" in first.spec:
+        spec["by_task"] = {t: {"layers": e["layers"], **stack([m.spec["by_task"][t] for m in models])}
+                           for t, e in first.spec["by_task"].items()}
+    spec["ensemble"] = {"size": len(models), "members": [{k: m.spec[k] for k in own if k in m.spec} for m in models]}
+    return Model(params=params, spec=spec)
+
+
 def load_model(path: str | None = None) -> Model:
     """A saved model; None: the default checkpoint shipped in the package."""
     layers, spec = checkpoint.load(path or DEFAULT_MODEL)
@@ -498,7 +555,18 @@ def load_model(path: str | None = None) -> Model:
     if any(o != n_out for o in outs):
         raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec (3 costs + binary heads "
                          f"{heads}) says {n_out}")
+    m = model.ensemble_size
+    if any(W.ndim != (2 if m == 1 else 3) or (m > 1 and (W.shape[0] != m or b.shape[0] != m)) for W, b in layers):
+        raise InputError(f"model {path!r}: its spec says an ensemble of {m}, but its layers have shapes "
+                         f"{[W.shape for W, _ in layers]}")
     return model
+
+
+def _network_outputs(params, x_mean, x_std, y_mean, y_std, feats):
+    """One network: [N, F] features -> ([N, 3] log1p(y / scale) of the costs, [N, K] head logits)."""
+    out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, (feats - x_mean) / x_std)
+    k = y_mean.shape[-1]
+    return out[:, :k] * y_std + y_mean, out[:, k:]
 
 
 def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
@@ -506,12 +574,17 @@ def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
     normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales `y_scale` [3]
     (N m, m, rad); the probabilities are the sigmoids of the outputs after the costs (which label each
     is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
-    shape). Pure; `predict` and the scorer's jit wrap it."""
-    x = (feats - x_mean) / x_std
-    out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x)
-    k = y_mean.shape[-1]
-    costs = y_scale * jnp.expm1(out[:, :k] * y_std + y_mean)
-    return costs, (jax.nn.sigmoid(out[:, k:]) if out.shape[1] > k else None)
+    shape). An ensemble (`ensemble`: every array with a leading member axis M, x_mean [M, F]) runs its
+    M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Pure;
+    `predict` and the scorer's jit wrap it."""
+    if x_mean.ndim == 2:  # static: an ensemble's stacked members
+        z, logits = jax.vmap(_network_outputs, in_axes=(0, 0, 0, 0, 0, None))(params, x_mean, x_std, y_mean, y_std,
+                                                                               feats)
+        z, probs = z.mean(0), jax.nn.sigmoid(logits).mean(0)
+    else:
+        z, logits = _network_outputs(params, x_mean, x_std, y_mean, y_std, feats)
+        probs = jax.nn.sigmoid(logits)
+    return y_scale * jnp.expm1(z), (probs if probs.shape[-1] > 0 else None)
 
 
 #: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).

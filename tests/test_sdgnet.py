@@ -1,6 +1,7 @@
 """SDG-Net training and scoring: synthetic training, checkpoint spec, one-jit scoring, the default model."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -354,3 +355,72 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
     for bad in (dict(rank_weight=-1.0), dict(rank_temperature=0.0), dict(rank_group=1), dict(rank_tools=0)):
         with pytest.raises(itup.InputError, match=next(iter(bad))):
             TrainConfig(**bad)
+
+
+def test_ensemble_averages_its_members_log_costs_and_probabilities(tasks, tmp_path, capsys):
+    """`sdgnet.ensemble` of two seeds: predictions (from features and through the scorer's one jit) are
+    scale x expm1 of the members' mean log1p(y / scale) and the mean of their probabilities; the
+    checkpoint round-trips bit for bit; mismatched or too few members are refused; `itup ensemble`
+    writes it and `itup bench score --model` runs it."""
+    from itup_jax.bench import bench_score
+    from itup_jax.cli import main
+    from itup_jax.features import FeatureSpec
+    from itup_jax.sdgnet import ensemble, predict_costs
+
+    spec = FeatureSpec()
+    data = _synthetic(f=spec.size)
+    data["task"] = np.where(data["tool_id"] % 2 == 0, "hammer", "reach")
+    members = [train(data, TrainConfig(hidden=(16,), epochs=2, finetune_epochs=1, seed=s), feature_spec=spec.to_dict(),
+                     progress=False, log=lambda *_: None) for s in (0, 1)]
+    ens = ensemble(members)
+    assert ens.ensemble_size == 2 and members[0].ensemble_size == 1 and ens.tasks == ["hammer", "reach"]
+    assert ens.train_config == members[0].train_config
+
+    def combined(outs, scales=(0.02, 1e-3, 0.1)):
+        out = {n: sc * np.expm1(np.mean([np.log1p(np.asarray(o[n], float) / sc) for o in outs], 0))
+               for n, sc in zip(("tau", "slip", "align"), scales)}
+        return out | {n: np.mean([np.asarray(o[n], float) for o in outs], 0) for n in ("p_success", "p_failed")}
+
+    X = data["features"][:20]
+    got, want = predict_costs(ens, X, "reach"), combined([predict_costs(m, X, "reach") for m in members])
+    for n, v in want.items():
+        np.testing.assert_allclose(np.asarray(got[n]), v, rtol=1e-5, atol=1e-9, err_msg=n)
+    assert not np.allclose(want["tau"], np.asarray(predict_costs(members[0], X, "reach")["tau"]))  # the members differ
+    # through the scorer (float32, features and networks in one jit): the ensemble's float64 predictions
+    from itup_jax.features import batched_features, tool_field
+    from itup_jax.wrench import task_loads
+
+    tool, task = tasks["hammer"]
+    g = itup.sample_grasps(tool, 16, seed=0)
+    s_ens = itup.score(tool, task, g, model=ens)
+    feats = batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params, g, spec=spec)
+    want = predict_costs(ens, np.asarray(feats), "hammer")
+    for n in ("tau", "slip", "align", "p_success", "p_failed"):
+        np.testing.assert_allclose(np.asarray(getattr(s_ens, n)), np.asarray(want[n]), rtol=1e-3, atol=1e-4, err_msg=n)
+    # round trip
+    path = str(tmp_path / "ens.npz")
+    save_model(path, ens)
+    back = load_model(path)
+    assert back.ensemble_size == 2 and back.spec == json.loads(json.dumps(ens.spec))
+    for (W, b), (W2, b2) in zip(ens.params, back.params):
+        assert W.shape[0] == 2 and np.array_equal(W, W2) and np.array_equal(b, b2)
+    # refusals
+    with pytest.raises(itup.InputError, match=">= 2 trained Models"):
+        ensemble(members[:1])
+    with pytest.raises(itup.InputError, match="itself an ensemble"):
+        ensemble([ens, members[0]])
+    other = train(data, TrainConfig(hidden=(8,), epochs=1, finetune_epochs=1), feature_spec=spec.to_dict(),
+                  progress=False, log=lambda *_: None)
+    with pytest.raises(itup.InputError, match="share an architecture"):
+        ensemble([members[0], other])
+    # the command line
+    paths = []
+    for k, m in enumerate(members):
+        paths.append(str(tmp_path / f"m{k}.npz"))
+        save_model(paths[-1], m)
+    out = str(tmp_path / "cli_ens.npz")
+    assert main(["ensemble", "--models", *paths, "--out", out]) == 0
+    assert load_model(out).ensemble_size == 2 and "an ensemble of 2" in capsys.readouterr().out
+    assert main(["ensemble", "--models", paths[0], "--out", paths[0]]) == 2
+    res = bench_score(n=64, repeats=1, task_kind="reach", model=out)
+    assert res["ensemble_size"] == 2 and res["hidden"] == [16] and res["warm_ms"] > 0
