@@ -493,7 +493,7 @@ def ensemble(models) -> Model:
     with different `TrainConfig.seed`s): a deep ensemble. Each layer's weights are stacked along a
     leading member axis ([M, n_in, n_out]) and so is each network's normalisation, so the scorer runs
     the M networks as one batched MLP in its one jit (M times the MLP's flops) and averages their
-    log1p(y / scale) (a geometric mean of the costs) and their head probabilities.
+    log1p(y / scale) (a geometric mean of 1 + y / scale) and their head probabilities.
 
     The members must agree on everything but their weights: feature spec, targets and scales, binary
     heads, layer shapes, and tasks (per-task networks: the same tasks and layer ranges). The spec is
