@@ -41,6 +41,7 @@ EXAMPLES = """examples:
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup train --data data/ --out model.npz
   itup ensemble --models m0.npz m1.npz m2.npz --out ens.npz   # average seeds (itup train --seed S)
+  itup train --data data/ --teacher ens.npz --out student.npz   # one network trained on the ensemble's predictions
   itup tools
 """
 
@@ -252,8 +253,22 @@ def cmd_train(args) -> int:
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
+    teacher = None
+    if args.teacher:
+        from itup_jax.sdgnet import load_model, teacher_targets
+
+        teacher = load_model(args.teacher)  # checked before any data is read
     data, manifests = load_datasets(args.data)
+    if teacher is not None:
+        fs = manifests[0]["config"]["feature_spec"]
+        if teacher.spec["feature_spec"] != fs:
+            raise_input(f"--teacher {args.teacher!r}: its features were made with {teacher.spec['feature_spec']}, "
+                        f"the datasets' with {fs}")
+        data = teacher_targets(data, teacher)  # the teacher's predictions are the targets
     model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
+    if teacher is not None:
+        model.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
+                                 "command": teacher.spec.get("command")}
     datasets = [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
                  "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
     model.spec["datasets"] = datasets
@@ -563,6 +578,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--per-task", action="store_true",
                     help="one MLP per task trained from scratch (own normalisation, split and early stopping), "
                          "one checkpoint; no fine-tuning")
+    tr.add_argument("--teacher", default=None, metavar="E.npz",
+                    help="distil: train on this checkpoint's predictions (costs and probabilities) of the rows "
+                         "instead of their labels, e.g. an `itup ensemble` that scores M times slower")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 

@@ -205,7 +205,9 @@ def training_loss(params, x, y, s, class_weights):
     """SDG-Net's training loss on a minibatch, mean over examples: the sum of squared errors of the first
     three outputs against the normalised targets y [B, 3] (the paper's loss), plus, for each binary head
     k, class_weights[k] x the binary cross-entropy of output 3 + k (a logit) against its labels s[:, k]
-    in {0, 1}. x: [B, F] normalised features; s: [B, K]; class_weights: [K] (K = 0: no heads)."""
+    in {0, 1}, or in [0, 1] when they are a teacher's probabilities (`teacher_targets`; the loss is then
+    least where sigmoid(logit) = s). x: [B, F] normalised features; s: [B, K]; class_weights: [K] (K = 0:
+    no heads)."""
     pred = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x)
     out = jnp.mean(jnp.sum((pred[:, : y.shape[1]] - y) ** 2, axis=1))
     if pred.shape[1] > y.shape[1]:  # static: the heads' logits; softplus(z) - s z = -log p(s | z)
@@ -534,6 +536,31 @@ def ensemble(models) -> Model:
                            for t, e in first.spec["by_task"].items()}
     spec["ensemble"] = {"size": len(models), "members": [{k: m.spec[k] for k in own if k in m.spec} for m in models]}
     return Model(params=params, spec=spec)
+
+
+def teacher_targets(data: dict, teacher: Model) -> dict:
+    """A copy of `data` (as from `dataset.load_datasets`) whose cost targets (`TARGETS`, SI units) and
+    binary labels (`CLASS_TARGETS` the teacher has a head for) are `teacher`'s predictions for each row,
+    by task: the targets to distil a model (typically an `ensemble`, M times slower to score) into one
+    network that scores at one network's cost (`itup train --teacher E.npz`). The probabilities are
+    soft labels of the cross-entropy (`training_loss`); the features and every other column are `data`'s
+    own (not copied). The rows' features must be of the teacher's `FeatureSpec` (the caller checks the
+    datasets' manifests)."""
+    tasks = np.asarray(data["task"])
+    X = np.asarray(data["features"])
+    n_in = np.shape(teacher.params[0][0])[-2]  # every network of a model takes the same features
+    if X.ndim != 2 or X.shape[1] != n_in:
+        raise InputError(f"teacher_targets: the rows have {X.shape[-1]} features, the teacher's networks take {n_in}")
+    out = dict(data)
+    heads = [(CLASS_NAMES[CLASS_TARGETS.index(h)], h) for h in teacher.class_heads]
+    cols = {key: np.full(len(tasks), np.nan) for key in list(TARGETS) + [h for _, h in heads]}
+    for kind in np.unique(tasks):
+        rows = tasks == kind
+        p = predict_costs(teacher, X[rows], str(kind))  # InputError when a per-task teacher lacks the task
+        for name, key in list(zip(COST_NAMES, TARGETS)) + heads:
+            cols[key][rows] = np.asarray(p[name], np.float64)
+    out.update(cols)
+    return out
 
 
 def load_model(path: str | None = None) -> Model:

@@ -247,3 +247,15 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     assert list(spec["by_task"]) == ["reach"] and spec["config"]["finetune_epochs"] == 2
     assert spec["config"]["rank_weight"] == 0.5 and spec["config"]["rank_temperature"] == 0.4
     assert spec["shared"]["n_val"] == spec["n_val"]
+    # distilled: trained on a teacher checkpoint's predictions, which the spec names
+    student = str(tmp_path / "student.npz")
+    assert main(["train", "--data", out, "--out", student, "--epochs", "2", "--hidden", "8", "--teacher", ckpt,
+                 "--quiet"]) == 0
+    assert load(student)[1]["teacher"]["file"] == os.path.abspath(ckpt)
+    layers, tspec = load(ckpt)
+    tspec["feature_spec"] = {**tspec["feature_spec"], "grid": 5}
+    from itup_jax.checkpoint import save
+
+    save(str(tmp_path / "odd_teacher.npz"), layers, tspec)
+    assert main(["train", "--data", out, "--out", student, "--teacher", str(tmp_path / "odd_teacher.npz"), "--quiet"]) == 2
+    assert "its features were made with" in capsys.readouterr().err

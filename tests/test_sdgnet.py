@@ -424,3 +424,40 @@ def test_ensemble_averages_its_members_log_costs_and_probabilities(tasks, tmp_pa
     assert main(["ensemble", "--models", paths[0], "--out", paths[0]]) == 2
     res = bench_score(n=64, repeats=1, task_kind="reach", model=out)
     assert res["ensemble_size"] == 2 and res["hidden"] == [16] and res["warm_ms"] > 0
+
+
+def test_teacher_targets_are_the_teachers_predictions_and_soft_labels_are_learnt_exactly(tasks):
+    """Distillation: `teacher_targets` replaces the cost targets and the binary labels by the teacher's
+    predictions of each row, by task, and copies nothing else; the cross-entropy with a soft label s is
+    least (zero gradient) at sigmoid(logit) = s."""
+    import jax
+    import jax.numpy as jnp
+
+    from itup_jax.sdgnet import predict_costs, teacher_targets, training_loss
+
+    data = _synthetic()
+    data["task"] = np.where(data["tool_id"] % 2 == 0, "hammer", "reach")
+    teacher = train(data, TrainConfig(hidden=(16,), epochs=3, finetune_epochs=1), progress=False, log=lambda *_: None)
+    before = {k: np.array(v, copy=True) for k, v in data.items()}
+    soft = teacher_targets(data, teacher)
+    for k, v in before.items():  # the input is untouched
+        np.testing.assert_array_equal(data[k], v)
+    assert soft["features"] is data["features"] and soft["tool_id"] is data["tool_id"]
+    for kind in ("hammer", "reach"):
+        rows = data["task"] == kind
+        p = predict_costs(teacher, data["features"][rows], kind)
+        for name, key in zip(("tau", "slip", "align", "p_success", "p_failed"), list(TARGETS) + list(CLASS_TARGETS)):
+            np.testing.assert_array_equal(soft[key][rows], np.asarray(p[name], np.float64))
+    assert 0 < soft["label_success"].min() and soft["label_success"].max() < 1  # probabilities, not labels
+    with pytest.raises(itup.InputError, match="no network for task 'knock'"):
+        teacher_targets({**data, "task": np.array(["knock"] * len(data["task"]))}, teacher)
+    with pytest.raises(itup.InputError, match="the rows have 5 features"):
+        teacher_targets({**data, "features": data["features"][:, :5]}, teacher)
+    # soft-label cross-entropy: d/dz [softplus(z) - s z] = sigmoid(z) - s, zero at z = logit(s)
+    W = jnp.zeros((1, 5))
+    s = jnp.array([[0.3, 0.8]])
+    b = jnp.concatenate([jnp.zeros(3), jnp.log(s[0] / (1 - s[0]))])
+    g = jax.grad(lambda b: training_loss([(W, b)], jnp.zeros((1, 1)), jnp.zeros((1, 3)), s, jnp.ones(2)))(b)
+    np.testing.assert_allclose(np.asarray(g), 0.0, atol=1e-12)
+    g2 = jax.grad(lambda b: training_loss([(W, b)], jnp.zeros((1, 1)), jnp.zeros((1, 3)), s, jnp.ones(2)))(b + 0.5)
+    assert np.all(np.asarray(g2)[3:] > 0)  # a larger logit than the teacher's probability is pushed back
