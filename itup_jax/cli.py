@@ -60,6 +60,11 @@ def raise_input(msg: str) -> None:
     raise InputError(msg)
 
 
+def _command_line() -> str | None:
+    """The `itup ...` command being run, recorded in the checkpoints it writes (None when not run as `itup`)."""
+    return "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
+
+
 def _load_tool_arg(args) -> Any:
     import itup_jax as itup
     from itup_jax.task import DEFAULT_TOOL
@@ -111,16 +116,15 @@ def cmd_plan(args) -> int:
     from itup_jax.simulate import reachability_in_order
 
     reachable: dict[int, bool] = {}
-    pick = None
-    for i, ok in reachability_in_order(task, grasps, ranking):
+    pick_rank = None
+    for rank, (i, ok) in enumerate(reachability_in_order(task, grasps, ranking)):
         reachable[i] = ok
-        if ok and pick is None:
-            pick = i
-        if pick is not None and len(reachable) >= len(order):
+        if ok and pick_rank is None:
+            pick_rank = rank
+        if pick_rank is not None and rank + 1 >= len(order):
             break
-    pick_rank = int(np.nonzero(ranking == pick)[0][0]) if pick is not None else 0
-    if pick is None:  # nothing reachable: the scorer's first stands, flagged
-        pick = int(ranking[0])
+    pick_rank = pick_rank or 0  # nothing reachable: the scorer's first stands, flagged
+    pick = int(ranking[pick_rank])
 
     def row(i: int) -> dict[str, Any]:
         return {
@@ -259,20 +263,20 @@ def cmd_train(args) -> int:
 
         teacher = load_model(args.teacher)  # checked before any data is read
     data, manifests = load_datasets(args.data)
+    fs = manifests[0]["config"]["feature_spec"]  # load_datasets refuses datasets of different specs
     if teacher is not None:
-        fs = manifests[0]["config"]["feature_spec"]
         if teacher.spec["feature_spec"] != fs:
             raise_input(f"--teacher {args.teacher!r}: its features were made with {teacher.spec['feature_spec']}, "
                         f"the datasets' with {fs}")
         data = teacher_targets(data, teacher)  # the teacher's predictions are the targets
-    model = train(data, cfg, feature_spec=manifests[0]["config"]["feature_spec"], progress=not args.quiet)
+    model = train(data, cfg, feature_spec=fs, progress=not args.quiet)
     if teacher is not None:
         model.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
                                  "command": teacher.spec.get("command")}
     datasets = [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
                  "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
     model.spec["datasets"] = datasets
-    model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
+    model.spec["command"] = _command_line()
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
@@ -287,7 +291,7 @@ def cmd_ensemble(args) -> int:
         raise_input(f"--out {args.out!r} is one of the --models; write the ensemble to a new file")
     model = ensemble([load_model(m) for m in args.models])
     model.spec["ensemble"]["files"] = [os.path.abspath(m) for m in args.models]
-    model.spec["command"] = "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
+    model.spec["command"] = _command_line()
     save_model(args.out, model)
     print(f"wrote {args.out}: an ensemble of {model.ensemble_size} SDG-Nets (their log costs and probabilities "
           f"averaged; {model.ensemble_size}x the MLP's cost per candidate)")
