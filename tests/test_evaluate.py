@@ -241,6 +241,15 @@ def test_fidelity_pick_stats_closed_form():
     assert best["regret"] == 0 and best["percentile"] == 0
 
 
+def test_fidelity_best_gap_stats_closed_form():
+    best_gap_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["best_gap_stats"]
+    # unsorted: the best is 1.0, the second 1.04 and the third 1.049 (within the 5 % goal), then 1.06
+    s = best_gap_stats(np.array([1.06, 1.04, 3.0, 1.0, 1.049]))
+    assert s["best_gap"] == pytest.approx(0.04) and s["within_goal"] == 3
+    lone = best_gap_stats(np.array([0.106, 0.375, 0.5]))  # a lone minimum: only the best meets the goal
+    assert lone == {"best_gap": pytest.approx(0.375 / 0.106 - 1), "within_goal": 1}
+
+
 def test_fidelity_task_pick_stats_closed_form():
     task_pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["task_pick_stats"]
     y = np.array([0.1, 2.0, 3.0, 0.5, 4.0])
