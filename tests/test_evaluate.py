@@ -231,6 +231,20 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
 
 
+def test_candidate_count_quick(tmp_path, monkeypatch):
+    _run_experiment("candidate_count.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "candidates.json").read_text())
+    jsonschema.validate(doc, load_schema("candidates"))
+    assert doc["n"] == [16, 32] and doc["draws"] == 2 and doc["verify"] == 2 and doc["summary"]["tools"] == len(doc["per_tool"]) == 1
+    row = doc["per_tool"][0]
+    # the reference is the lowest mean torque among the shard's candidates, so its own picks cannot beat it
+    assert row["best_shard"] <= min(row["shard_tau"], row["shard_total"], row["shard_verified"])
+    for n in ("16", "32"):
+        assert 0 < row["fresh"][n]["reachable"] <= int(n) and "verified" in row["fresh"][n]
+    # the summary's geometric mean over the one tool is that tool's value
+    assert doc["summary"]["tau_16"]["geo_mean_torque"] == pytest.approx(row["fresh"]["16"]["tau"]["torque"])
+
+
 def test_fidelity_pick_stats_closed_form():
     pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["pick_stats"]
     y = np.array([4.0, 1.0, 2.0, 8.0, 3.0, 5.0, 6.0, 7.0, 9.0, 10.0])
