@@ -25,6 +25,7 @@ torque over tools, and in how many tools it is within 5 % of (or below) `best_sh
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import runpy
 import sys
@@ -83,8 +84,14 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         t0 = time.perf_counter()
         g = sample_grasps(tool, n, seed=SAMPLE_SEED + entry["variant"])
         g = g[np.nonzero(reachable(task, g))[0]]
+        row["fresh"][str(n)] = {"reachable": int(len(g.width))}
+        if not len(g.width):  # nothing the arm can carry: no pick (NaN, null in the JSON)
+            none = {"torque": float("nan"), "success": float("nan"), "failed": float("nan")}
+            row["fresh"][str(n)].update({"sample_score_s": time.perf_counter() - t0, "tau": none, "total": none,
+                                         **({"verified": none} if verify else {})})
+            continue
         s = itup.score(tool, task, g, model)
-        row["fresh"][str(n)] = {"reachable": int(len(g.width)), "sample_score_s": time.perf_counter() - t0}
+        row["fresh"][str(n)]["sample_score_s"] = time.perf_counter() - t0
         for rule, sc in (("tau", s.tau), ("total", s.total)):
             picks.append(g[int(np.argmin(np.asarray(sc)))])
             names.append((str(n), rule))
@@ -147,11 +154,10 @@ def main(argv=None) -> dict:
     if not args.test or not os.path.exists(os.path.join(args.test, MANIFEST)):
         print(f"candidate_count: --test {args.test!r} holds no dataset manifest", file=sys.stderr)
         raise SystemExit(2)
-    import json
-
     with open(os.path.join(args.test, MANIFEST)) as fh:
         manifest = json.load(fh)
     config, steps = GenerateConfig.from_json(manifest["config"]), dataset_timesteps(manifest)
+    # the shard candidates' further draws: the fidelity experiment's cached redraws (shared with it, not copied)
     fidelity = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "sdgnet_fidelity.py"))
     redraws = (fidelity["cached_redraws"](args.test, args.draws - 1, os.path.join(args.out, "redraws.npz"))
                if args.draws > 1 else {})
