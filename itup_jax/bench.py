@@ -300,3 +300,45 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None)
                      "pick_changed": bool(v.index != int(np.argmin(np.asarray(s.total))))})
     return {"benchmark": "verify", "n": n, "k": k, "repeats": repeats, "physics": "nominal", "tasks": rows,
             "machine": machine_info()}
+
+
+def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, Any]:
+    """Per task's built-in tool: `sample_grasps(tool, n)` warm (the collision kernel's compile for the
+    tool's point count reported apart), and its collision kernel on one chunk of 256 candidates against the
+    same kernel with the grasp-frame transform written as a batched `d @ R` (the form it replaced), both
+    in this run, with a check that the two agree on the chunk."""
+    import functools
+
+    from itup_jax.grasp import rotation_matrix
+    from itup_jax.grasp_sampler import _CHUNK, SamplerConfig, _gripper_hits, collision_points, sample_grasps
+    from itup_jax.task import TASK_KINDS
+
+    config = SamplerConfig()
+    kernel = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))
+    dot_kernel = jax.jit(jax.vmap(functools.partial(_gripper_hits, to_grasp_frame=lambda d, R: d @ R),
+                                  in_axes=(None, 0, 0, 0, None)))
+    rows = []
+    for kind in TASK_KINDS:
+        tool = load_tool(DEFAULT_TOOL[kind])
+        t0 = time.perf_counter()
+        g = sample_grasps(tool, n, seed=seed)
+        first_s = time.perf_counter() - t0
+        warm_s = statistics.median(_timed(lambda: sample_grasps(tool, n, seed=seed), repeats))
+        # one chunk of the sampled candidates (repeated if fewer), as the sampler feeds its kernel
+        idx = np.arange(_CHUNK) % len(g)
+        pts = jnp.asarray(collision_points(tool, config.surface_spacing), jnp.float32)
+        args = (pts, jnp.asarray(rotation_matrix(g.q_tool_grasp)[idx], jnp.float32),
+                jnp.asarray(g.p_tool_grasp[idx], jnp.float32),
+                jnp.asarray(g.width[idx] + 2 * config.clearance, jnp.float32), jnp.float32(config.collision_margin))
+        times = {}
+        for name, k in (("kernel", kernel), ("dot_kernel", dot_kernel)):
+            jax.block_until_ready(k(*args))
+            times[name] = statistics.median(_timed(lambda k=k: jax.block_until_ready(k(*args)), 5))
+        agree = bool(np.array_equal(np.asarray(kernel(*args)), np.asarray(dot_kernel(*args))))
+        rows.append({"task": kind, "tool": tool.name, "surface_points": int(pts.shape[0]),
+                     "first_call_s": round(first_s, 3), "warm_s": round(warm_s, 3),
+                     "grasps_per_s": round(n / warm_s), "kernel_chunk_ms": round(1e3 * times["kernel"], 2),
+                     "dot_kernel_chunk_ms": round(1e3 * times["dot_kernel"], 2),
+                     "kernel_speedup": round(times["dot_kernel"] / times["kernel"], 1), "kernels_agree": agree})
+    return {"benchmark": "sample", "n": n, "chunk": _CHUNK, "repeats": repeats, "tasks": rows,
+            "machine": machine_info()}

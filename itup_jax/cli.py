@@ -7,6 +7,7 @@
   itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
   itup bench score [--n 10000] [--json]
   itup bench verify [--n 1000] [--k 5] [--json]
+  itup bench sample [--n 4096] [--json]
   itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
@@ -37,6 +38,7 @@ EXAMPLES = """examples:
   itup bench rollout --json
   itup bench score --n 10000 --json
   itup bench verify --json
+  itup bench sample --json
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup train --data data/ --out model.npz
@@ -335,8 +337,21 @@ def cmd_bench(args) -> int:
             f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
             f"{r['scene_build_s']:.2f} s" for r in res["tasks"]))
         return 0
+    if args.what == "sample":
+        from itup_jax.bench import bench_sample
+
+        n = 4096 if args.n == 100_000 else args.n
+        if n < 1:
+            raise_input(f"bench sample: --n must be >= 1, got {n}")
+        res = bench_sample(n=n, repeats=max(args.repeats // 3, 1))
+        print(json.dumps(res) if args.json else "\n".join(
+            f"sample {r['task']:6s}: {n} grasps in {r['warm_s']:.2f} s warm ({r['grasps_per_s']} grasps/s; first call "
+            f"{r['first_call_s']:.2f} s); collision kernel {r['kernel_chunk_ms']:.1f} ms per {res['chunk']} candidates x "
+            f"{r['surface_points']} points vs {r['dot_kernel_chunk_ms']:.1f} ms as a batched dot (x{r['kernel_speedup']}, "
+            f"{'same' if r['kernels_agree'] else 'DIFFERENT'} hits)" for r in res["tasks"]))
+        return 0
     if args.what != "costs":
-        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score, verify")
+        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score, verify, sample")
     if args.n < 1 or args.t < 8:
         raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
     res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
@@ -518,11 +533,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/2)")
     p.set_defaults(fn=cmd_plan)
 
-    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify")
-    b.add_argument("what", help="costs | rollout | score | verify")
+    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify, sample")
+    b.add_argument("what", help="costs | rollout | score | verify | sample")
     b.add_argument("--n", type=int, default=100_000,
                    help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
-                   "(default 64); verify: candidates (default 1000)")
+                   "(default 64); verify: candidates (default 1000); sample: grasps (default 4096)")
     b.add_argument("--k", type=int, default=5, help="verify: valid rollouts per verified pick (default 5)")
     b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")

@@ -203,3 +203,12 @@ def test_atomic_write_json_is_strict_json(tmp_path):
     text = p.read_text()
     assert "NaN" not in text and "Infinity" not in text
     assert json.loads(text) == {"a": None, "b": [1.5, None, 3], "c": [None]}
+
+
+def test_bench_sample_reports_both_kernels(capsys):
+    assert main(["bench", "sample", "--n", "64", "--repeats", "3", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["benchmark"] == "sample" and res["n"] == 64 and len(res["tasks"]) == 4
+    for r in res["tasks"]:
+        # the kernel and the batched-dot form it replaced give the same hits on a chunk of sampled grasps
+        assert r["kernels_agree"] and r["warm_s"] > 0 and r["kernel_chunk_ms"] > 0 and r["dot_kernel_chunk_ms"] > 0

@@ -98,3 +98,34 @@ def test_bad_arguments(tools):
         itup.sample_grasps(tools["hammer"], 5, seed="abc")
     with pytest.raises(itup.InputError, match="sample_grasps: seed must be an integer >= 0, got -1"):
         itup.sample_grasps(tools["hammer"], 5, seed=-1)
+
+
+def test_collision_kernel_matches_a_float64_box_test(tools):
+    """`gripper_collides` (float32, the grasp-frame transform as three products) against a NumPy float64
+    test of every point in every gripper box, on random poses around the hammer that hit and miss. A point
+    within 1e-6 m of a box face may round either way in float32; grasps with such a point are left out."""
+    from itup_jax.grasp_sampler import collision_points, gripper_collides
+
+    tool, margin = tools["hammer"], 1e-3
+    pts = collision_points(tool, SamplerConfig().surface_spacing)
+    rng = np.random.default_rng(7)
+    m = 600
+    p = pts[rng.integers(0, len(pts), m)] + rng.normal(0.0, 0.02, (m, 3))
+    q = rng.normal(size=(m, 4))
+    R = np.asarray(itup.grasp.rotation_matrix(q / np.linalg.norm(q, axis=1, keepdims=True)), np.float64)
+    opening = rng.uniform(0.01, 0.095, m)
+    got = gripper_collides(pts, R, p, opening, margin)
+    want, clear = np.zeros(m, bool), np.ones(m, bool)
+    for i in range(m):
+        local = (pts - p[i]) @ R[i]
+        for _, lo, hi in gripper_boxes(opening[i]):
+            lo, hi = lo - margin, hi + margin
+            want[i] |= np.any(np.all((local > lo) & (local < hi), axis=1))
+            # ambiguous: within 1e-6 m of a face of the box (near its plane, within its extent on the other axes)
+            for k in range(3):
+                others = [j for j in range(3) if j != k]
+                on_plane = np.minimum(np.abs(local[:, k] - lo[k]), np.abs(local[:, k] - hi[k])) < 1e-6
+                in_face = np.all((local[:, others] > lo[others] - 1e-6) & (local[:, others] < hi[others] + 1e-6), axis=1)
+                clear[i] &= not np.any(on_plane & in_face)
+    assert 0.2 < want.mean() < 0.9 and clear.mean() > 0.9  # both outcomes occur; few grasps left out
+    np.testing.assert_array_equal(got[clear], want[clear])
