@@ -42,8 +42,9 @@ class ScoreWeights:
     that the grasp misses the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
     torque; with a failure head, w_fail x p_failed (slip over 1 cm or a turn over 10 degrees in the
     grip). w_align, w_task and w_fail were chosen on two validation sets of unseen tools (152 tools;
-    session 7, README): against w_align 10 and no failure term (sessions 2-6) the picks carry 16-27 %
-    less torque, with full task success and no grip failure on the validation and test sets."""
+    session 7, docs/results_history.md "Score weights"): against w_align 10 and no failure term
+    (sessions 2-6) the picks carry 16-27 % less torque, with full task success and no grip failure on
+    the validation and test sets."""
 
     w_tau: float = 1.0  # 1/(N m)
     w_slip: float = 100.0  # 1/m

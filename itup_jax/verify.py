@@ -5,12 +5,12 @@
 
 SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick often misses
 the lowest-torque grasp, which is frequently a lone grasp well below the rest; the lowest one is almost
-always among its first few (README, "Session 12: verified picks"). Rolling the k best reachable ones out
-once each (k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and taking the lowest
-*measured* total finds it. The measured total is the SDG-Net
-total (`ScoreWeights`) with each prediction replaced by what the rollout measured: projected peak torque
-(N m), slip (m), alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed
-in the grip (1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
+always among its first few (docs/results_history.md, "Session 12: verified picks"). Rolling the k best
+reachable ones out once each (k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and
+taking the lowest *measured* total finds it. The measured total is the SDG-Net total (`ScoreWeights`)
+with each prediction replaced by what the rollout measured: projected peak torque (N m), slip (m),
+alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed in the grip
+(1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
 rollout; a rollout that diverges cannot win and is replaced by the next reachable grasp; if no rollout is
 valid, the scorer's own pick stands (`chosen_by` = "score").
 
