@@ -65,6 +65,9 @@ def _measure(tool, task, scene, pick: Grasps, draws: int) -> dict[str, float]:
 
 
 def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) -> dict:
+    """One test shard (`entry`, its arrays `a`, its further draws `redraw` {torque: [k, N]}): the shard
+    candidates' mean torque over `draws` draws and SDG-Net's picks among them, then for each N of `ns` the
+    picks among N fresh reachable candidates, each measured over `draws` rollouts (`_measure`)."""
     tool, task = unit_tool(config, entry["task"], entry["variant"])
     scene = build_scene(tool, task, timestep=timestep)
     ok = a["label_valid"].astype(bool)
@@ -105,6 +108,9 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
 
 
 def summarise(rows: list[dict], ns: list[int], rules: tuple[str, ...]) -> dict:
+    """Per pick rule and N (and the shard's own picks): the geometric mean torque over the tools, and the
+    share of tools whose pick is within the goal of (or below) the shard's best; a tool without a pick
+    counts as not within."""
     best = np.array([r["best_shard"] for r in rows])
     geo = lambda v: float(np.exp(np.nanmean(np.log(v))))  # noqa: E731
     within = lambda v: float(np.nanmean(v <= best * (1 + GOAL)))  # noqa: E731
