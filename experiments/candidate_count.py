@@ -49,14 +49,11 @@ SAMPLE_SEED = 1000  # + the tool's variant: fresh candidates, never the shard's 
 ROLLOUT_SEED = 777
 
 
-def _tile(g: Grasps, k: int) -> Grasps:
-    return Grasps(*(np.repeat(np.asarray(x), k, axis=0) for x in (g.p_tool_grasp, g.q_tool_grasp, g.width)))
-
-
-def _measure(tool, task, scene, pick: Grasps, draws: int) -> dict[str, float]:
-    """Mean projected peak torque (N m), success and failure rates of one grasp over `draws` rollouts. The
+def _measure(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:
+    """Mean projected peak torque (N m), success and failure rates of grasps[i] over `draws` rollouts. The
     draws are the same for every pick (one seed), so the picks are compared under the same physics."""
-    L = simulate(tool, task, _tile(pick, draws), seed=ROLLOUT_SEED, scene=scene, randomize=Randomization()).labels
+    L = simulate(tool, task, grasps[np.full(draws, i)], seed=ROLLOUT_SEED, scene=scene,
+                 randomize=Randomization()).labels
     f = lambda x: float(np.nanmean(np.where(L.valid, x, np.nan)))  # noqa: E731
     with warnings.catch_warnings():  # a pick with no valid rollout gives NaN
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -82,7 +79,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
            "shard_total": float(mean[int(np.argmin(np.asarray(s0.total)))]), "fresh": {}}
     if verify:
         row["shard_verified"] = float(mean[best_grasp_verified(tool, task, g0, scores=s0, k=verify, scene=scene).index])
-    picks, names = [], []
+    picks = []  # (N, rule, candidates, index of the pick)
     for n in ns:
         t0 = time.perf_counter()
         g = sample_grasps(tool, n, seed=SAMPLE_SEED + entry["variant"])
@@ -96,14 +93,11 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         s = itup.score(tool, task, g, model)
         row["fresh"][str(n)]["sample_score_s"] = time.perf_counter() - t0
         for rule, sc in (("tau", s.tau), ("total", s.total)):
-            picks.append(g[int(np.argmin(np.asarray(sc)))])
-            names.append((str(n), rule))
+            picks.append((str(n), rule, g, int(np.argmin(np.asarray(sc)))))
         if verify:
-            picks.append(g[best_grasp_verified(tool, task, g, scores=s, k=verify, scene=scene).index])
-            names.append((str(n), "verified"))
-    for (n, rule), pick in zip(names, picks):
-        row["fresh"][n][rule] = _measure(tool, task, scene, Grasps(*(np.asarray(x)[None] for x in
-                                                                      (pick.p_tool_grasp, pick.q_tool_grasp, pick.width))), draws)
+            picks.append((str(n), "verified", g, best_grasp_verified(tool, task, g, scores=s, k=verify, scene=scene).index))
+    for n, rule, g, i in picks:
+        row["fresh"][n][rule] = _measure(tool, task, scene, g, i, draws)
     return row
 
 

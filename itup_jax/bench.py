@@ -310,11 +310,11 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
     import functools
 
     from itup_jax.grasp import rotation_matrix
-    from itup_jax.grasp_sampler import _CHUNK, SamplerConfig, _gripper_hits, collision_points, sample_grasps
+    from itup_jax.grasp_sampler import (_CHUNK, SamplerConfig, _gripper_hits, _gripper_hits_batch as kernel,
+                                        collision_points, sample_grasps)
     from itup_jax.task import TASK_KINDS
 
     config = SamplerConfig()
-    kernel = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))
     dot_kernel = jax.jit(jax.vmap(functools.partial(_gripper_hits, to_grasp_frame=lambda d, R: d @ R),
                                   in_axes=(None, 0, 0, 0, None)))
     rows = []
