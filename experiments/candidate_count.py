@@ -86,7 +86,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         g = g[np.nonzero(reachable(task, g))[0]]
         row["fresh"][str(n)] = {"reachable": int(len(g.width))}
         if not len(g.width):  # nothing the arm can carry: no pick (NaN, null in the JSON)
-            none = {"torque": float("nan"), "success": float("nan"), "failed": float("nan")}
+            none = {"torque": float("nan"), "success": float("nan"), "failed": float("nan"), "index": None}
             row["fresh"][str(n)].update({"sample_score_s": time.perf_counter() - t0, "tau": none, "total": none,
                                          **({"verified": none} if verify else {})})
             continue
@@ -97,7 +97,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         if verify:
             picks.append((str(n), "verified", g, best_grasp_verified(tool, task, g, scores=s, k=verify, scene=scene).index))
     for n, rule, g, i in picks:
-        row["fresh"][n][rule] = _measure(tool, task, scene, g, i, draws)
+        row["fresh"][n][rule] = {**_measure(tool, task, scene, g, i, draws), "index": i}
     return row
 
 

@@ -234,10 +234,16 @@ def cmd_generate(args) -> int:
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal, timestep=args.timestep)
-    m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard)
-    t = m.get("totals", {})
-    print(f"{args.out}: {len(m['shards'])} shards, {t.get('n', 0)} rollouts: {t.get('valid', 0)} valid, "
-          f"{t.get('infeasible', 0)} infeasible, {t.get('diverged', 0)} diverged (see {args.out}/manifest.json)")
+    m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard,
+                 process_index=args.process_index, process_count=args.process_count, nthread=args.threads)
+    t = m["totals"]
+    units = len(cfg.tasks) * cfg.tools_per_task
+    done = f"{len(m['shards'])} shards" if len(m["shards"]) == units else f"{len(m['shards'])} of {units} shards"
+    print(f"{args.out}: {done}, {t['n']} rollouts: {t['valid']} valid, "
+          f"{t['infeasible']} infeasible, {t['diverged']} diverged (see {args.out}/manifest.json)")
+    if len(m["shards"]) < units and args.process_count > 1:
+        print(f"this process (--process-index {args.process_index} of {args.process_count}) has made its shards; "
+              f"the rest are the other processes' (the manifest lists every finished shard)")
     return 0
 
 
@@ -564,6 +570,14 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")
     gen.add_argument("--mcap-per-shard", type=int, default=2, help="rollouts logged per shard with --mcap")
+    gen.add_argument("--process-index", type=int, default=0, metavar="I",
+                     help="with --process-count N: this process makes shards I, I+N, I+2N, ... (0-based)")
+    gen.add_argument("--process-count", type=int, default=1, metavar="N",
+                     help="processes that make the dataset together, on one machine or several sharing --out; "
+                     "each adds its shards to the one manifest (file lock); start N of them with I = 0..N-1")
+    gen.add_argument("--threads", type=int, default=None,
+                     help="native stepping threads of this process (default: every core; with N processes on one "
+                     "machine, cores / N); the labels do not depend on it")
     gen.set_defaults(fn=cmd_generate)
 
     tr = sub.add_parser("train", help="train SDG-Net on a dataset from `itup generate`")

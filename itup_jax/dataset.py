@@ -9,13 +9,17 @@ physics (`simulate`), the SDG-Net features (`features.py`) and the analytic cost
 and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
 config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
 rollouts. A run killed at any point and started again skips the shards whose checksum matches and
-makes the rest: nothing lost, nothing duplicated. Diverged and infeasible rollouts are stored with
+makes the rest: nothing lost, nothing duplicated. Several processes, on one machine or on several
+sharing the folder, make one dataset together (`generate(..., process_index=i, process_count=n)`,
+`itup generate --process-index I --process-count N`): each makes every n-th shard and adds it to the
+one manifest under a file lock, so the finished folder is the one a single process makes. Diverged and infeasible rollouts are stored with
 their flags (and counted) so that nothing is dropped silently (an infeasible rollout is not stepped: its
 measured labels are NaN); `load_shard(valid_only=True)` gives the labels.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import io
@@ -42,6 +46,7 @@ from itup_jax.wrench import task_loads
 
 FORMAT = "itup.dataset/1"
 MANIFEST = "manifest.json"
+LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
 
@@ -166,18 +171,20 @@ def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Too
 
 
 def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir: str | None = None,
-               mcap_per_shard: int = 2) -> dict[str, np.ndarray]:
+               mcap_per_shard: int = 2, nthread: int | None = None) -> dict[str, np.ndarray]:
     """Arrays of one shard (host side; the features and costs run jitted at their outer calls).
 
     With `mcap_dir`, the first `mcap_per_shard` valid rollouts are also logged there as MCAP
     (`mcap_log`), named `<task>_<variant>_<index>.mcap`; the shard's bytes do not change.
+    `nthread`: native stepping threads (None: every core); each rollout is stepped on its own, so the
+    shard's bytes do not depend on it.
     """
     seed = _unit_seed(config, task_kind, variant)
     tool, task = unit_tool(config, task_kind, variant)
     grasps = sample_grasps(tool, config.grasps, seed=seed)
     scene = build_scene(tool, task, timestep=config.task_timestep(task_kind))
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
-                   randomize=Randomization() if config.randomize else None)
+                   randomize=Randomization() if config.randomize else None, nthread=nthread)
     if mcap_dir is not None:
         from itup_jax.mcap_log import write_rollout_mcap
 
@@ -230,9 +237,70 @@ def _counts(arrays: dict[str, np.ndarray]) -> dict[str, int]:
             "diverged": int(arrays["label_diverged"].sum()), "infeasible": int(arrays["label_infeasible"].sum())}
 
 
+def _check_process(process_index, process_count) -> None:
+    for name, v in (("process_count", process_count), ("process_index", process_index)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise InputError(f"generate: {name} must be an integer, got {v!r}")
+    if process_count < 1:
+        raise InputError(f"generate: process_count must be >= 1, got {process_count}")
+    if not 0 <= process_index < process_count:
+        raise InputError(f"generate: process_index must be in 0..{process_count - 1} (process_count "
+                         f"{process_count}), got {process_index}")
+
+
+@contextlib.contextmanager
+def _manifest_lock(out_dir: str):
+    """Hold an exclusive lock on `out_dir`/.manifest.lock for the block: POSIX record locks
+    (`fcntl.lockf`), which processes on one machine share and which NFS carries between machines; the
+    lock goes when the block ends or the process dies. The lock is a process's: threads of one process
+    do not exclude each other, so run `generate` in several processes, not threads."""
+    import fcntl
+
+    fd = os.open(os.path.join(out_dir, LOCK), os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.lockf(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock
+
+
+def _existing_shards(mpath: str, header: dict[str, Any]) -> list[dict]:
+    """The shard entries of the manifest at `mpath` ([] if there is none), after checking that it was made
+    by the same config, at the same steps and by the same code version as `header` (InputError if not:
+    resuming would mix shards that mean different things)."""
+    if not os.path.exists(mpath):
+        return []
+    with open(mpath) as fh:
+        old = json.load(fh)
+    if old.get("config") != header["config"]:
+        raise InputError(f"generate: {mpath} was made with another config; use a new folder")
+    old_steps = dataset_timesteps(old)
+    if old_steps != header["timesteps"]:  # a default step changed since
+        raise InputError(f"generate: {mpath} was simulated at {old_steps} s, this run would use "
+                         f"{header['timesteps']} s; resuming would mix their labels: use a new folder")
+    if old.get("code_version") != __version__:  # labels may mean something else across versions
+        raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "
+                         f"{__version__}; resuming would mix their shards: use a new folder")
+    return old["shards"]
+
+
+def _merged_manifest(mpath: str, header: dict[str, Any], units: list, mine: set[str],
+                     made: dict[str, dict]) -> dict[str, Any]:
+    """The manifest with this process's shards: the entries on disk for other processes' shards, plus
+    `made` ({file: entry}, this process's verified or new shards) for its own (`mine`, file names); an
+    entry of its own not in `made` (a shard that failed its checksum) is dropped. Call under the lock."""
+    shards = {s["file"]: s for s in _existing_shards(mpath, header) if s["file"] not in mine}
+    shards.update(made)
+    order = {_shard_name(*u): k for k, u in enumerate(units)}
+    manifest = dict(header, shards=sorted(shards.values(), key=lambda s: order[s["file"]]))
+    manifest["totals"] = {c: sum(s[c] for s in manifest["shards"]) for c in ("n", "valid", "diverged", "infeasible")}
+    return manifest
+
+
 def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progress: bool = True,
              after_shard: Callable[[int], None] | None = None, mcap_dir: str | None = None,
-             mcap_per_shard: int = 2) -> dict[str, Any]:
+             mcap_per_shard: int = 2, process_index: int = 0, process_count: int = 1,
+             nthread: int | None = None) -> dict[str, Any]:
     """Make (or complete) the dataset in `out_dir`; returns the manifest.
 
     `mcap_dir`: also log `mcap_per_shard` valid rollouts of every shard made in this call as MCAP.
@@ -240,51 +308,56 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     Resumes: shards already listed in the manifest whose file has the recorded checksum are kept; a
     manifest made with another config or by another code version is refused. `after_shard(k)` is called after the k-th shard
     is written (tests use it to interrupt a run).
+
+    Several processes: with `process_count` n > 1, this process makes the shards `process_index`,
+    `process_index` + n, ... of `shard_units` (round robin, so each gets a share of every task). Run n
+    of them, at once or one after another, on one machine or on several that share `out_dir` (under
+    `jax.distributed`: `jax.process_index()`, `jax.process_count()`). Each adds its shards to the one
+    manifest under a file lock (`_manifest_lock`: read, merge, write atomically), so the manifest always
+    lists every finished shard and, once all n have run, the folder is byte for byte the one a single
+    process makes. Each resumes its own shards after a kill. `nthread`: native stepping threads of this
+    process (None: every core; give cores / n when n processes share a machine); the bytes do not
+    depend on it.
     """
     config.validate()
+    _check_process(process_index, process_count)
     if mcap_per_shard < 0:
         raise InputError(f"generate: mcap_per_shard must be >= 0, got {mcap_per_shard}")
+    if nthread is not None and (isinstance(nthread, bool) or not isinstance(nthread, (int, np.integer)) or nthread < 1):
+        raise InputError(f"generate: nthread must be an integer >= 1 (or None: every core), got {nthread!r}")
     os.makedirs(out_dir, exist_ok=True)
     if mcap_dir is not None:
         os.makedirs(mcap_dir, exist_ok=True)
     mpath = os.path.join(out_dir, MANIFEST)
-    manifest = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
-                "label_fields": list(LABEL_FIELDS), "timesteps": {t: config.task_timestep(t) for t in config.tasks},
-                "shards": []}
-    if os.path.exists(mpath):
-        with open(mpath) as fh:
-            old = json.load(fh)
-        if old.get("config") != manifest["config"]:
-            raise InputError(f"generate: {mpath} was made with another config; use a new folder")
-        old_steps = dataset_timesteps(old)
-        if old_steps != manifest["timesteps"]:  # a default step changed since
-            raise InputError(f"generate: {mpath} was simulated at {old_steps} s, this run would use "
-                             f"{manifest['timesteps']} s; resuming would mix their labels: use a new folder")
-        if old.get("code_version") != __version__:  # labels may mean something else across versions
-            raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "
-                             f"{__version__}; resuming would mix their shards: use a new folder")
-        manifest["shards"] = [s for s in old["shards"]
-                              if os.path.exists(os.path.join(out_dir, s["file"]))
-                              and sha256_file(os.path.join(out_dir, s["file"])) == s["sha256"]]
-    done = {s["file"] for s in manifest["shards"]}
+    header = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
+              "label_fields": list(LABEL_FIELDS), "timesteps": {t: config.task_timestep(t) for t in config.tasks}}
     units = shard_units(config)
-    todo = [u for u in units if _shard_name(*u) not in done]
+    own = units[process_index::process_count]
+    mine = {_shard_name(*u) for u in own}
+    with _manifest_lock(out_dir):
+        listed = [s for s in _existing_shards(mpath, header) if s["file"] in mine]
+    made = {s["file"]: s for s in listed  # checksums outside the lock: the other processes go on meanwhile
+            if os.path.exists(os.path.join(out_dir, s["file"]))
+            and sha256_file(os.path.join(out_dir, s["file"])) == s["sha256"]}
+    todo = [u for u in own if _shard_name(*u) not in made]
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(units) * config.grasps, initial=len(done) * config.grasps, unit="rollout",
-                   desc="generate", dynamic_ncols=True)
+        desc = "generate" if process_count == 1 else f"generate {process_index}/{process_count}"
+        bar = tqdm(total=len(own) * config.grasps, initial=len(made) * config.grasps, unit="rollout",
+                   desc=desc, dynamic_ncols=True)
     try:
         for k, (task_kind, variant) in enumerate(todo):
-            arrays = make_shard(config, task_kind, variant, mcap_dir=mcap_dir, mcap_per_shard=mcap_per_shard)
+            arrays = make_shard(config, task_kind, variant, mcap_dir=mcap_dir, mcap_per_shard=mcap_per_shard,
+                                nthread=nthread)
             name = _shard_name(task_kind, variant)
             atomic_write(os.path.join(out_dir, name), _npz_bytes(arrays))
-            manifest["shards"].append({"file": name, "task": task_kind, "variant": variant,
-                                       "sha256": sha256_file(os.path.join(out_dir, name)), **_counts(arrays)})
-            manifest["shards"].sort(key=lambda s: units.index((s["task"], s["variant"])))
-            manifest["totals"] = {c: sum(s[c] for s in manifest["shards"]) for c in ("n", "valid", "diverged", "infeasible")}
-            atomic_write(mpath, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+            made[name] = {"file": name, "task": task_kind, "variant": variant,
+                          "sha256": sha256_file(os.path.join(out_dir, name)), **_counts(arrays)}
+            with _manifest_lock(out_dir):
+                manifest = _merged_manifest(mpath, header, units, mine, made)
+                atomic_write(mpath, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
             if bar is not None:
                 bar.update(config.grasps)
             if after_shard is not None:
@@ -292,6 +365,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     finally:
         if bar is not None:
             bar.close()
+    if not todo:  # nothing made: the manifest as it stands, with this process's verified shards
+        with _manifest_lock(out_dir):
+            manifest = _merged_manifest(mpath, header, units, mine, made)
     return manifest
 
 

@@ -326,13 +326,14 @@ def _step(scene: Scene, qpos0: np.ndarray, ctrl: np.ndarray, nstep: int, models:
 def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Same outputs as `rollout_native`, from MJX: one jit of vmap(scan(step)) (built per scene).
 
-    With several devices (default: all of JAX's default backend; e.g. a GPU machine's GPUs, or host
-    devices from XLA_FLAGS=--xla_force_host_platform_device_count=2) the batch is sharded over them
+    With several devices (default: this process's devices of JAX's default backend, `jax.local_devices()`:
+    a GPU machine's GPUs, or host devices from XLA_FLAGS=--xla_force_host_platform_device_count=2; under
+    `jax.distributed` each process rolls its own batch out on its own devices) the batch is sharded over them
     with `jax.sharding` (padded to a multiple of the device count by repeating the last rollout;
     the padding is dropped from the outputs). `devices=[d]` runs unsharded on d. On a CPU the batch
     runs in chunks of at most 64 rollouts per device.
     """
-    devices = list(jax.devices()) if devices is None else list(devices)
+    devices = list(jax.local_devices()) if devices is None else list(devices)
     if not devices:
         raise InputError("rollout_mjx: devices is empty")
     n, nd = len(p.qpos0), len(devices)

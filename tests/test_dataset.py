@@ -3,6 +3,8 @@
 import json
 import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -259,3 +261,82 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     save(str(tmp_path / "odd_teacher.npz"), layers, tspec)
     assert main(["train", "--data", out, "--out", student, "--teacher", str(tmp_path / "odd_teacher.npz"), "--quiet"]) == 2
     assert "its features were made with" in capsys.readouterr().err
+
+
+def test_processes_run_one_after_another_make_the_single_process_dataset(full_run, tmp_path):
+    """Process i of n makes the shards i, i + n, ...; each resumes its own after a kill, and once all have
+    run the folder is the single process's, byte for byte."""
+    out, manifest = full_run
+    split = str(tmp_path / "split")
+    m1 = generate(split, SMALL, progress=False, process_index=1, process_count=2)
+    assert [s["file"] for s in m1["shards"]] == ["shard_reach_001.npz"]  # units[1::2]
+    assert m1["totals"]["n"] == 6 and sorted(f for f in os.listdir(split) if f.endswith(".npz")) == ["shard_reach_001.npz"]
+
+    def stop_after_first(k):
+        if k == 0:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        generate(split, SMALL, progress=False, process_index=0, process_count=2, after_shard=stop_after_first)
+    listed = json.load(open(os.path.join(split, MANIFEST)))["shards"]
+    assert [s["file"] for s in listed] == ["shard_reach_000.npz", "shard_reach_001.npz"]  # process 1's kept
+    assert generate(split, SMALL, progress=False, process_index=0, process_count=2) == manifest
+    assert _files(split) == _files(out)
+    # a process whose shards are all done makes nothing and reports the whole manifest
+    assert generate(split, SMALL, progress=False, process_index=1, process_count=2) == manifest
+
+
+def test_concurrent_processes_make_the_single_process_dataset(full_run, tmp_path):
+    """Two `itup generate` processes at once on one folder, one stepping thread each (the fixture used
+    every core): the file lock keeps both processes' shards in the manifest, and the folder equals the
+    single process's."""
+    out, manifest = full_run
+    both = str(tmp_path / "both")
+    args = ["--out", both, "--tasks", "reach", "--tools-per-task", "3", "--grasps", "6", "--seed", "1", "--quiet",
+            "--threads", "1", "--process-count", "2"]
+    code = "import sys; from itup_jax.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = dict(os.environ, JAX_ENABLE_X64="1")  # as the tests run (conftest.py), so the bytes compare
+    procs = [subprocess.Popen([sys.executable, "-c", code, "generate", *args, "--process-index", str(i)], env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in (0, 1)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], outs
+    assert _files(both) == _files(out)
+    assert sum("3 shards, 18 rollouts" in o for o, _ in outs) >= 1  # the last to finish sees every shard
+
+
+def test_bad_process_arguments_are_refused(tmp_path, capsys):
+    for index, count, match in ((2, 2, r"process_index must be in 0\.\.1 \(process_count 2\), got 2"),
+                                (-1, 2, "process_index must be in"), (0, 0, "process_count must be >= 1"),
+                                (0.5, 2, "process_index must be an integer")):
+        with pytest.raises(itup.InputError, match=match):
+            generate(str(tmp_path / "bad"), SMALL, progress=False, process_index=index, process_count=count)
+    with pytest.raises(itup.InputError, match="nthread must be an integer >= 1"):
+        generate(str(tmp_path / "bad"), SMALL, progress=False, nthread=0)
+    assert main(["generate", "--out", str(tmp_path / "bad"), "--tasks", "reach", "--process-index", "3",
+                 "--process-count", "2", "--quiet"]) == 2
+    assert "process_index must be in 0..1" in capsys.readouterr().err
+    assert not os.path.exists(os.path.join(tmp_path, "bad", MANIFEST))
+
+
+def test_the_manifest_lock_excludes_another_process(tmp_path):
+    """While one process holds the manifest's lock, another cannot take it; once it lets go, it can."""
+    import fcntl
+
+    from itup_jax.dataset import LOCK, _manifest_lock
+
+    code = ("import sys; from itup_jax.dataset import _manifest_lock\n"
+            "with _manifest_lock(sys.argv[1]):\n    print('locked', flush=True); sys.stdin.readline()\n")
+    holder = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        fd = os.open(os.path.join(tmp_path, LOCK), os.O_RDWR)
+        try:
+            with pytest.raises(OSError):
+                fcntl.lockf(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        finally:
+            os.close(fd)
+    finally:
+        holder.communicate("go\n", timeout=60)
+    with _manifest_lock(str(tmp_path)):  # released with the process
+        pass

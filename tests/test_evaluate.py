@@ -243,6 +243,25 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
         assert 0 < row["fresh"][n]["reachable"] <= int(n) and "verified" in row["fresh"][n]
     # the summary's geometric mean over the one tool is that tool's value
     assert doc["summary"]["tau_16"]["geo_mean_torque"] == pytest.approx(row["fresh"]["16"]["tau"]["torque"])
+    # each pick is SDG-Net's argmin among the reachable fresh candidates, rebuilt here independently, and the
+    # torque recorded for it is that grasp's (measured again under the same draws)
+    from itup_jax.dataset import GenerateConfig, dataset_timesteps, read_manifest, unit_tool
+    from itup_jax.simulate import reachable
+
+    cc = runpy.run_path(os.path.join(ROOT, "experiments", "candidate_count.py"))
+    manifest = read_manifest(str(tmp_path / "test"))
+    tool, task = unit_tool(GenerateConfig.from_json(manifest["config"]), row["task"], row["variant"])
+    g = itup.sample_grasps(tool, 16, seed=cc["SAMPLE_SEED"] + row["variant"])
+    g = g[np.nonzero(reachable(task, g))[0]]
+    s = itup.score(tool, task, g)
+    fresh = row["fresh"]["16"]
+    assert fresh["tau"]["index"] == int(np.argmin(np.asarray(s.tau)))
+    assert fresh["total"]["index"] == int(np.argmin(np.asarray(s.total)))
+    assert 0 <= fresh["verified"]["index"] < fresh["reachable"]
+    scene = itup.build_scene(tool, task, timestep=dataset_timesteps(manifest)[row["task"]])
+    for rule in ("tau", "total"):
+        again = cc["_measure"](tool, task, scene, g, fresh[rule]["index"], doc["draws"])
+        assert again["torque"] == pytest.approx(fresh[rule]["torque"], rel=1e-9)
 
 
 def test_fidelity_pick_stats_closed_form():
