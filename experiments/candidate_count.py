@@ -13,13 +13,15 @@ candidates in ~14 ms), so a planner can score many more. Per held-out tool of th
     best-scored reachable candidates rolled out under nominal physics, the lowest measured total kept,
     as `itup plan --verify K` picks);
   * each pick rolled out --draws times under randomised physics, the same draws for every pick: mean
-    projected peak wrist torque (N m), task success and grip-failure rates;
+    projected peak wrist torque (N m), task success and grip-failure rates, slip (m) and drift (rad);
   * the reference: the test shard's own candidates (256 per tool in the shipped test set), each
     measured over the same number of draws (draw 0 and the `sdgnet_fidelity.py` redraws, cached in
     --out): the lowest mean torque among them (`best_shard`), and SDG-Net's picks among them (`shard_tau`,
     `shard_total`, `shard_verified`).
 Writes candidates.json (schema `itup.candidates/1`). Summary: per pick, the geometric mean of the
-torque over tools, and in how many tools it is within 5 % of (or below) `best_shard`.
+torque over tools, and in how many tools it is within 5 % of (or below) `best_shard`; for each larger N,
+the torque per tool against the smallest N's (`paired_vs_<N>`: `stats.paired_ratio`, with a bootstrap
+interval).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import build_scene
 from itup_jax.sdgnet import load_model
 from itup_jax.simulate import Randomization, reachable, simulate
+from itup_jax.stats import paired_ratio
 from itup_jax.verify import best_grasp_verified
 
 GOAL = 0.05  # the issue's top-1 regret goal
@@ -50,15 +53,16 @@ ROLLOUT_SEED = 777
 
 
 def _measure(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:
-    """Mean projected peak torque (N m), success and failure rates of grasps[i] over `draws` rollouts. The
-    draws are the same for every pick (one seed), so the picks are compared under the same physics."""
+    """Mean projected peak torque (N m), success and failure rates, slip (m) and alignment drift (rad) of
+    grasps[i] over `draws` rollouts. The draws are the same for every pick (one seed), so the picks are
+    compared under the same physics."""
     L = simulate(tool, task, grasps[np.full(draws, i)], seed=ROLLOUT_SEED, scene=scene,
                  randomize=Randomization()).labels
     f = lambda x: float(np.nanmean(np.where(L.valid, x, np.nan)))  # noqa: E731
     with warnings.catch_warnings():  # a pick with no valid rollout gives NaN
         warnings.simplefilter("ignore", RuntimeWarning)
         return {"torque": f(L.peak_torque_projected), "success": f(L.success.astype(float)),
-                "failed": f(L.failed.astype(float))}
+                "failed": f(L.failed.astype(float)), "slip": f(L.slip_translation), "drift": f(L.alignment_drift)}
 
 
 def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) -> dict:
@@ -86,7 +90,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         g = g[np.nonzero(reachable(task, g))[0]]
         row["fresh"][str(n)] = {"reachable": int(len(g.width))}
         if not len(g.width):  # nothing the arm can carry: no pick (NaN, null in the JSON)
-            none = {"torque": float("nan"), "success": float("nan"), "failed": float("nan"), "index": None}
+            none = {k: float("nan") for k in ("torque", "success", "failed", "slip", "drift")} | {"index": None}
             row["fresh"][str(n)].update({"sample_score_s": time.perf_counter() - t0, "tau": none, "total": none,
                                          **({"verified": none} if verify else {})})
             continue
@@ -117,9 +121,19 @@ def summarise(rows: list[dict], ns: list[int], rules: tuple[str, ...]) -> dict:
             v = np.array([x["torque"] for x in c])
             out[f"{rule}_{n}"] = {"geo_mean_torque": geo(v), "mean_torque": float(np.nanmean(v)),
                                   "within_goal_of_best_shard": within(v),
-                                  "success": float(np.nanmean([x["success"] for x in c])),
-                                  "failed": float(np.nanmean([x["failed"] for x in c]))}
+                                  **{f: float(np.nanmean([x.get(f, np.nan) for x in c]))
+                                     for f in ("success", "failed", "slip", "drift")}}
+            if n != ns[0]:  # per tool against the smallest N: a geometric mean of ratios, with a bootstrap interval
+                v0 = np.array([r["fresh"][str(ns[0])][rule]["torque"] for r in rows])
+                out[f"{rule}_{n}"][f"paired_vs_{ns[0]}"] = paired_ratio(v, v0)
     return out
+
+
+def _paired_text(p: dict | None, n0: int) -> str:
+    if not p or p["ratio"] is None:
+        return ""
+    ci = f", 95 % {p['ci95'][0]:.2f}-{p['ci95'][1]:.2f}" if p["ci95"] else ""
+    return f"; x{p['ratio']:.2f} vs {n0}{ci}, lower in {p['lower']}/{p['n']}"
 
 
 def main(argv=None) -> dict:
@@ -187,7 +201,8 @@ def main(argv=None) -> dict:
         print(f"  by {rule:8s} shard {s['geo_mean_torque']:.3f} / {100 * s['within_goal_of_best_shard']:.0f}% | "
               + " | ".join(f"{n}: {summary[f'{rule}_{n}']['geo_mean_torque']:.3f} / "
                            f"{100 * summary[f'{rule}_{n}']['within_goal_of_best_shard']:.0f}% (task "
-                           f"{100 * summary[f'{rule}_{n}']['success']:.0f}%, fails {100 * summary[f'{rule}_{n}']['failed']:.1f}%)"
+                           f"{100 * summary[f'{rule}_{n}']['success']:.0f}%, fails {100 * summary[f'{rule}_{n}']['failed']:.1f}%"
+                           + _paired_text(summary[f"{rule}_{n}"].get(f"paired_vs_{ns[0]}"), ns[0]) + ")"
                            for n in ns))
     return out
 

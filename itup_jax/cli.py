@@ -41,6 +41,7 @@ EXAMPLES = """examples:
   itup bench sample --json
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
+  itup generate --out data/ --tools-per-task 64 --process-index 0 --process-count 2   # and --process-index 1, elsewhere
   itup train --data data/ --out model.npz
   itup ensemble --models m0.npz m1.npz m2.npz --out ens.npz   # average seeds (itup train --seed S)
   itup train --data data/ --teacher ens.npz --out student.npz   # one network trained on the ensemble's predictions

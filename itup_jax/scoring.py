@@ -44,7 +44,10 @@ class ScoreWeights:
     grip). w_align, w_task and w_fail were chosen on two validation sets of unseen tools (152 tools;
     session 7, docs/results_history.md "Score weights"): against w_align 10 and no failure term
     (sessions 2-6) the picks carry 16-27 % less torque, with full task success and no grip failure on
-    the validation and test sets."""
+    the validation and test sets. Re-examined among 1,024 candidates per tool in session 16
+    (`experiments/score_weights.py`): a lower w_slip picks grasps with less torque and more slip
+    (w_slip 30: 14 % less torque on the validation set, 3 % on the test set, ~1 mm more slip), so the
+    weights were kept."""
 
     w_tau: float = 1.0  # 1/(N m)
     w_slip: float = 100.0  # 1/m

@@ -243,6 +243,9 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
         assert 0 < row["fresh"][n]["reachable"] <= int(n) and "verified" in row["fresh"][n]
     # the summary's geometric mean over the one tool is that tool's value
     assert doc["summary"]["tau_16"]["geo_mean_torque"] == pytest.approx(row["fresh"]["16"]["tau"]["torque"])
+    # and the paired ratio against the smallest N, over one tool, is that tool's ratio
+    paired = doc["summary"]["tau_32"]["paired_vs_16"]
+    assert paired["n"] == 1 and paired["ratio"] == pytest.approx(row["fresh"]["32"]["tau"]["torque"] / row["fresh"]["16"]["tau"]["torque"])
     # each pick is SDG-Net's argmin among the reachable fresh candidates, rebuilt here independently, and the
     # torque recorded for it is that grasp's (measured again under the same draws)
     from itup_jax.dataset import GenerateConfig, dataset_timesteps, read_manifest, unit_tool
@@ -262,6 +265,36 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
     for rule in ("tau", "total"):
         again = cc["_measure"](tool, task, scene, g, fresh[rule]["index"], doc["draws"])
         assert again["torque"] == pytest.approx(fresh[rule]["torque"], rel=1e-9)
+
+
+def test_score_weights_quick(tmp_path, monkeypatch):
+    _run_experiment("score_weights.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "weights.json").read_text())
+    jsonschema.validate(doc, load_schema("weights"))
+    assert set(doc["settings"]) == {doc["shipped"], "slip0_align1_task10_fail10"} and doc["n"] == 48
+    row = doc["per_tool"][0]
+    # every pick is the argmin of its setting's total, recomputed here with ScoreWeights from the scorer
+    from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool
+    from itup_jax.simulate import reachable
+
+    sw = runpy.run_path(os.path.join(ROOT, "experiments", "score_weights.py"))
+    cc = runpy.run_path(os.path.join(ROOT, "experiments", "candidate_count.py"))
+    tool, task = unit_tool(GenerateConfig.from_json(read_manifest(str(tmp_path / "data"))["config"]), row["task"], row["variant"])
+    g = itup.sample_grasps(tool, doc["n"], seed=cc["SAMPLE_SEED"] + row["variant"])
+    g = g[np.nonzero(reachable(task, g))[0]]
+    assert len(g.width) == row["reachable"] > 2
+    for key, w in doc["settings"].items():
+        s = itup.score(tool, task, g, weights=itup.ScoreWeights(**w))  # the scorer's own total under those weights
+        assert row["picks"][key]["index"] == int(np.argmin(np.asarray(s.total)))
+        np.testing.assert_allclose(sw["weighted_total"](s, itup.ScoreWeights(**w)), np.asarray(s.total), rtol=1e-5, atol=1e-5)
+    # one setting's picks measured over one tool: the summary is that tool's pick
+    shipped = doc["summary"][doc["shipped"]]
+    assert shipped["geo_mean_torque"] == pytest.approx(row["picks"][doc["shipped"]]["torque"])
+    assert shipped["paired_vs_shipped"]["ratio"] == pytest.approx(1.0)
+    # the rule: a setting qualifies only with full task success and no failure
+    ok = doc["qualifying"]
+    assert all(doc["summary"][k]["success"] >= 1 and doc["summary"][k]["failed"] <= 0 for k in ok)
+    assert doc["chosen"] in ok if ok else doc["chosen"] is None
 
 
 def test_fidelity_pick_stats_closed_form():

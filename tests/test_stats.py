@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from itup_jax.errors import InputError
-from itup_jax.stats import binned_rate, failure_threshold, roc_auc, spearman
+from itup_jax.stats import binned_rate, failure_threshold, paired_ratio, roc_auc, spearman
 
 
 def test_spearman_is_rank_invariant_and_nan_without_ranking():
@@ -66,3 +66,19 @@ def test_binned_rate_counts_and_wilson_interval():
     # Wilson at p = 0, n = 25: upper bound z^2 / (n + z^2)
     z = 1.959963984540054
     assert b["hi"][0] == pytest.approx(z * z / (25 + z * z))
+
+
+def test_paired_ratio_closed_form():
+    b = np.array([0.1, 0.4, 1.0, 3.0])
+    r = paired_ratio(2 * b, b)  # every pair doubles: the ratio is 2 and no resample can move it
+    assert r["ratio"] == pytest.approx(2.0) and r["ci95"] == pytest.approx([2.0, 2.0])
+    assert (r["lower"], r["higher"], r["n"]) == (0, 4, 4)
+    # halves and doubles cancel in the geometric mean; NaN and non-positive pairs are left out
+    r = paired_ratio([0.5, 4.0, np.nan, 0.0, 1.0], [1.0, 2.0, 1.0, 1.0, np.inf])
+    assert r["ratio"] == pytest.approx(1.0) and (r["lower"], r["higher"], r["n"]) == (1, 1, 2) and r["ci95"] is None
+    mixed = paired_ratio(np.array([0.8, 0.9, 1.2, 0.7, 0.6]), np.ones(5), bootstrap=500)
+    assert mixed["ratio"] == pytest.approx(np.exp(np.mean(np.log([0.8, 0.9, 1.2, 0.7, 0.6]))))
+    assert mixed["ci95"][0] < mixed["ratio"] < mixed["ci95"][1]
+    assert paired_ratio([np.nan], [1.0])["ratio"] is None
+    with pytest.raises(InputError, match="one length"):
+        paired_ratio([1.0, 2.0], [1.0])
