@@ -253,9 +253,13 @@ def _manifest_lock(out_dir: str):
     """Hold an exclusive lock on `out_dir`/.manifest.lock for the block: POSIX record locks
     (`fcntl.lockf`), which processes on one machine share and which NFS carries between machines; the
     lock goes when the block ends or the process dies. The lock is a process's: threads of one process
-    do not exclude each other, so run `generate` in several processes, not threads."""
-    import fcntl
-
+    do not exclude each other, so run `generate` in several processes, not threads. Where there are no
+    POSIX locks (Windows), one process needs none: the block runs unlocked."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
     fd = os.open(os.path.join(out_dir, LOCK), os.O_RDWR | os.O_CREAT, 0o666)
     try:
         fcntl.lockf(fd, fcntl.LOCK_EX)
@@ -321,6 +325,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     """
     config.validate()
     _check_process(process_index, process_count)
+    if process_count > 1 and os.name != "posix":
+        raise InputError("generate: several processes share the manifest through POSIX file locks, which this "
+                         f"platform ({os.name}) lacks; run one process")
     if mcap_per_shard < 0:
         raise InputError(f"generate: mcap_per_shard must be >= 0, got {mcap_per_shard}")
     if nthread is not None and (isinstance(nthread, bool) or not isinstance(nthread, (int, np.integer)) or nthread < 1):
