@@ -234,7 +234,8 @@ def cmd_generate(args) -> int:
 
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
-                         backend=args.backend, randomize=not args.nominal, timestep=args.timestep)
+                         backend=args.backend, randomize=not args.nominal, timestep=args.timestep,
+                         variants=args.variants)
     m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard,
                  process_index=args.process_index, process_count=args.process_count, nthread=args.threads)
     t = m["totals"]
@@ -567,6 +568,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="s, the simulator's integration step for every task (default: each task's, "
                      + ", ".join(f"{k} {v * 1e3:g} ms" for k, v in TASK_TIMESTEP.items())
                      + ": the coarsest whose labels converge, experiments/timestep_convergence.py)")
+    gen.add_argument("--variants", default="stretch", choices=["stretch", "parts"],
+                     help="procedural tools: 'stretch' scales the whole built-in tool (every dataset before session "
+                     "16), 'parts' varies the handle and the head independently (dataset.part_variant)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")

@@ -22,12 +22,14 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
+import inspect
 import io
 import json
 import os
 import warnings
 import zipfile
 from collections.abc import Callable, Sequence
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -41,6 +43,7 @@ from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
+from itup_jax.tool import BUILTIN_TOOLS as BUILDERS
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
 from itup_jax.wrench import task_loads
 
@@ -97,6 +100,62 @@ def vary_tool(tool: Tool, seed: int, ranges: VariantRanges = VariantRanges()) ->
         parts=tuple((n, m, round(w * k, 4)) for n, m, w in tool.parts))
 
 
+#: The part-wise family (`part_variant`): per built-in tool, each dimension's uniform range as a factor
+#: of the built-in's (a head_density factor multiplies the head material's density). The handle and
+#: the head vary independently, so the head's mass and shape change against the handle, unlike
+#: `vary_tool`'s stretch of the whole tool.
+PART_RANGES = MappingProxyType({
+    "hammer": {"head_z": (0.8, 1.2), "handle_radius": (0.8, 1.25), "head_radius": (0.8, 1.3),
+               "head_length": (0.75, 1.3), "head_density": (0.6, 1.5)},
+    "mallet": {"head_z": (0.8, 1.2), "handle_radius": (0.8, 1.25), "head_radius": (0.8, 1.3),
+               "head_length": (0.75, 1.3), "head_density": (0.6, 1.5)},
+    "broom": {"half_width": (0.75, 1.25), "bristle_height": (0.8, 1.3), "handle_radius": (0.8, 1.25),
+              "handle_length": (0.8, 1.2)},
+    "l_stick": {"shaft": (0.85, 1.15), "radius": (0.8, 1.3), "hook_end": (0.75, 1.3)},
+})
+
+
+def part_variant(base: str, seed: int) -> Tool:
+    """A procedural variant of built-in tool `base` whose parts vary independently (`PART_RANGES`): the
+    hammer's and the mallet's handle length and radius, head radius, head length and head density; the
+    broom's width, bristle height, handle radius and length; the L-stick's shaft length, rod radius and
+    hook length. The grasp region and the contact points follow the parts (the same fractions as the
+    built-in's). Built by the tool's own parametric builder (`tool.claw_hammer`, ...), so mass properties
+    come from the parts' meshes and densities. Name: '<base>#<seed>'."""
+    if base not in PART_RANGES:
+        raise InputError(f"part_variant: base must be one of {sorted(PART_RANGES)}, got {base!r}")
+    rng = np.random.default_rng(seed)
+    f = {k: rng.uniform(*r) for k, r in PART_RANGES[base].items()}
+    name = f"{base}#{seed}"
+    d = {k: p.default for k, p in inspect.signature(BUILDERS[base]).parameters.items()}  # the built-in's dimensions
+    if base in ("hammer", "mallet"):
+        z0, r0 = d["head_z"], d["head_radius"]
+        hr = r0 * f["head_radius"]
+        handle = (z0 - r0) * f["head_z"]  # the handle's length
+        kw = dict(head_z=handle + hr, handle_radius=d["handle_radius"] * f["handle_radius"], head_radius=hr,
+                  head_density=f["head_density"], grasp_top=d["grasp_top"] * handle / (z0 - r0))
+        kw["grasp_half"] = max(0.02, kw["handle_radius"] + 0.0055)
+        if base == "hammer":
+            kw.update(head_back=d["head_back"] * f["head_length"], head_front=d["head_front"] * f["head_length"])
+        else:
+            kw.update(head_half=d["head_half"] * f["head_length"])
+        return BUILDERS[base](name=name, **kw)
+    if base == "broom":
+        w, h = d["half_width"] * f["half_width"], d["bristle_height"] * f["bristle_height"]
+        b0 = d["bristle_height"] + 0.030  # the built-in block's top
+        length = (d["handle_top"] - b0) * f["handle_length"]
+        hr = d["handle_radius"] * f["handle_radius"]
+        return BUILDERS[base](name=name, half_width=w, bristle_height=h, handle_radius=hr, handle_top=h + 0.030 + length,
+                              grasp_bottom=h + 0.030 + (d["grasp_bottom"] - b0) * f["handle_length"],
+                              contact_x=d["contact_x"] * f["half_width"], grasp_half=max(0.02, hr + 0.009))
+    return BUILDERS[base](name=name, shaft=d["shaft"] * f["shaft"], radius=d["radius"] * f["radius"],
+                          hook_end=d["hook_end"] * f["hook_end"], contact_x=d["contact_x"] * f["hook_end"],
+                          grasp_top=d["grasp_top"] * f["shaft"])
+
+
+VARIANT_FAMILIES = ("stretch", "parts")  # `vary_tool`, `part_variant`
+
+
 # ---------------------------------------------------------------------------------------------------
 # Generation
 # ---------------------------------------------------------------------------------------------------
@@ -116,11 +175,16 @@ class GenerateConfig:
     # (experiments/timestep_convergence.py), so one task's rows of different steps are not mixed
     # (`load_datasets`); the manifest records each task's step
     timestep: float | None = None
+    # the procedural family of variants >= 1: "stretch" (`vary_tool`, every dataset before session 16)
+    # or "parts" (`part_variant`: handle and head varied independently)
+    variants: str = "stretch"
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
         if not self.tasks or unknown:
             raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
+        if self.variants not in VARIANT_FAMILIES:
+            raise InputError(f"generate: variants must be one of {VARIANT_FAMILIES}, got {self.variants!r}")
         if self.tools_per_task < 1 or self.grasps < 1:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
         if self.timestep is not None:
@@ -131,7 +195,12 @@ class GenerateConfig:
         return task_timestep(kind) if self.timestep is None else float(self.timestep)
 
     def to_json(self) -> dict:
-        return dict(dataclasses.asdict(self), tasks=list(self.tasks))
+        """The config as the manifest records it. The default family, "stretch", is left out, so that a
+        config made before `variants` existed reads the same and its datasets resume."""
+        d = dict(dataclasses.asdict(self), tasks=list(self.tasks))
+        if d["variants"] == "stretch":
+            del d["variants"]
+        return d
 
     @classmethod
     def from_json(cls, d: dict) -> "GenerateConfig":
@@ -160,10 +229,16 @@ def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
 
 def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Tool, Task]:
     """The tool and task of a shard: variant 0 is the task's built-in tool, variant v >= 1 the
-    procedural variant seeded from the run seed (the same tool every time, so experiments can
+    procedural variant of the config's family (`variants`) seeded from the run seed (the same tool every time, so experiments can
     rebuild a shard's tool from its manifest entry)."""
     base = load_tool(DEFAULT_TOOL[task_kind])
-    tool = base if variant == 0 else vary_tool(base, _unit_seed(config, task_kind, variant))
+    seed = _unit_seed(config, task_kind, variant)
+    if variant == 0:
+        tool = base
+    elif config.variants == "parts":
+        tool = part_variant(DEFAULT_TOOL[task_kind], seed)
+    else:
+        tool = vary_tool(base, seed)
     with warnings.catch_warnings():  # a stretched tool may swing a little over the speed limit: flagged per rollout
         warnings.simplefilter("ignore", UserWarning)
         task = make_task(task_kind, tool)

@@ -232,21 +232,24 @@ def assemble_tool(
     *,
     name: str,
     category: str,
-    parts: Sequence[tuple[str, str, tuple[trimesh.Trimesh, tuple]]],
+    parts: Sequence[tuple],
     contact_points: Any,
     contact_normal: Sequence[float],
     grasp_region: tuple[Sequence[float], Sequence[float]],
 ) -> Tool:
-    """Build a tool from parts `(part_name, material, (closed_mesh, primitive))` that do not overlap.
+    """Build a tool from parts `(part_name, material, (closed_mesh, primitive))` that do not overlap; a
+    part may add a fourth entry, a density scale (its material's density times it: a hollow or a denser
+    part).
 
     The mass properties are the sum of the parts' (each at its material's density); the collision and
     sampling mesh is their boolean union.
     """
     props, described, meshes, prims = [], [], [], []
-    for part_name, material, (mesh, prim) in parts:
+    for part_name, material, (mesh, prim), *scale in parts:
         prims.append(prim)
         mesh = check_mesh(mesh, f"tool {name!r} part {part_name!r}")
-        m, c, i = mesh_mass_properties(mesh, priors.MATERIAL_DENSITY[material])
+        density = priors.MATERIAL_DENSITY[material] * (float(scale[0]) if scale else 1.0)
+        m, c, i = mesh_mass_properties(mesh, density)
         props.append((m, c, i))
         described.append((part_name, material, round(m, 4)))
         meshes.append(mesh)
@@ -267,76 +270,84 @@ def assemble_tool(
     )
 
 
-def _claw_hammer() -> Tool:
-    # ~0.30 m long, ~0.49 kg: hickory handle (29 mm diameter) and a steel head (22 mm diameter, 110 mm
-    # long) across the top. The face is the head's +x end; the claw end is at -x.
-    head_z, head_r = 0.290, 0.011
+# The built-in tools are parametric: the defaults are the built-in tool, other values the procedural
+# part-wise variants of `dataset.part_variant` (metres; density scales relative to the material).
+def claw_hammer(*, handle_radius: float = 0.0145, head_z: float = 0.290, head_radius: float = 0.011,
+                head_back: float = 0.050, head_front: float = 0.060, head_density: float = 1.0,
+                grasp_top: float = 0.25, grasp_half: float = 0.02, name: str = "hammer") -> Tool:
+    """A claw hammer: a hickory handle along +z up to the head, and a steel head across the top from
+    x = -head_back (claw) to +head_front (the face, the contact). Built-in: ~0.30 m long, ~0.47 kg."""
     return assemble_tool(
-        name="hammer", category="hammer",
+        name=name, category="hammer",
         parts=[
-            ("handle", "hickory", _cylinder(0.0145, (0, 0, 0), (0, 0, head_z - head_r))),
-            ("head", "steel", _cylinder(head_r, (-0.050, 0, head_z), (0.060, 0, head_z))),
+            ("handle", "hickory", _cylinder(handle_radius, (0, 0, 0), (0, 0, head_z - head_radius))),
+            ("head", "steel", _cylinder(head_radius, (-head_back, 0, head_z), (head_front, 0, head_z)), head_density),
         ],
-        contact_points=[(0.060, 0.0, head_z)],
+        contact_points=[(head_front, 0.0, head_z)],
         contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.25)),
+        grasp_region=((-grasp_half, -grasp_half, 0.0), (grasp_half, grasp_half, grasp_top)),
     )
 
 
-def _hand_broom() -> Tool:
-    # A small push broom: polypropylene handle (22 mm diameter) on a beech block with a nylon bristle
-    # pack below. Bristle tips at z = 0; the broom pushes along +y (the block's thin direction).
+def hand_broom(*, half_width: float = 0.105, bristle_height: float = 0.050, handle_radius: float = 0.011,
+               handle_top: float = 0.380, grasp_bottom: float = 0.15, contact_x: float = 0.080,
+               grasp_half: float = 0.02, name: str = "broom") -> Tool:
+    """A small push broom: a nylon bristle pack (2 half_width wide, 35 mm thick) under a 30 mm beech
+    block 5 mm wider each side, and a polypropylene handle up to handle_top. Bristle tips at z = 0; it
+    pushes along +y, touching at x = 0 and +-contact_x."""
+    block_top = bristle_height + 0.030
     return assemble_tool(
-        name="broom", category="broom",
+        name=name, category="broom",
         parts=[
-            ("bristles", "bristle_pack", _box((-0.105, -0.0175, 0.0), (0.105, 0.0175, 0.050))),
-            ("block", "beech", _box((-0.110, -0.020, 0.050), (0.110, 0.020, 0.080))),
-            ("handle", "polypropylene", _cylinder(0.011, (0, 0, 0.080), (0, 0, 0.380))),
+            ("bristles", "bristle_pack", _box((-half_width, -0.0175, 0.0), (half_width, 0.0175, bristle_height))),
+            ("block", "beech", _box((-half_width - 0.005, -0.020, bristle_height), (half_width + 0.005, 0.020, block_top))),
+            ("handle", "polypropylene", _cylinder(handle_radius, (0, 0, block_top), (0, 0, handle_top))),
         ],
-        contact_points=[(0.0, 0.0175, 0.005), (-0.080, 0.0175, 0.005), (0.080, 0.0175, 0.005)],
+        contact_points=[(0.0, 0.0175, 0.005), (-contact_x, 0.0175, 0.005), (contact_x, 0.0175, 0.005)],
         contact_normal=(0.0, 1.0, 0.0),
-        grasp_region=((-0.02, -0.02, 0.15), (0.02, 0.02, 0.38)),
+        grasp_region=((-grasp_half, -grasp_half, grasp_bottom), (grasp_half, grasp_half, handle_top)),
     )
 
 
-def _mallet() -> Tool:
-    # A knocking mallet: 0.40 m beech handle (24 mm diameter) and a beech head (50 mm diameter, 90 mm
-    # long) across the top: the impact lands at the end of a long lever (the knock task).
-    head_z, head_r = 0.425, 0.025
+def mallet(*, handle_radius: float = 0.012, head_z: float = 0.425, head_radius: float = 0.025,
+           head_half: float = 0.045, head_density: float = 1.0, grasp_top: float = 0.30,
+           grasp_half: float = 0.02, name: str = "mallet") -> Tool:
+    """A knocking mallet: a beech handle along +z and a beech head (2 head_half long) across the top; the
+    impact lands on the head's +x face, at the end of a long lever (the knock task)."""
     return assemble_tool(
-        name="mallet", category="mallet",
+        name=name, category="mallet",
         parts=[
-            ("handle", "beech", _cylinder(0.012, (0, 0, 0), (0, 0, head_z - head_r))),
-            ("head", "beech", _cylinder(head_r, (-0.045, 0, head_z), (0.045, 0, head_z))),
+            ("handle", "beech", _cylinder(handle_radius, (0, 0, 0), (0, 0, head_z - head_radius))),
+            ("head", "beech", _cylinder(head_radius, (-head_half, 0, head_z), (head_half, 0, head_z)), head_density),
         ],
-        contact_points=[(0.045, 0.0, head_z)],
+        contact_points=[(head_half, 0.0, head_z)],
         contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.30)),
+        grasp_region=((-grasp_half, -grasp_half, 0.0), (grasp_half, grasp_half, grasp_top)),
     )
 
 
-def _l_stick() -> Tool:
-    # An L-shaped reaching stick: 12 mm aluminium rod, 0.45 m shaft along +z and a 0.10 m hook along
-    # +x at the far end. The contact is the hook's inner face (facing -z, back towards the grasp): it
-    # pulls a block towards the robot.
-    r = 0.006
+def l_stick(*, radius: float = 0.006, shaft: float = 0.450, hook_end: float = 0.100, contact_x: float = 0.070,
+            grasp_top: float = 0.20, grasp_half: float = 0.02, name: str = "l_stick") -> Tool:
+    """An L-shaped reaching stick: an aluminium rod, a shaft along +z and a hook along +x at its far end.
+    The contact is the hook's inner face (facing -z, back towards the grasp): it pulls a block in."""
+    r = radius
     return assemble_tool(
-        name="l_stick", category="l_stick",
+        name=name, category="l_stick",
         parts=[
-            ("shaft", "aluminium", _cylinder(r, (0, 0, 0), (0, 0, 0.450))),
-            ("hook", "aluminium", _cylinder(r, (r, 0, 0.450), (0.100, 0, 0.450))),
+            ("shaft", "aluminium", _cylinder(r, (0, 0, 0), (0, 0, shaft))),
+            ("hook", "aluminium", _cylinder(r, (r, 0, shaft), (hook_end, 0, shaft))),
         ],
-        contact_points=[(0.070, 0.0, 0.450 - r)],
+        contact_points=[(contact_x, 0.0, shaft - r)],
         contact_normal=(0.0, 0.0, -1.0),
-        grasp_region=((-0.02, -0.02, 0.0), (0.02, 0.02, 0.20)),
+        grasp_region=((-grasp_half, -grasp_half, 0.0), (grasp_half, grasp_half, grasp_top)),
     )
 
 
 BUILTIN_TOOLS = {
-    "hammer": _claw_hammer,
-    "broom": _hand_broom,
-    "mallet": _mallet,
-    "l_stick": _l_stick,
+    "hammer": claw_hammer,
+    "broom": hand_broom,
+    "mallet": mallet,
+    "l_stick": l_stick,
 }
 
 _BUILTIN_CACHE: dict[str, Tool] = {}

@@ -11,7 +11,8 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset, load_datasets, load_shard, vary_tool
+from itup_jax.dataset import (MANIFEST, GenerateConfig, generate, load_dataset, load_datasets, load_shard, unit_tool,
+                              vary_tool)
 from itup_jax.cli import main
 
 SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1)
@@ -125,6 +126,64 @@ def test_variant_mass_properties_are_exact_for_a_box(tmp_path):
                                m / 12 * np.diag([B**2 + C**2, A**2 + C**2, A**2 + B**2]), rtol=1e-6, atol=1e-12)
     assert not np.isclose(A * B * C, a * b * c)  # it did change shape
     np.testing.assert_allclose(v.mesh.volume, A * B * C, rtol=1e-6)
+
+
+def _prism_mass(prim, density, sections=48):
+    """kg of the 48-facet cylinder behind a capsule primitive (the capsule spans the cylinder's length
+    less one radius at each end): density x the prism's cross-section x its length."""
+    _, p0, p1, r = prim
+    return density * 0.5 * sections * r**2 * np.sin(2 * np.pi / sections) * (np.linalg.norm(p1 - p0) + 2 * r)
+
+
+def test_part_variants_vary_the_head_against_the_handle():
+    """The part-wise family builds each part at its material's density (the head's times its factor), and,
+    unlike the stretch family, changes the head's mass against the handle's."""
+    from itup_jax.dataset import PART_RANGES, part_variant
+    from itup_jax.priors import MATERIAL_DENSITY
+
+    base = itup.load_tool("hammer")
+    ratios, factors = {"stretch": [], "parts": []}, []
+    for seed in range(1, 9):
+        t = part_variant("hammer", seed)
+        (_, _, m_handle), (_, _, m_head) = t.parts
+        handle, head = t.primitives
+        assert m_handle == pytest.approx(_prism_mass(handle, MATERIAL_DENSITY["hickory"]), rel=1e-3)  # parts rounds to 0.1 g
+        factor = m_head / _prism_mass(head, MATERIAL_DENSITY["steel"])
+        assert PART_RANGES["hammer"]["head_density"][0] - 1e-3 <= factor <= PART_RANGES["hammer"]["head_density"][1] + 1e-3
+        factors.append(factor)
+        assert float(t.params.mass) == pytest.approx(m_handle + m_head, abs=1e-4)
+        # the grasp region stays on the handle, below the head, and the face is the head's +x end
+        assert t.grasp_region.hi[2] < head[1][2] - head[3] and t.contact_point[0] == pytest.approx(head[2][0] + head[3])
+        ratios["parts"].append(m_head / m_handle)
+        v = vary_tool(base, seed)
+        ratios["stretch"].append(v.parts[1][2] / v.parts[0][2])
+    assert np.ptp(ratios["stretch"]) / np.mean(ratios["stretch"]) < 0.01  # stretching keeps the ratio
+    assert np.ptp(ratios["parts"]) / np.mean(ratios["parts"]) > 0.5
+    assert np.ptp(factors) > 0.3  # the head's density factor is drawn, not fixed
+    again = part_variant("hammer", 3)  # the seed makes the tool
+    np.testing.assert_array_equal(again.mesh.vertices, part_variant("hammer", 3).mesh.vertices)
+    assert again.name == "hammer#3" and float(again.params.mass) != float(part_variant("hammer", 4).params.mass)
+    for other in ("mallet", "broom", "l_stick"):  # every built-in has the family
+        assert part_variant(other, 5).category == itup.load_tool(other).category
+    with pytest.raises(itup.InputError, match="part_variant: base must be one of"):
+        part_variant("drill", 1)
+
+
+def test_the_variant_family_is_recorded_and_the_default_reads_as_before(tmp_path, capsys):
+    """A "parts" dataset records its family; the default ("stretch") is left out of the config, so the
+    manifests of every dataset made before the option read the same and resume."""
+    assert "variants" not in SMALL.to_json() and GenerateConfig.from_json(SMALL.to_json()) == SMALL
+    parts = GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=4, seed=1, variants="parts")
+    assert parts.to_json()["variants"] == "parts" and GenerateConfig.from_json(parts.to_json()) == parts
+    with pytest.raises(itup.InputError, match="variants must be one of"):
+        generate(str(tmp_path / "bad"), GenerateConfig(variants="bend"), progress=False)
+    out = str(tmp_path / "parts")
+    assert main(["generate", "--out", out, "--tasks", "reach", "--tools-per-task", "2", "--grasps", "4",
+                 "--seed", "1", "--variants", "parts", "--quiet"]) == 0
+    data = load_dataset(out, valid_only=False)
+    assert sorted(set(data["tool"].tolist())) == sorted(["l_stick", unit_tool(parts, "reach", 1)[0].name])
+    assert "#" in unit_tool(parts, "reach", 1)[0].name
+    assert json.load(open(os.path.join(out, MANIFEST)))["config"]["variants"] == "parts"
 
 
 def test_generate_cli(tmp_path, capsys):
