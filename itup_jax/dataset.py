@@ -3,7 +3,8 @@
     manifest = generate("data/", GenerateConfig(tasks=("hammer",), tools_per_task=4, grasps=256))
 
 One shard per (task, tool variant): the tool (variant 0 is the built-in, the others are procedural
-variants of it, `vary_tool`), `grasps` sampled grasps, their rollouts in MuJoCo with randomised
+variants of it: `vary_tool` stretches the whole tool, `part_variant` varies its handle and head
+independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with randomised
 physics (`simulate`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
 .npz written atomically (temporary file, then rename) with fixed zip timestamps, so the same config
 and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
