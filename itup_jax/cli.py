@@ -249,10 +249,48 @@ def cmd_generate(args) -> int:
     return 0
 
 
+def _datasets_spec(folders, manifests) -> list[dict]:
+    """What a checkpoint records of the datasets it was trained on."""
+    from itup_jax.dataset import dataset_timesteps
+
+    return [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
+             "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(folders, manifests)]
+
+
+def _cmd_adapt(args) -> int:
+    """`itup train --init M.npz`: continue training a checkpoint on new data (`sdgnet.adapt`)."""
+    from itup_jax.dataset import load_datasets
+    from itup_jax.sdgnet import adapt, load_model, save_model
+
+    fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
+                            ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
+                            ("--failure-weight", args.failure_weight), ("--rank-weight", args.rank_weight),
+                            ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None),
+                            ("--teacher", args.teacher)) if v is not None]
+    if fixed:
+        raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
+                    f"(--finetune-epochs, --finetune-lr, --patience and --seed set the adaptation)")
+    model = load_model(args.init)  # checked before any data is read
+    epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)
+    data, manifests = load_datasets(args.data)
+    fs = manifests[0]["config"]["feature_spec"]
+    out = adapt(model, data, epochs=epochs, lr=args.finetune_lr, seed=args.seed, patience=args.patience,
+                feature_spec=fs, progress=not args.quiet)
+    out.spec["adapted_from"]["file"] = os.path.abspath(args.init)
+    out.spec["datasets"] = _datasets_spec(args.data, manifests)
+    out.spec["command"] = _command_line()
+    save_model(args.out, out)
+    print(f"wrote {args.out}: {args.init} adapted for {epochs} epochs per network; best validation loss "
+          f"{out.spec['best_val_loss']:.4f} on the new data's held-out tools")
+    return 0
+
+
 def cmd_train(args) -> int:
-    from itup_jax.dataset import dataset_timesteps, load_datasets
+    from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
+    if args.init:
+        return _cmd_adapt(args)
     try:
         hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h.strip())
     except ValueError:
@@ -283,9 +321,7 @@ def cmd_train(args) -> int:
     if teacher is not None:
         model.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
                                  "command": teacher.spec.get("command")}
-    datasets = [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
-                 "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(args.data, manifests)]
-    model.spec["datasets"] = datasets
+    model.spec["datasets"] = _datasets_spec(args.data, manifests)
     model.spec["command"] = _command_line()
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
@@ -619,6 +655,10 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--teacher", default=None, metavar="E.npz",
                     help="distil: train on this checkpoint's predictions (costs and probabilities) of the rows "
                          "instead of their labels, e.g. an `itup ensemble` that scores M times slower")
+    tr.add_argument("--init", default=None, metavar="M.npz",
+                    help="adapt this checkpoint to --data instead of training from scratch: each of its networks "
+                         "continues from its weights and normalisation for --finetune-epochs epochs (default: its "
+                         "recipe's) at --finetune-lr, kept unless an epoch beats it on the data's held-out tools")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 

@@ -297,6 +297,53 @@ def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict
     return _train_per_task(data, config, feature_spec=feature_spec, progress=progress, log=log, init=shared)
 
 
+def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, seed: int = 0,
+          patience: int | None = None, feature_spec: dict | None = None, progress: bool = True, log=print) -> Model:
+    """Continue training a trained model on new data (a new tool family, say): each of its networks (the
+    shared one, or each task's) starts from its weights and keeps its normalisation and targets, trains
+    `epochs` epochs at peak rate `lr` (default: its recipe's fine-tuning rate) on the data's rows of its
+    task, and is kept as it was unless an epoch beats it on the data's held-out tools (drawn by `seed`,
+    as in `train`). A per-task model's networks for tasks the data lacks are carried over unchanged.
+    The recipe is the model's own (`Model.train_config`); `spec["adapted_from"]` records the start.
+
+    Raises InputError for an ensemble (adapt its members), for data whose features were made with
+    another `FeatureSpec`, and for data of a task the model has no network for."""
+    if model.ensemble_size > 1:
+        raise InputError(f"adapt: the model is an ensemble of {model.ensemble_size}; adapt its members and "
+                         f"average them again (`ensemble`)")
+    if isinstance(epochs, bool) or not isinstance(epochs, (int, np.integer)) or epochs < 1:
+        raise InputError(f"adapt: epochs must be an integer >= 1, got {epochs!r}")
+    if feature_spec is not None and model.spec.get("feature_spec") and feature_spec != model.spec["feature_spec"]:
+        raise InputError(f"adapt: the data's features were made with {feature_spec}, the model's with "
+                         f"{model.spec['feature_spec']}")
+    kinds = sorted(set(np.asarray(data["task"]).tolist()))
+    if model.tasks is not None and set(kinds) - set(model.tasks):
+        raise InputError(f"adapt: the data holds {sorted(set(kinds) - set(model.tasks))}, for which the model "
+                         f"has no network (it has {model.tasks})")
+    recipe = model.train_config
+    config = dataclasses.replace(recipe, seed=seed, per_task=False, rank_weight=0.0, finetune_epochs=epochs,
+                                 finetune_lr=recipe.finetune_lr if lr is None else lr,
+                                 patience=recipe.patience if patience is None else patience)
+    fs = model.spec.get("feature_spec") if feature_spec is None else feature_spec
+    if model.tasks is None:
+        one = dataclasses.replace(config, epochs=epochs, lr=config.finetune_lr, finetune_epochs=0)
+        out = _train_one(data, one, feature_spec=fs, progress=progress, log=log, init=model)
+    else:
+        out = _train_per_task(data, config, feature_spec=fs, progress=progress, log=log, init=model)
+        params, by_task = list(out.params), dict(out.spec["by_task"])
+        for kind in model.tasks:  # the tasks the data lacks keep their networks
+            if kind not in by_task:
+                old = model.spec["by_task"][kind]
+                lo, hi = old["layers"]
+                by_task[kind] = {**old, "layers": [len(params), len(params) + hi - lo]}
+                params += list(model.params[lo:hi])
+        out = Model(params=params, spec={**out.spec, "by_task": dict(sorted(by_task.items()))})
+    out.spec["adapted_from"] = {"command": model.spec.get("command"), "datasets": model.spec.get("datasets"),
+                                "best_val_loss": model.spec.get("best_val_loss"), "epochs": epochs,
+                                "lr": config.finetune_lr, "seed": seed}
+    return out
+
+
 def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Features X [N, F], targets Y [N, 3] = log1p(y / scale), and keep [N] bool: the rows a network is
     trained on (finite features and targets)."""
@@ -322,8 +369,9 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
     for kind in sorted(set(task.tolist())):
         rows = task == kind
         sub = {k: (np.asarray(v)[rows] if np.ndim(v) and len(v) == len(rows) else v) for k, v in data.items()}
+        start = init.for_task(kind) if init is not None else None  # a per-task init: that task's network
         m = _train_one(sub, one, feature_spec=feature_spec, progress=progress,
-                       log=lambda msg, kind=kind: log(f"{kind}: {msg}"), val_tools=val_tools, init=init)
+                       log=lambda msg, kind=kind: log(f"{kind}: {msg}"), val_tools=val_tools, init=start)
         by_task[kind] = {"layers": [len(params), len(params) + len(m.params)],
                          **{k: m.spec[k] for k in ("x_mean", "x_std", "y_mean", "y_std", "best_epoch",
                                                    "best_val_loss", "n_train", "n_val", "history", "val_metrics")
@@ -340,7 +388,7 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
         "n_train": sum(e["n_train"] for e in by_task.values()), "n_val": n_val,
         "train_seconds": time.perf_counter() - t0,
     }
-    if init is not None:  # what the shared network reached before fine-tuning, and the total time
+    if init is not None and init.tasks is None:  # what the shared network reached before fine-tuning, and the total time
         spec["shared"] = {k: init.spec[k] for k in ("best_epoch", "best_val_loss", "val_metrics", "history",
                                                     "train_seconds", "n_train", "n_val")}
         spec["train_seconds"] += init.spec["train_seconds"]

@@ -461,3 +461,46 @@ def test_teacher_targets_are_the_teachers_predictions_and_soft_labels_are_learnt
     np.testing.assert_allclose(np.asarray(g), 0.0, atol=1e-12)
     g2 = jax.grad(lambda b: training_loss([(W, b)], jnp.zeros((1, 1)), jnp.zeros((1, 3)), s, jnp.ones(2)))(b + 0.5)
     assert np.all(np.asarray(g2)[3:] > 0)  # a larger logit than the teacher's probability is pushed back
+
+
+def test_adapt_continues_each_network_on_new_data_and_keeps_the_rest(tmp_path, capsys):
+    """`adapt` starts every network from the checkpoint (its normalisation kept), only keeps an epoch
+    that beats the start on the new data's held-out tools, learns a shifted family, and leaves the
+    networks of tasks the new data lacks bit for bit."""
+    from itup_jax.sdgnet import adapt
+
+    a, b = _synthetic(seed=1), _synthetic(seed=2)
+    b["task"] = np.array(["reach"] * len(b["task"]))
+    data = {k: np.concatenate([a[k], b[k]]) for k in a}
+    cfg = TrainConfig(hidden=(16,), epochs=40, patience=40, lr=3e-3, finetune_epochs=20, finetune_lr=3e-3)
+    quiet = dict(progress=False, log=lambda *_: None)
+    model = train(data, cfg, feature_spec={"num_points": 8}, **quiet)
+    new = _synthetic(seed=3)  # a new hammer family: its torque falls where the old one's rises
+    new[TARGETS[0]] = np.exp(-0.5 * new["features"][:, 0])
+    before = adapt(model, new, epochs=1, lr=1e-12, **quiet)  # a rate of ~0: what the start scores on the new split
+    after = adapt(model, new, epochs=60, lr=3e-3, **quiet)
+    ham0, ham1 = model.for_task("hammer"), after.for_task("hammer")
+    assert ham1.spec["x_mean"] == ham0.spec["x_mean"] and ham1.spec["y_std"] == ham0.spec["y_std"]
+    start = before.spec["by_task"]["hammer"]["history"][0][1]
+    assert after.spec["by_task"]["hammer"]["best_val_loss"] < 0.5 * start  # it learnt the new family
+    assert after.spec["by_task"]["hammer"]["best_val_loss"] <= before.spec["by_task"]["hammer"]["best_val_loss"] + 1e-6
+    for (W, bb), (W2, b2) in zip(model.for_task("reach").params, after.for_task("reach").params):
+        np.testing.assert_array_equal(W, W2)  # no reach rows: its network is the checkpoint's
+        np.testing.assert_array_equal(bb, b2)
+    assert after.tasks == ["hammer", "reach"] and after.spec["adapted_from"]["epochs"] == 60
+    save_model(str(tmp_path / "adapted.npz"), after)
+    assert load_model(str(tmp_path / "adapted.npz")).for_task("reach").spec["y_mean"] == model.for_task("reach").spec["y_mean"]
+    with pytest.raises(itup.InputError, match="no network"):
+        adapt(model, {**new, "task": np.array(["knock"] * len(new["task"]))}, epochs=5, **quiet)
+    with pytest.raises(itup.InputError, match="epochs must be an integer >= 1"):
+        adapt(model, new, epochs=0, **quiet)
+    with pytest.raises(itup.InputError, match="features were made with"):
+        adapt(model, new, epochs=5, feature_spec={"num_points": 7}, **quiet)
+
+
+def test_train_init_refuses_to_change_the_recipe(tmp_path, capsys):
+    from itup_jax.cli import main
+
+    assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "m.npz"), "--init", "x.npz",
+                 "--hidden", "8"]) == 2
+    assert "the recipe is the checkpoint's own; --hidden" in capsys.readouterr().err
