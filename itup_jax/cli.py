@@ -280,8 +280,10 @@ def _cmd_adapt(args) -> int:
     out.spec["datasets"] = _datasets_spec(args.data, manifests)
     out.spec["command"] = _command_line()
     save_model(args.out, out)
-    print(f"wrote {args.out}: {args.init} adapted for {epochs} epochs per network; best validation loss "
-          f"{out.spec['best_val_loss']:.4f} on the new data's held-out tools")
+    kept = [k for k, e in out.spec.get("by_task", {"all": out.spec}).items() if e.get("best_epoch", 0) < 0]
+    print(f"wrote {args.out}: {args.init} adapted (up to {epochs} epochs per network, early stopping); best "
+          f"validation loss {out.spec['best_val_loss']:.4f} on the new data's held-out tools"
+          + (f"; kept the checkpoint's network for {', '.join(kept)} (no epoch beat it)" if kept else ""))
     return 0
 
 
