@@ -4,8 +4,8 @@
 
 One shard per (task, tool variant): the tool (variant 0 is the built-in, the others are procedural
 variants of it: `vary_tool` stretches the whole tool, `part_variant` varies its handle and head
-independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with randomised
-physics (`simulate`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
+independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with
+randomised physics (`simulate`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
 .npz written atomically (temporary file, then rename) with fixed zip timestamps, so the same config
 and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
 config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
@@ -13,9 +13,10 @@ rollouts. A run killed at any point and started again skips the shards whose che
 makes the rest: nothing lost, nothing duplicated. Several processes, on one machine or on several
 sharing the folder, make one dataset together (`generate(..., process_index=i, process_count=n)`,
 `itup generate --process-index I --process-count N`): each makes every n-th shard and adds it to the
-one manifest under a file lock, so the finished folder is the one a single process makes. Diverged and infeasible rollouts are stored with
-their flags (and counted) so that nothing is dropped silently (an infeasible rollout is not stepped: its
-measured labels are NaN); `load_shard(valid_only=True)` gives the labels.
+one manifest under a file lock, so the finished folder is the one a single process makes. Diverged
+and infeasible rollouts are stored with their flags (and counted) so that nothing is dropped silently
+(an infeasible rollout is not stepped: its measured labels are NaN); `load_shard(valid_only=True)`
+gives the labels.
 """
 
 from __future__ import annotations
@@ -230,8 +231,8 @@ def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
 
 def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Tool, Task]:
     """The tool and task of a shard: variant 0 is the task's built-in tool, variant v >= 1 the
-    procedural variant of the config's family (`variants`) seeded from the run seed (the same tool every time, so experiments can
-    rebuild a shard's tool from its manifest entry)."""
+    procedural variant of the config's family (`variants`) seeded from the run seed (the same tool
+    every time, so experiments can rebuild a shard's tool from its manifest entry)."""
     base = load_tool(DEFAULT_TOOL[task_kind])
     seed = _unit_seed(config, task_kind, variant)
     if variant == 0:
