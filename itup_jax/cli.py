@@ -660,7 +660,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--init", default=None, metavar="M.npz",
                     help="adapt this checkpoint to --data instead of training from scratch: each of its networks "
                          "continues from its weights and normalisation for --finetune-epochs epochs (default: its "
-                         "recipe's) at --finetune-lr, kept unless an epoch beats it on the data's held-out tools")
+                         "recipe's) at --finetune-lr, kept unless an epoch beats it on the data's held-out tools; "
+                         "--epochs, --lr and --batch (training from scratch) do not apply")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 
