@@ -129,6 +129,24 @@ def summarise(rows: list[dict], ns: list[int], rules: tuple[str, ...]) -> dict:
     return out
 
 
+QUICK_DATA = GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1)  # --quick's tiny dataset
+
+
+def held_out_dataset(folder: str | None, quick_dir: str | None, flag: str, who: str):
+    """(folder, manifest, GenerateConfig, {task: step}) of the held-out dataset an experiment reads; with
+    `quick_dir`, `QUICK_DATA` is made there first and read instead. Exits with status 2, naming `who`
+    and `flag`, when the folder holds no manifest."""
+    if quick_dir is not None:
+        folder = quick_dir
+        generate(folder, QUICK_DATA, progress=False)
+    if not folder or not os.path.exists(os.path.join(folder, MANIFEST)):
+        print(f"{who}: {flag} {folder!r} holds no dataset manifest", file=sys.stderr)
+        raise SystemExit(2)
+    with open(os.path.join(folder, MANIFEST)) as fh:
+        manifest = json.load(fh)
+    return folder, manifest, GenerateConfig.from_json(manifest["config"]), dataset_timesteps(manifest)
+
+
 def _paired_text(p: dict | None, n0: int) -> str:
     if not p or p["ratio"] is None:
         return ""
@@ -162,15 +180,8 @@ def main(argv=None) -> dict:
             raise SystemExit(2)
     rules = ("tau", "total", "verified") if args.verify else ("tau", "total")
     os.makedirs(args.out, exist_ok=True)
-    if args.quick:
-        args.test = os.path.join(args.out, "test")
-        generate(args.test, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
-    if not args.test or not os.path.exists(os.path.join(args.test, MANIFEST)):
-        print(f"candidate_count: --test {args.test!r} holds no dataset manifest", file=sys.stderr)
-        raise SystemExit(2)
-    with open(os.path.join(args.test, MANIFEST)) as fh:
-        manifest = json.load(fh)
-    config, steps = GenerateConfig.from_json(manifest["config"]), dataset_timesteps(manifest)
+    args.test, manifest, config, steps = held_out_dataset(
+        args.test, os.path.join(args.out, "test") if args.quick else None, "--test", "candidate_count")
     # the shard candidates' further draws: the fidelity experiment's cached redraws (shared with it, not copied)
     fidelity = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "sdgnet_fidelity.py"))
     redraws = (fidelity["cached_redraws"](args.test, args.draws - 1, os.path.join(args.out, "redraws.npz"))

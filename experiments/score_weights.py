@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import os
 import runpy
 import sys
@@ -41,7 +40,7 @@ import numpy as np
 
 import itup_jax as itup
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, unit_tool
+from itup_jax.dataset import unit_tool
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import build_scene
 from itup_jax.scoring import ScoreWeights
@@ -161,16 +160,9 @@ def main(argv=None) -> dict:
         rows = list(itertools.product(*(_floats(getattr(args, f), "--" + f.replace("_", "-")) for f in FIELDS)))
     settings = list({setting_key(w): w for w in [SHIPPED] + [ScoreWeights(**dict(zip(FIELDS, r))) for r in rows]}.values())
     os.makedirs(args.out, exist_ok=True)
-    if args.quick:
-        args.data = os.path.join(args.out, "data")
-        generate(args.data, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
-    if not args.data or not os.path.exists(os.path.join(args.data, MANIFEST)):
-        print(f"score_weights: --data {args.data!r} holds no dataset manifest", file=sys.stderr)
-        raise SystemExit(2)
-    with open(os.path.join(args.data, MANIFEST)) as fh:
-        manifest = json.load(fh)
-    config, steps = GenerateConfig.from_json(manifest["config"]), dataset_timesteps(manifest)
     cc = runpy.run_path(os.path.join(HERE, "candidate_count.py"))
+    args.data, manifest, config, steps = cc["held_out_dataset"](
+        args.data, os.path.join(args.out, "data") if args.quick else None, "--data", "score_weights")
     model = load_model(args.model)
     rows_out, t0 = [], time.perf_counter()
     for e in manifest["shards"]:
