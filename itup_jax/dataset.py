@@ -39,7 +39,7 @@ import numpy as np
 from itup_jax import __version__
 from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, is_integer
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
@@ -316,7 +316,7 @@ def _counts(arrays: dict[str, np.ndarray]) -> dict[str, int]:
 
 def _check_process(process_index, process_count) -> None:
     for name, v in (("process_count", process_count), ("process_index", process_index)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+        if not is_integer(v):
             raise InputError(f"generate: {name} must be an integer, got {v!r}")
     if process_count < 1:
         raise InputError(f"generate: process_count must be >= 1, got {process_count}")
@@ -407,7 +407,7 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
                          f"platform ({os.name}) lacks; run one process")
     if mcap_per_shard < 0:
         raise InputError(f"generate: mcap_per_shard must be >= 0, got {mcap_per_shard}")
-    if nthread is not None and (isinstance(nthread, bool) or not isinstance(nthread, (int, np.integer)) or nthread < 1):
+    if nthread is not None and (not is_integer(nthread) or nthread < 1):
         raise InputError(f"generate: nthread must be an integer >= 1 (or None: every core), got {nthread!r}")
     os.makedirs(out_dir, exist_ok=True)
     if mcap_dir is not None:

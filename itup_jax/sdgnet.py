@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from itup_jax import checkpoint, mlp
-from itup_jax.errors import InputError, check_seed
+from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.features import FeatureSpec
 from itup_jax.optim import AdamConfig, adam_init, adam_update
 
@@ -311,7 +311,7 @@ def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, see
     if model.ensemble_size > 1:
         raise InputError(f"adapt: the model is an ensemble of {model.ensemble_size}; adapt its members and "
                          f"average them again (`ensemble`)")
-    if isinstance(epochs, bool) or not isinstance(epochs, (int, np.integer)) or epochs < 1:
+    if not is_integer(epochs) or epochs < 1:
         raise InputError(f"adapt: epochs must be an integer >= 1, got {epochs!r}")
     if feature_spec is not None and model.spec.get("feature_spec") and feature_spec != model.spec["feature_spec"]:
         raise InputError(f"adapt: the data's features were made with {feature_spec}, the model's with "

@@ -36,7 +36,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from itup_jax import ik, units
-from itup_jax.errors import InputError, check_seed
+from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scene import Scene, build_scene, restitution_solref
 from itup_jax.task import Task
@@ -201,7 +201,7 @@ def reachability_in_order(task: Task, grasps: Grasps, order, chunk: int = 16):
     checking `reachable` `chunk` candidates at a time (closed-form IK, ~0.2 ms a grasp warm): a caller
     that stops at the first reachable grasps of a ranking checks only as many chunks as it needs."""
     order = np.asarray(order, np.int64)
-    if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+    if not is_integer(chunk) or chunk < 1:
         raise InputError(f"reachability_in_order: chunk must be an integer >= 1, got {chunk!r}")
 
     def walk():

@@ -13,7 +13,7 @@ from scipy.optimize import minimize
 from scipy.special import expit, log_expit
 from scipy.stats import mannwhitneyu, spearmanr
 
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, is_integer
 
 
 def spearman(a, b) -> float:
@@ -131,7 +131,7 @@ def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0) -> dict:
     a, b = np.asarray(a, float), np.asarray(b, float)
     if a.shape != b.shape or a.ndim != 1:
         raise InputError(f"paired_ratio: a and b must be [N] of one length, got {a.shape}, {b.shape}")
-    if isinstance(bootstrap, bool) or not isinstance(bootstrap, (int, np.integer)) or bootstrap < 0:
+    if not is_integer(bootstrap) or bootstrap < 0:
         raise InputError(f"paired_ratio: bootstrap must be an integer >= 0, got {bootstrap!r}")
     with np.errstate(invalid="ignore", divide="ignore"):
         keep = np.isfinite(a) & np.isfinite(b) & (a > 0) & (b > 0)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from itup_jax.errors import InputError
+from itup_jax.errors import InputError, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.scene import Scene, build_scene
@@ -93,7 +93,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
       scene, backend, nthread: passed to `simulate` (scene: a prebuilt `build_scene(tool, task)`).
     """
     validate_grasps(grasps)
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+    if not is_integer(k) or k < 1:
         raise InputError(f"best_grasp_verified: k must be an integer >= 1 (valid rollouts wanted), got {k!r}")
     if scores is None:
         scores = score(tool, task, grasps, model, weights=weights, seed=seed)
