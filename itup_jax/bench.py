@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import platform
 import statistics
+import sys
 import time
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 from itup_jax.costs import CostParams, wrench_costs_jit
 from itup_jax.grasp import Grasps
 from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
+from itup_jax.precision import full_precision
 from itup_jax.task import DEFAULT_TOOL, make_task
 from itup_jax.tool import load_tool
 
@@ -57,6 +59,11 @@ def random_grasps(tool, n: int, seed: int = 0) -> Grasps:
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     return Grasps(p_tool_grasp=jnp.asarray(lo + rng.random((n, 3)) * (hi - lo)), q_tool_grasp=jnp.asarray(q),
                   width=jnp.asarray(rng.random(n) * 0.08))
+
+
+def _progress(msg: str) -> None:
+    """A long benchmark's stages, on stderr (stdout carries the one JSON object of --json)."""
+    print(f"[bench] {msg}", file=sys.stderr, flush=True)
 
 
 def _timed(fn, repeats: int) -> list[float]:
@@ -152,10 +159,12 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
         raw, full = [], []
         for _ in range(repeats):
             raw += _timed(lambda: mj_rollout.rollout(models, datas, state0, p.ctrl, nstep=p.nstep), 1)
-            full += _timed(lambda: simulate(tool, task, grasps, scene=scene, seed=seed, nthread=nt), 1)
+            full += _timed(lambda: simulate(tool, task, grasps, scene=scene, seed=seed, nthread=nt,
+                                              backend="native"), 1)
         out[f"raw_steps_per_s_threads{nt}"] = round(env_steps / statistics.median(raw))
         out[f"label_steps_per_s_threads{nt}"] = round(env_steps / statistics.median(full))
         out[f"label_over_raw_threads{nt}"] = round(statistics.median(r / f for r, f in zip(raw, full)), 3)
+        _progress(f"native, {nt} threads: raw {out[f'raw_steps_per_s_threads{nt}']} env-steps/s")
     out["mjx"] = []
     for b in mjx_batches:
         if jax.default_backend() == "cpu" and b > MJX_CPU_MAX_BATCH:
@@ -171,10 +180,10 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
         warm = min(_timed(lambda: jax.block_until_ready(fn(*args)), max(1, repeats - 1)))
         out["mjx"].append({"batch": b, "steps": mjx_steps, "compile_s": round(first - warm, 2),
                            "steps_per_s": round(b * mjx_steps / warm, 1)})
-    raw1 = out.get("raw_steps_per_s_threads1")
-    for row in out["mjx"]:
-        if raw1:
-            row["native_threads1_over_mjx"] = round(raw1 / row["steps_per_s"], 1)
+        _progress(f"mjx batch {b}: compile {out['mjx'][-1]['compile_s']} s, {out['mjx'][-1]['steps_per_s']} env-steps/s")
+    for nt in sorted({1, max(threads)} & set(threads)):  # the MJX rows against 1 thread and all threads timed
+        for row in out["mjx"]:
+            row[f"native_threads{nt}_over_mjx"] = round(out[f"raw_steps_per_s_threads{nt}"] / row["steps_per_s"], 2)
     out["repeats"] = repeats
     out["target_label_over_raw"] = 0.9
     out["machine"] = machine_info()
@@ -199,7 +208,7 @@ def matmul_rate(size: int = 2048, repeats: int = 5, dtype=jnp.float32) -> dict[s
     key = jax.random.PRNGKey(0)
     a = jax.random.normal(key, (size, size), dtype)
     b = jax.random.normal(jax.random.fold_in(key, 1), (size, size), dtype)
-    f = jax.jit(jnp.dot).lower(a, b).compile()
+    f = jax.jit(full_precision(jnp.dot)).lower(a, b).compile()  # the scorer's precision (precision.py)
     jax.block_until_ready(f(a, b))
     t = statistics.median(_timed(lambda: jax.block_until_ready(f(a, b)), repeats))
     return {"size": size, "ms": round(1e3 * t, 3), "flops_per_s": 2.0 * size**3 / t}
@@ -315,8 +324,8 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
     from itup_jax.task import TASK_KINDS
 
     config = SamplerConfig()
-    dot_kernel = jax.jit(jax.vmap(functools.partial(_gripper_hits, to_grasp_frame=lambda d, R: d @ R),
-                                  in_axes=(None, 0, 0, 0, None)))
+    dot_kernel = jax.jit(full_precision(jax.vmap(functools.partial(_gripper_hits, to_grasp_frame=lambda d, R: d @ R),
+                                                 in_axes=(None, 0, 0, 0, None))))
     rows = []
     for kind in TASK_KINDS:
         tool = load_tool(DEFAULT_TOOL[kind])

@@ -4,7 +4,7 @@
   itup evaluate --task T [--tool MESH --tool-spec SPEC] --methods sdgnet,force_closure,... --seeds K --json OUT
   itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--verify 5] [--json OUT]
   itup bench costs [--n 100000] [--t 64] [--json]
-  itup bench rollout [--n 64] [--mjx-batches 1,16,64] [--json]
+  itup bench rollout [--n 64] [--threads 1,2] [--mjx-batches 1,16,64] [--json]
   itup bench score [--n 10000] [--json]
   itup bench verify [--n 1000] [--k 5] [--json]
   itup bench sample [--n 4096] [--json]
@@ -346,6 +346,11 @@ def cmd_ensemble(args) -> int:
     return 0
 
 
+def _given(value, default):
+    """A benchmark's own default for an option left out (each benchmark has its own --n and --repeats)."""
+    return default if value is None else value
+
+
 def cmd_bench(args) -> int:
     from itup_jax.bench import bench_costs
 
@@ -353,19 +358,30 @@ def cmd_bench(args) -> int:
         from itup_jax.bench import bench_rollout
 
         batches = tuple(int(b) for b in args.mjx_batches.split(",") if b) if args.mjx_batches else ()
-        res = bench_rollout(n=min(args.n, 256) if args.n != 100_000 else 64, mjx_batches=batches,
-                            mjx_steps=args.mjx_steps, repeats=args.repeats if args.repeats != 10 else 9)
+        try:
+            threads = tuple(int(t) for t in args.threads.split(",") if t)
+        except ValueError:
+            threads = ()
+        if not threads or min(threads) < 1:
+            raise_input(f"bench rollout: --threads must be comma-separated integers >= 1, got {args.threads!r}")
+        n = _given(args.n, 64)
+        if not 1 <= n <= 256:
+            raise_input(f"bench rollout: --n must be in 1..256, got {n}")
+        res = bench_rollout(n=n, threads=threads, mjx_batches=batches, mjx_steps=args.mjx_steps,
+                            repeats=_given(args.repeats, 9))
+        nt = threads[-1]
         print(json.dumps(res) if args.json else
-              f"rollout: raw {res['raw_steps_per_s_threads2']} steps/s, labels {res['label_steps_per_s_threads2']} "
-              f"steps/s (x{res['label_over_raw_threads2']}) on 2 threads; mjx {res['mjx']}")
+              f"rollout: raw {res[f'raw_steps_per_s_threads{nt}']} steps/s, labels "
+              f"{res[f'label_steps_per_s_threads{nt}']} steps/s (x{res[f'label_over_raw_threads{nt}']}) on {nt} "
+              f"threads; mjx {res['mjx']}")
         return 0
     if args.what == "score":
         from itup_jax.bench import bench_score
 
-        n = 10_000 if args.n == 100_000 else args.n
+        n = _given(args.n, 10_000)
         if n < 1:
             raise_input(f"bench score: --n must be >= 1, got {n}")
-        res = bench_score(n=n, repeats=max(args.repeats, 1) * 2, task_kind=args.task, model=args.model)
+        res = bench_score(n=n, repeats=max(_given(args.repeats, 10), 1) * 2, task_kind=args.task, model=args.model)
         print(json.dumps(res) if args.json else
               f"score: n={res['n']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.2f} ms "
               f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
@@ -374,10 +390,10 @@ def cmd_bench(args) -> int:
     if args.what == "verify":
         from itup_jax.bench import bench_verify
 
-        n = 1000 if args.n == 100_000 else args.n
+        n = _given(args.n, 1000)
         if n < 1 or args.k < 1:
             raise_input(f"bench verify: need --n >= 1 and --k >= 1, got --n {n} --k {args.k}")
-        res = bench_verify(n=n, k=args.k, repeats=max(args.repeats // 2, 1), model=args.model)
+        res = bench_verify(n=n, k=args.k, repeats=max(_given(args.repeats, 10) // 2, 1), model=args.model)
         print(json.dumps(res) if args.json else "\n".join(
             f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
             f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
@@ -386,10 +402,10 @@ def cmd_bench(args) -> int:
     if args.what == "sample":
         from itup_jax.bench import bench_sample
 
-        n = 4096 if args.n == 100_000 else args.n
+        n = _given(args.n, 4096)
         if n < 1:
             raise_input(f"bench sample: --n must be >= 1, got {n}")
-        res = bench_sample(n=n, repeats=max(args.repeats // 3, 1))
+        res = bench_sample(n=n, repeats=max(_given(args.repeats, 10) // 3, 1))
         print(json.dumps(res) if args.json else "\n".join(
             f"sample {r['task']:6s}: {n} grasps in {r['warm_s']:.2f} s warm ({r['grasps_per_s']} grasps/s; first call "
             f"{r['first_call_s']:.2f} s); collision kernel {r['kernel_chunk_ms']:.1f} ms per {res['chunk']} candidates x "
@@ -398,9 +414,10 @@ def cmd_bench(args) -> int:
         return 0
     if args.what != "costs":
         raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score, verify, sample")
-    if args.n < 1 or args.t < 8:
-        raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
-    res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
+    n = _given(args.n, 100_000)
+    if n < 1 or args.t < 8:
+        raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {n} --t {args.t}")
+    res = bench_costs(n=n, t=args.t, repeats=_given(args.repeats, 10), task_kind=args.task)
     if args.json:
         print(json.dumps(res))
     else:
@@ -581,16 +598,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify, sample")
     b.add_argument("what", help="costs | rollout | score | verify | sample")
-    b.add_argument("--n", type=int, default=100_000,
+    b.add_argument("--n", type=int, default=None,
                    help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
                    "(default 64); verify: candidates (default 1000); sample: grasps (default 4096)")
     b.add_argument("--k", type=int, default=5, help="verify: valid rollouts per verified pick (default 5)")
     b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
     b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
+    b.add_argument("--threads", default="1,2", help="rollout: native stepping threads to time, comma-separated")
     b.add_argument("--t", type=int, default=64)
     b.add_argument("--task", default="hammer", choices=TASK_KINDS)
-    b.add_argument("--repeats", type=int, default=10)
+    b.add_argument("--repeats", type=int, default=None, help="timed repeats (default: each benchmark's own)")
     b.add_argument("--json", action="store_true", help="print one JSON object")
     b.set_defaults(fn=cmd_bench)
 
@@ -600,7 +618,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--tools-per-task", type=int, default=4, help="built-in tool + procedural variants")
     gen.add_argument("--grasps", type=int, default=128, help="grasps (rollouts) per tool")
     gen.add_argument("--seed", type=int, default=0)
-    gen.add_argument("--backend", default=None, choices=["native", "mjx"])
+    gen.add_argument("--backend", default=None, choices=["native", "mjx"],
+                     help="default: mjx on an accelerator, native on a CPU. On a GPU machine native MuJoCo on its CPU "
+                     "cores was faster for these scenes, and gives the CPU's labels (BENCHMARKS.md, GPU)")
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
     gen.add_argument("--timestep", type=float, default=None,
                      help="s, the simulator's integration step for every task (default: each task's, "
@@ -696,6 +716,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)
+    # before JAX starts its backend: reproducible MJX labels on a GPU (simulate.DETERMINISTIC_GPU_FLAG);
+    # an XLA_FLAGS that already chooses is left as it is
+    from itup_jax.simulate import request_deterministic_gpu
+
+    request_deterministic_gpu()
     from itup_jax.errors import InputError
     from itup_jax.grasp_sampler import SamplingError
 

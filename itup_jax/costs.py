@@ -31,6 +31,7 @@ import numpy as np
 
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, rotation_matrix, validate_grasps
+from itup_jax.precision import full_precision
 from itup_jax.task import Task
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
@@ -158,7 +159,7 @@ def batched_wrench_costs(tool: ToolParams, task: Task, grasps: Grasps, params: C
 
 
 #: The one jit of the public entry point (module level, so its cache lives as long as the process).
-wrench_costs_jit = jax.jit(batched_wrench_costs)
+wrench_costs_jit = jax.jit(full_precision(batched_wrench_costs))
 
 
 def wrench_costs(tool: Tool | ToolParams, task: Task, grasps: Grasps, params: CostParams | None = None) -> Costs:

@@ -43,7 +43,8 @@ from itup_jax.errors import InputError, is_integer
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
-from itup_jax.simulate import LABEL_FIELDS, Randomization, simulate
+from itup_jax.simulate import (DETERMINISTIC_GPU_FLAG, LABEL_FIELDS, Randomization, default_backend,
+                               gpu_determinism_chosen, simulate)
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import BUILTIN_TOOLS as BUILDERS
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -378,6 +379,21 @@ def _merged_manifest(mpath: str, header: dict[str, Any], units: list, mine: set[
     return manifest
 
 
+def gpu_determinism_warning(backend: str | None) -> str | None:
+    """Why a dataset made with `backend` here would not be reproducible, or None: MJX on a GPU whose
+    XLA_FLAGS leave scatters non-deterministic (`simulate.DETERMINISTIC_GPU_FLAG`; `itup generate` sets it)."""
+    import jax
+
+    if (backend or default_backend()) != "mjx" or jax.default_backend() != "gpu":
+        return None
+    flags = os.environ.get("XLA_FLAGS", "")
+    if gpu_determinism_chosen() and "deterministic_ops=false" not in flags and "nondeterministic_ops=false" not in flags:
+        return None
+    return ("generate: MJX on a GPU without deterministic scatters gives different labels from run to run, so the "
+            f"dataset will not be reproducible byte for byte; start Python with XLA_FLAGS={DETERMINISTIC_GPU_FLAG} "
+            "(as `itup generate` does)")
+
+
 def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progress: bool = True,
              after_shard: Callable[[int], None] | None = None, mcap_dir: str | None = None,
              mcap_per_shard: int = 2, process_index: int = 0, process_count: int = 1,
@@ -402,6 +418,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     """
     config.validate()
     _check_process(process_index, process_count)
+    note = gpu_determinism_warning(config.backend)
+    if note:
+        warnings.warn(note, stacklevel=2)
     if process_count > 1 and os.name != "posix":
         raise InputError("generate: several processes share the manifest through POSIX file locks, which this "
                          f"platform ({os.name}) lacks; run one process")

@@ -32,6 +32,7 @@ import numpy as np
 import trimesh
 
 from itup_jax.grasp import Grasps, rotation_matrix
+from itup_jax.precision import full_precision
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads
 
@@ -150,4 +151,4 @@ def _batched(field, loads, tool, grasps, spec):
 
 
 #: The outer call for a batch of grasps: one jit, `spec` static (recompiles only for new shapes/specs).
-batched_features = jax.jit(_batched, static_argnames=("spec",))
+batched_features = jax.jit(full_precision(_batched), static_argnames=("spec",))

@@ -145,7 +145,7 @@ def _gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp:
 
 
 #: The sampler's one jit: the collision check over a fixed-size chunk of candidates.
-_gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))
+_gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))  # no matrix products
 _CHUNK = 256
 
 

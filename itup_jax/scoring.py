@@ -24,6 +24,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, check_seed
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.precision import full_precision
 from itup_jax.sdgnet import Model, load_model, predict_from_features
 from itup_jax.task import Task
 from itup_jax.tool import Tool
@@ -107,7 +108,7 @@ def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_me
 
 
 #: The one jit of SDG-Net scoring (the outer call).
-sdgnet_scores_jit = jax.jit(_sdgnet_scores, static_argnames=("spec",))
+sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("spec",))
 _FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
 
 

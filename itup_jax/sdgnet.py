@@ -34,6 +34,7 @@ from itup_jax import checkpoint, mlp
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.features import FeatureSpec
 from itup_jax.optim import AdamConfig, adam_init, adam_update
+from itup_jax.precision import full_precision
 
 TARGETS = ("label_peak_torque_projected", "label_slip_translation", "label_alignment_drift")
 #: Targets are learned as log1p(y / scale): slip is heavy-tailed (a lost tool "slips" metres), torque
@@ -449,6 +450,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
         return out
 
     @jax.jit  # the outer call: one jitted epoch (shuffle, then scan over minibatches)
+    @full_precision
     def epoch(p, s, k):
         if rank:
             k, kr = jax.random.split(k)
@@ -468,7 +470,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
         (p, s), losses = jax.lax.scan(step, (p, s), (perm, group_keys))
         return p, s, losses.mean()
 
-    val_loss = jax.jit(loss_fn)
+    val_loss = jax.jit(full_precision(loss_fn))
     val_args = (Xva, Yva, Sva) + ((Gva, Gva_mask) if rank else ())
     best = (np.inf, params, 0)
     if init is not None:  # fine-tuning keeps the network it started from unless an epoch beats it
@@ -663,7 +665,7 @@ def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
 
 
 #: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).
-predict = jax.jit(predict_from_features)
+predict = jax.jit(full_precision(predict_from_features))
 
 
 def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:

@@ -38,6 +38,7 @@ from mujoco import rollout as mj_rollout
 from itup_jax import ik, units
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.precision import full_precision
 from itup_jax.scene import Scene, build_scene, restitution_solref
 from itup_jax.task import Task
 from itup_jax.tool import Tool
@@ -330,7 +331,8 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None
     a GPU machine's GPUs, or host devices from XLA_FLAGS=--xla_force_host_platform_device_count=2; under
     `jax.distributed` each process rolls its own batch out on its own devices) the batch is sharded over them
     with `jax.sharding` (padded to a multiple of the device count by repeating the last rollout;
-    the padding is dropped from the outputs). `devices=[d]` runs unsharded on d. On a CPU the batch
+    the padding is dropped from the outputs). `devices=[d]` runs unsharded on d. The batch per device
+    is padded up to a power of two (one compiled program serves every batch up to it). On a CPU the batch
     runs in chunks of at most 64 rollouts per device.
     """
     devices = list(jax.local_devices()) if devices is None else list(devices)
@@ -342,7 +344,9 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None
     arrays = [a.astype(dt) for a in mjx_model_fields(scene, physics)] + [p.qpos0.astype(dt), p.ctrl.astype(dt)]
     # on a CPU a device batch of 128 or more hangs MJX (DESIGN.md): run chunks of <= 64 per device,
     # every chunk padded to the same shape (one compile)
-    per_device = -(-n // nd)
+    # one compile per batch shape (45-100 s on an H100): the per-device batch is rounded up to a power of
+    # two, so batches of 65-128 rollouts share one program, 129-256 the next, ... (padding <= 2x)
+    per_device = 1 << max(0, -(-n // nd) - 1).bit_length()
     if devices[0].platform == "cpu":
         per_device = min(per_device, MJX_CPU_MAX_BATCH)
     chunk = per_device * nd
@@ -383,6 +387,30 @@ def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
 
 _MJX_CACHE: "weakref.WeakKeyDictionary[Scene, Any]" = weakref.WeakKeyDictionary()
 
+#: XLA's switch for deterministic scatters on a GPU. Without it two MJX calls on the same inputs return
+#: different labels there (an H100, 512 hammer rollouts: the peak torques differed between two calls; with
+#: it they were bit for bit equal; BENCHMARKS.md, "GPU"), so a dataset would not be reproducible. XLA
+#: reads XLA_FLAGS once, when JAX starts its backend: set it before (`request_deterministic_gpu`).
+DETERMINISTIC_GPU_FLAG = "--xla_gpu_deterministic_ops=true"
+_DETERMINISM_FLAGS = ("xla_gpu_deterministic_ops", "xla_gpu_exclude_nondeterministic_ops")
+
+
+def gpu_determinism_chosen(environ=None) -> bool:
+    """Does XLA_FLAGS already say whether GPU scatters are deterministic (either way)?"""
+    flags = (os.environ if environ is None else environ).get("XLA_FLAGS", "")
+    return any(f in flags for f in _DETERMINISM_FLAGS)
+
+
+def request_deterministic_gpu(environ=None) -> bool:
+    """Add `DETERMINISTIC_GPU_FLAG` to XLA_FLAGS unless it already chooses (the user's choice stands).
+    Takes effect only if JAX has not started its backend yet; the CLI calls it first. Returns whether
+    it added the flag. No effect on a CPU, where the scatters are deterministic anyway."""
+    env = os.environ if environ is None else environ
+    if gpu_determinism_chosen(env):
+        return False
+    env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + " " + DETERMINISTIC_GPU_FLAG).strip()
+    return True
+
 
 def import_mjx():
     """`mujoco.mjx`, imported with its stdout sent to stderr: without the optional Warp backend the import
@@ -415,7 +443,7 @@ def _mjx_rollout_fn(scene: Scene):
         _, (qv, sens) = jax.lax.scan(step, d, ctrl)
         return qv, sens
 
-    batched = jax.vmap(one)
+    batched = full_precision(jax.vmap(one))  # float32 products on a GPU too (precision.py)
     jits: dict = {}
 
     def fn(*args, mesh: jax.sharding.Mesh | None = None):
@@ -433,6 +461,7 @@ def _mjx_rollout_fn(scene: Scene):
         return jits[key](*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
+    fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)
     _MJX_CACHE[scene] = fn
     return fn
 
@@ -698,11 +727,17 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
     physics = sample_physics(tool, len(grasps), seed, spread=randomize, grip_force=config.grip_force)
     if backend == "mjx":
         pl = plan(scene, task, grasps, physics, config)
-        qvel_peak, sensordata = rollout_mjx(scene, pl, physics, devices=devices)  # every row: fixed shapes
-        run = np.nonzero(~pl.infeasible)[0]
-        labels = _feasible_labels(scene, task, pl, run, _take_plan(pl, run), qvel_peak[run], sensordata[run], config)
+        run = np.nonzero(~pl.infeasible)[0]  # like the native path, step the feasible rollouts only
+        run_plan = _take_plan(pl, run)
+        qvel_peak = sensordata = None
+        if len(run):
+            qvel_peak, sensordata = rollout_mjx(scene, run_plan, _slice_physics(physics, run), devices=devices)
+        labels = _feasible_labels(scene, task, pl, run, run_plan, qvel_peak, sensordata, config)
         if traces:
-            sensordata = np.where(pl.infeasible[:, None, None], np.nan, sensordata)
+            full = np.full((len(grasps), pl.nstep, scene.model.nsensordata), np.nan)
+            if len(run):
+                full[run] = sensordata
+            sensordata = full
     else:
         pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread, traces)
     tr = None

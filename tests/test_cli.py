@@ -212,3 +212,13 @@ def test_bench_sample_reports_both_kernels(capsys):
     for r in res["tasks"]:
         # the kernel and the batched-dot form it replaced give the same hits on a chunk of sampled grasps
         assert r["kernels_agree"] and r["warm_s"] > 0 and r["kernel_chunk_ms"] > 0 and r["dot_kernel_chunk_ms"] > 0
+
+
+def test_cli_asks_xla_for_deterministic_gpu_scatters(monkeypatch):
+    import os
+
+    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG
+
+    monkeypatch.setenv("XLA_FLAGS", "")  # restored after the test
+    assert main(["bench", "walk"]) == 2
+    assert os.environ["XLA_FLAGS"] == DETERMINISTIC_GPU_FLAG

@@ -399,3 +399,36 @@ def test_the_manifest_lock_excludes_another_process(tmp_path):
         holder.communicate("go\n", timeout=60)
     with _manifest_lock(str(tmp_path)):  # released with the process
         pass
+
+
+def test_deterministic_gpu_flag_is_added_once_and_a_users_choice_stands():
+    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG, request_deterministic_gpu
+
+    env = {}
+    assert request_deterministic_gpu(env) and env["XLA_FLAGS"] == DETERMINISTIC_GPU_FLAG
+    assert not request_deterministic_gpu(env) and env["XLA_FLAGS"] == DETERMINISTIC_GPU_FLAG
+    env = {"XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
+    assert request_deterministic_gpu(env)
+    assert env["XLA_FLAGS"] == "--xla_force_host_platform_device_count=2 " + DETERMINISTIC_GPU_FLAG
+    for chosen in ("--xla_gpu_deterministic_ops=false", "--xla_gpu_exclude_nondeterministic_ops=true"):
+        env = {"XLA_FLAGS": chosen}
+        assert not request_deterministic_gpu(env) and env["XLA_FLAGS"] == chosen
+
+
+def test_generate_warns_when_gpu_mjx_labels_would_not_be_reproducible(monkeypatch):
+    import jax
+
+    from itup_jax.dataset import gpu_determinism_warning
+    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG
+
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")  # None resolves to MJX there
+    monkeypatch.setenv("XLA_FLAGS", "")
+    assert DETERMINISTIC_GPU_FLAG in gpu_determinism_warning(None)
+    assert gpu_determinism_warning("mjx") and gpu_determinism_warning("native") is None
+    monkeypatch.setenv("XLA_FLAGS", "--xla_gpu_deterministic_ops=false")
+    assert gpu_determinism_warning(None)
+    monkeypatch.setenv("XLA_FLAGS", DETERMINISTIC_GPU_FLAG)
+    assert gpu_determinism_warning(None) is None
+    monkeypatch.setenv("XLA_FLAGS", "")
+    monkeypatch.setattr(jax, "default_backend", lambda: "cpu")  # MJX on a CPU is deterministic
+    assert gpu_determinism_warning("mjx") is None

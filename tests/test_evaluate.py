@@ -268,6 +268,42 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
         assert again["torque"] == pytest.approx(fresh[rule]["torque"], rel=1e-9)
 
 
+def test_mjx_vs_native_quick(tmp_path, monkeypatch):
+    """Both backends on 3 hammer grasps (2 ms steps; one MJX compile, ~40 s on the 2-core CPU)."""
+    _run_experiment("mjx_vs_native.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "mjx_vs_native.json").read_text())
+    jsonschema.validate(doc, load_schema("mjx_vs_native"))
+    row = doc["rows"][0]
+    assert row["task"] == "hammer" and row["grasps"] == 3 and row["nstep"] == 1019
+    assert row["valid_both"] >= 1 and row["valid_native_only"] == row["valid_mjx_only"] == 0
+    assert row["mjx_repeat_bitwise_equal"]  # the same inputs twice on a CPU: the same labels
+    ctl = row["native_control"]  # native against itself, grasps moved 1 micrometre: nearly the same labels
+    assert ctl["valid_both"] == row["valid_both"] and ctl["torque_rel_median"] < 1e-3
+    assert doc["precision"] == "float64"  # the tests run in x64
+
+
+def test_mjx_vs_native_compare_measures_what_it_says():
+    from itup_jax.simulate import Labels
+
+    mvn = runpy.run_path(os.path.join(ROOT, "experiments", "mjx_vs_native.py"))
+    a, b = Labels.unmeasured(6).as_dict(), Labels.unmeasured(6).as_dict()
+    a["valid"][:] = [True, True, True, True, True, False]
+    b["valid"][:] = [True, True, True, True, False, True]
+    a["peak_torque"][:] = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    b["peak_torque"][:] = [1.1, 2.0, 3.0, 8.0, 5.0, 6.0]  # relative differences 0.1, 0, 0, 1 on the rows valid in both
+    a["slip_translation"][:], b["slip_translation"][:] = 0.0, [0.001, 0.002, 0.003, 0.004, 0, 0]
+    a["alignment_drift"][:], b["alignment_drift"][:] = 0.1, 0.1
+    a["task_metric"][:], b["task_metric"][:] = [1, 2, 3, 4, 5, 6], [4, 3, 2, 1, 5, 6]
+    a["failed"][:], b["failed"][:] = [True, False, False, False, False, False], False
+    out = mvn["compare"](Labels(**a), Labels(**b))
+    assert (out["valid_both"], out["valid_native_only"], out["valid_mjx_only"]) == (4, 1, 1)
+    assert out["torque_rel_median"] == pytest.approx(0.05) and out["torque_spearman"] == pytest.approx(1.0)
+    assert out["torque_rel_p90"] == pytest.approx(np.quantile([0.1, 0, 0, 1], 0.9))
+    assert out["slip_abs_median_m"] == pytest.approx(0.0025) and out["drift_abs_median_rad"] == 0.0
+    assert out["task_metric_spearman"] == pytest.approx(-1.0)
+    assert out["failed_agree"] == 0.75 and (out["failed_native"], out["failed_mjx"]) == (1, 0)
+
+
 def test_score_weights_quick(tmp_path, monkeypatch):
     _run_experiment("score_weights.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "weights.json").read_text())

@@ -85,3 +85,36 @@ def test_cpu_mjx_batches_are_chunked_not_hung(n, monkeypatch):
     qv, sens = sim.rollout_mjx(None, P, None, devices=jax.devices()[:1])
     assert max(seen) <= sim.MJX_CPU_MAX_BATCH and len(set(seen)) == 1  # one shape: one compile
     assert qv.shape == (n, 5) and sens.shape == (n, 5, 2)
+
+
+@pytest.mark.parametrize("n, batch", [(1, 1), (3, 4), (64, 64), (65, 128), (179, 256)])
+def test_accelerator_batches_are_padded_to_a_power_of_two(n, batch, monkeypatch):
+    """On an accelerator one MJX compile takes 45-100 s: batches share programs by power-of-two shapes."""
+    import importlib
+
+    import numpy as np
+
+    sim = importlib.import_module("itup_jax.simulate")
+    seen = []
+
+    def fake_fn(*args, mesh=None):
+        seen.append(args[0].shape[0])
+        rows = args[0][:, 0]  # each row's index: the padding must repeat the last row, then be dropped
+        return np.repeat(rows[:, None], 5, axis=1), np.zeros((len(rows), 5, 2))
+
+    fake_fn.dtype = np.float64
+
+    class P:
+        qpos0 = np.zeros((n, 3))
+        ctrl = np.zeros((n, 5, 2))
+
+    class GPU:
+        platform, id = "gpu", 0
+
+    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene: fake_fn)
+    monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.arange(n, dtype=float)[:, None],))
+    monkeypatch.setattr(sim.jax, "device_put", lambda a, place: a)
+    qv, sens = sim.rollout_mjx(None, P, None, devices=[GPU()])
+    assert seen == [batch]
+    assert qv.shape == (n, 5) and sens.shape == (n, 5, 2)
+    np.testing.assert_array_equal(qv[:, 0], np.arange(n))

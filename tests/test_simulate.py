@@ -206,7 +206,7 @@ def test_host_quaternion_matrix_equals_the_jax_one(rng):
 
 
 def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_native, monkeypatch):
-    """The MJX branch steps every row (fixed shapes) but labels only the feasible ones: with its stepping
+    """The MJX branch steps and labels only the feasible rows, as the native path does: with its stepping
     replaced by native MuJoCo (no MJX compile here), its labels equal the native path's, NaN included."""
     import sys
 
@@ -214,6 +214,7 @@ def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_nat
     (tool, task, scene), (g, res) = hammer, hammer_native
 
     def stepped_natively(scene, p, physics, devices=None):
+        assert not p.infeasible.any() and len(p.qpos0) == len(physics.mu)  # unreachable rows are not stepped
         models = [sim.randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
         qv, sd = sim._step(scene, p.qpos0, p.ctrl, p.nstep, models, 2)
         return np.repeat(qv[:, None], p.nstep, axis=1), sd  # MJX reports the peak per step

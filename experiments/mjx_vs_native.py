@@ -1,0 +1,166 @@
+"""Same labels either way? MJX against native MuJoCo on the same grasps and the same physics draws.
+
+    python experiments/mjx_vs_native.py --out results/mjx_vs_native                 # all tasks, 256 grasps each
+    python experiments/mjx_vs_native.py --tasks hammer --grasps 1024 --out /tmp/mvn  # one task, larger batch
+    python experiments/mjx_vs_native.py --quick --out /tmp/mvn                       # tests (CPU: 3 grasps)
+
+Dataset generation runs MJX on an accelerator and native MuJoCo on a CPU (`simulate.default_backend`), and
+a dataset mixes neither: this script measures how far the two label sets differ when they could be mixed.
+Per task (its built-in tool), `sample_grasps(tool, N, seed)` is simulated with both backends under the
+same randomised physics (`simulate(..., seed=)`: the draws depend on the seed only), in JAX's default
+precision (float32 unless JAX_ENABLE_X64 is set, as in `itup generate`). On the rows both call valid:
+  - peak wrist torque: Spearman rank correlation, median and 90th-percentile relative difference;
+  - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
+  - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
+and the rows that only one backend calls valid (diverged on one side). `tests/test_simulate.py` checks
+the firm-grasp tolerances on a few grasps; this is the same comparison over a whole batch. The control
+(`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
+much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
+
+Timing, per task: the native path on all of this machine's cores (end to end: IK plan, stepping, labels)
+and MJX's first call (compile included) and a second, warm call on the same inputs (`--once`: the first
+only, for a CPU, where MJX is slow); env-steps/s counts the feasible rollouts' steps, the only ones either
+backend steps (MJX pads its batch to a power of two). The two MJX calls' labels are compared too: equal
+on a CPU, and on a GPU only with deterministic scatters (`simulate.DETERMINISTIC_GPU_FLAG`).
+Writes mjx_vs_native.json (schema `itup.mjx_vs_native/1`) into --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import jax
+import numpy as np
+
+from itup_jax.atomic import atomic_write_json
+from itup_jax.errors import InputError
+from itup_jax.grasp import Grasps
+from itup_jax.stats import spearman
+from itup_jax.task import DEFAULT_TOOL, TASK_KINDS
+
+QUICK = {"tasks": ("hammer",), "grasps": 3, "timestep": 0.002}
+#: The control's grasp shift (m): native MuJoCo against itself with every grasp moved this far.
+CONTROL_SHIFT_M = 1e-6
+
+
+def _quantiles(x: np.ndarray) -> tuple[float | None, float | None]:
+    if not len(x):
+        return None, None
+    return float(np.median(x)), float(np.quantile(x, 0.9))
+
+
+def compare(native, mjx) -> dict:
+    """Agreement of two `Labels` of the same rollouts (arrays [N]): see the module docstring."""
+    nv, mv = np.asarray(native.valid, bool), np.asarray(mjx.valid, bool)
+    both = nv & mv
+    out: dict = {"rows": int(len(nv)), "valid_native": int(nv.sum()), "valid_mjx": int(mv.sum()),
+                 "valid_both": int(both.sum()), "valid_native_only": int((nv & ~mv).sum()),
+                 "valid_mjx_only": int((mv & ~nv).sum())}
+    if not both.any():
+        return out
+    tn, tm = np.asarray(native.peak_torque)[both], np.asarray(mjx.peak_torque)[both]
+    rel = np.abs(tm - tn) / np.maximum(np.abs(tn), 1e-9)
+    out["torque_spearman"] = spearman(tn, tm) if both.sum() > 2 else None
+    out["torque_rel_median"], out["torque_rel_p90"] = _quantiles(rel)
+    slip = np.abs(np.asarray(mjx.slip_translation)[both] - np.asarray(native.slip_translation)[both])
+    out["slip_abs_median_m"], out["slip_abs_p90_m"] = _quantiles(slip)
+    drift = np.abs(np.asarray(mjx.alignment_drift)[both] - np.asarray(native.alignment_drift)[both])
+    out["drift_abs_median_rad"], out["drift_abs_p90_rad"] = _quantiles(drift)
+    out["task_metric_spearman"] = (spearman(np.asarray(native.task_metric)[both], np.asarray(mjx.task_metric)[both])
+                                   if both.sum() > 2 else None)
+    for flag in ("failed", "success"):
+        a, b = np.asarray(getattr(native, flag), bool)[both], np.asarray(getattr(mjx, flag), bool)[both]
+        out[f"{flag}_agree"] = float((a == b).mean())
+        out[f"{flag}_native"], out[f"{flag}_mjx"] = int(a.sum()), int(b.sum())
+    return out
+
+
+def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int, repeat: bool = True) -> dict:
+    """Both backends on `n` sampled grasps of the task's built-in tool; agreement and timing."""
+    import itup_jax as itup
+    from itup_jax.scene import build_scene
+
+    tool = itup.load_tool(DEFAULT_TOOL[kind])
+    task = itup.make_task(kind, tool)
+    scene = build_scene(tool, task) if timestep is None else build_scene(tool, task, timestep=timestep)
+    grasps = itup.sample_grasps(tool, n, seed=seed)
+    t0 = time.perf_counter()
+    nat = itup.simulate(tool, task, grasps, scene=scene, backend="native", seed=seed, nthread=nthread)
+    t_native = time.perf_counter() - t0
+    print(f"  {kind}: native {t_native:.1f} s on {nthread} threads", flush=True)
+    # the control: native MuJoCo against itself with every grasp moved CONTROL_SHIFT_M along the tool's z
+    # (float32 rounding of a pose is ~1e-7 m): how far the labels move for a perturbation of that size
+    moved = Grasps(p_tool_grasp=np.asarray(grasps.p_tool_grasp) + CONTROL_SHIFT_M * np.array([0.0, 0.0, 1.0]),
+                   q_tool_grasp=grasps.q_tool_grasp, width=grasps.width)
+    control = itup.simulate(tool, task, moved, scene=scene, backend="native", seed=seed, nthread=nthread)
+    t0 = time.perf_counter()
+    first = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed)
+    t_first = time.perf_counter() - t0
+    print(f"  {kind}: mjx first call {t_first:.1f} s", flush=True)
+    mjx, t_warm = first, None
+    if repeat:  # the same inputs twice: equal on a CPU; on a GPU only with deterministic scatters (XLA_FLAGS)
+        t0 = time.perf_counter()
+        mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed)
+        t_warm = time.perf_counter() - t0
+    steps = int((~nat.plan.infeasible).sum()) * nat.plan.nstep
+    row = {"task": kind, "tool": tool.name, "grasps": n, "feasible": int((~nat.plan.infeasible).sum()),
+           "nstep": int(nat.plan.nstep), "timestep_s": float(scene.model.opt.timestep),
+           "native_threads": nthread, "native_s": round(t_native, 2), "mjx_first_s": round(t_first, 2),
+           "native_steps_per_s": round(steps / t_native)}
+    if t_warm is not None:
+        row.update(mjx_warm_s=round(t_warm, 2), mjx_compile_s=round(t_first - t_warm, 2),
+                   mjx_steps_per_s=round(steps / t_warm), mjx_over_native=round(t_native / t_warm, 2))
+    row.update(compare(nat.labels, mjx.labels))
+    row["native_control"] = compare(nat.labels, control.labels)
+    if repeat:
+        rep = compare(first.labels, mjx.labels)
+        a, b = np.asarray(first.labels.peak_torque), np.asarray(mjx.labels.peak_torque)
+        row["mjx_repeat_bitwise_equal"] = bool(np.array_equal(a, b, equal_nan=True))
+        row["mjx_repeat_torque_rel_p90"] = rep.get("torque_rel_p90")
+        row["mjx_repeat_valid_differs"] = rep["valid_native_only"] + rep["valid_mjx_only"]
+    return row
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", required=True, help="folder for mjx_vs_native.json")
+    ap.add_argument("--tasks", default=",".join(TASK_KINDS), help="comma-separated task kinds")
+    ap.add_argument("--grasps", type=int, default=256, help="sampled grasps per task (both backends)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=None, help="native stepping threads (default: all cores)")
+    ap.add_argument("--once", action="store_true", help="one MJX call (no warm timing, no repeat check; for CPUs)")
+    ap.add_argument("--quick", action="store_true", help="hammer, 3 grasps, 2 ms steps (for tests)")
+    a = ap.parse_args(argv)
+    tasks = QUICK["tasks"] if a.quick else tuple(t for t in a.tasks.split(",") if t)
+    bad = [t for t in tasks if t not in TASK_KINDS]
+    if bad or not tasks:
+        raise InputError(f"--tasks: unknown task kind(s) {bad}; choose from {', '.join(TASK_KINDS)}")
+    n = QUICK["grasps"] if a.quick else a.grasps
+    if n < 1:
+        raise InputError(f"--grasps must be >= 1, got {n}")
+    nthread = a.threads or os.cpu_count() or 1
+    from itup_jax.bench import machine_info
+
+    t0 = time.perf_counter()
+    rows = []
+    for kind in tasks:
+        rows.append(run_task(kind, n, a.seed, QUICK["timestep"] if a.quick else None, nthread, repeat=not a.once))
+        r = rows[-1]
+        print(f"{kind}: {r['valid_both']}/{r['rows']} valid in both (native only {r['valid_native_only']}, mjx only "
+              f"{r['valid_mjx_only']}); torque Spearman {r.get('torque_spearman')}, rel. diff median "
+              f"{r.get('torque_rel_median')}; native {r['native_s']} s, mjx {r['mjx_first_s']} s first / "
+              f"{r.get('mjx_warm_s')} s warm; repeat bitwise equal {r.get('mjx_repeat_bitwise_equal')}", flush=True)
+    out = {"schema": "itup.mjx_vs_native/1", "experiment": "mjx_vs_native", "seed": a.seed, "quick": a.quick, "precision":
+           "float64" if jax.config.jax_enable_x64 else "float32",
+           "matmul_precision": jax.config.jax_default_matmul_precision, "xla_flags": os.environ.get("XLA_FLAGS", ""), "rows": rows,
+           "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
+    os.makedirs(a.out, exist_ok=True)
+    atomic_write_json(os.path.join(a.out, "mjx_vs_native.json"), out, indent=1)
+    print(f"wrote {a.out}/mjx_vs_native.json ({out['wall_s']} s)")
+    return out
+
+
+if __name__ == "__main__":
+    main()
