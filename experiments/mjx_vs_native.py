@@ -17,6 +17,10 @@ the firm-grasp tolerances on a few grasps; this is the same comparison over a wh
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
 
+With `--traces K`, the first K grasps valid in both are simulated again with per-step traces, and each
+row records both backends' peak wrist torque during the motion, its time, and the time from which the two
+torque traces differ by more than 5 % of the native peak: where in the motion the labels part.
+
 Timing, per task: the native path on all of this machine's cores (end to end: IK plan, stepping, labels)
 and MJX's first call (compile included) and a second, warm call on the same inputs (`--once`: the first
 only, for a CPU, where MJX is slow); env-steps/s counts the feasible rollouts' steps, the only ones either
@@ -35,8 +39,8 @@ import jax
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
-from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
+from itup_jax.precision import MATMUL_PRECISION
 from itup_jax.stats import spearman
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS
 
@@ -77,7 +81,29 @@ def compare(native, mjx) -> dict:
     return out
 
 
-def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int, repeat: bool = True) -> dict:
+def trace_rows(tool, task, scene, grasps, seed: int, nthread: int) -> list[dict]:
+    """Per grasp (all valid in both backends): when and how high each backend's wrist torque peaks during the
+    motion, and when their two torque traces first part by more than 5 % of the native peak."""
+    import itup_jax as itup
+
+    nat = itup.simulate(tool, task, grasps, scene=scene, backend="native", seed=seed, nthread=nthread, traces=True)
+    mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, traces=True)
+    t = nat.traces["t"]
+    motion = t >= 0  # the settle phase runs at t < 0
+    rows = []
+    for i in range(len(grasps)):
+        a = np.linalg.norm(nat.traces["gripper/wrist_torque"][i], axis=-1)
+        b = np.linalg.norm(mjx.traces["gripper/wrist_torque"][i], axis=-1)
+        ia, ib = (int(np.argmax(np.where(motion, x, -np.inf))) for x in (a, b))
+        apart = motion & (np.abs(a - b) > 0.05 * a[ia])
+        rows.append({"native_peak_nm": float(a[ia]), "native_peak_t_s": float(t[ia]), "mjx_peak_nm": float(b[ib]),
+                     "mjx_peak_t_s": float(t[ib]), "apart_from_t_s": float(t[np.argmax(apart)]) if apart.any() else None,
+                     "native_label_nm": float(nat.labels.peak_torque[i]), "mjx_label_nm": float(mjx.labels.peak_torque[i])})
+    return rows
+
+
+def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int, repeat: bool = True,
+             traces: int = 0) -> dict:
     """Both backends on `n` sampled grasps of the task's built-in tool; agreement and timing."""
     import itup_jax as itup
     from itup_jax.scene import build_scene
@@ -114,6 +140,10 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
                    mjx_steps_per_s=round(steps / t_warm), mjx_over_native=round(t_native / t_warm, 2))
     row.update(compare(nat.labels, mjx.labels))
     row["native_control"] = compare(nat.labels, control.labels)
+    if traces:  # the first `traces` grasps valid in both, simulated again with per-step traces
+        both = np.nonzero(np.asarray(nat.labels.valid) & np.asarray(mjx.labels.valid))[0][:traces]
+        if len(both):
+            row["traces"] = trace_rows(tool, task, scene, grasps[both], seed, nthread)
     if repeat:
         rep = compare(first.labels, mjx.labels)
         a, b = np.asarray(first.labels.peak_torque), np.asarray(mjx.labels.peak_torque)
@@ -131,30 +161,39 @@ def main(argv=None) -> dict:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=None, help="native stepping threads (default: all cores)")
     ap.add_argument("--once", action="store_true", help="one MJX call (no warm timing, no repeat check; for CPUs)")
+    ap.add_argument("--traces", type=int, default=0, metavar="K",
+                    help="also trace K grasps valid in both: each backend's torque peak and its time, and when the "
+                    "two torque traces part (one more MJX compile)")
     ap.add_argument("--quick", action="store_true", help="hammer, 3 grasps, 2 ms steps (for tests)")
     a = ap.parse_args(argv)
     tasks = QUICK["tasks"] if a.quick else tuple(t for t in a.tasks.split(",") if t)
     bad = [t for t in tasks if t not in TASK_KINDS]
     if bad or not tasks:
-        raise InputError(f"--tasks: unknown task kind(s) {bad}; choose from {', '.join(TASK_KINDS)}")
+        ap.error(f"--tasks: unknown task kind(s) {bad}; choose from {', '.join(TASK_KINDS)}")
     n = QUICK["grasps"] if a.quick else a.grasps
     if n < 1:
-        raise InputError(f"--grasps must be >= 1, got {n}")
+        ap.error(f"--grasps must be >= 1, got {n}")
+    if a.traces < 0:
+        ap.error(f"--traces must be >= 0, got {a.traces}")
+    if a.threads is not None and a.threads < 1:
+        ap.error(f"--threads must be >= 1, got {a.threads}")
     nthread = a.threads or os.cpu_count() or 1
     from itup_jax.bench import machine_info
 
     t0 = time.perf_counter()
     rows = []
     for kind in tasks:
-        rows.append(run_task(kind, n, a.seed, QUICK["timestep"] if a.quick else None, nthread, repeat=not a.once))
+        rows.append(run_task(kind, n, a.seed, QUICK["timestep"] if a.quick else None, nthread, repeat=not a.once,
+                             traces=2 if a.quick else a.traces))
         r = rows[-1]
         print(f"{kind}: {r['valid_both']}/{r['rows']} valid in both (native only {r['valid_native_only']}, mjx only "
               f"{r['valid_mjx_only']}); torque Spearman {r.get('torque_spearman')}, rel. diff median "
               f"{r.get('torque_rel_median')}; native {r['native_s']} s, mjx {r['mjx_first_s']} s first / "
               f"{r.get('mjx_warm_s')} s warm; repeat bitwise equal {r.get('mjx_repeat_bitwise_equal')}", flush=True)
-    out = {"schema": "itup.mjx_vs_native/1", "experiment": "mjx_vs_native", "seed": a.seed, "quick": a.quick, "precision":
-           "float64" if jax.config.jax_enable_x64 else "float32",
-           "matmul_precision": jax.config.jax_default_matmul_precision, "xla_flags": os.environ.get("XLA_FLAGS", ""), "rows": rows,
+    out = {"schema": "itup.mjx_vs_native/1", "experiment": "mjx_vs_native", "seed": a.seed, "quick": a.quick,
+           "precision": "float64" if jax.config.jax_enable_x64 else "float32",
+           "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
+           "xla_flags": os.environ.get("XLA_FLAGS", ""), "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "mjx_vs_native.json"), out, indent=1)

@@ -44,7 +44,7 @@ from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.simulate import (DETERMINISTIC_GPU_FLAG, LABEL_FIELDS, Randomization, default_backend,
-                               gpu_determinism_chosen, simulate)
+                               gpu_determinism, simulate)
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import BUILTIN_TOOLS as BUILDERS
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -386,8 +386,7 @@ def gpu_determinism_warning(backend: str | None) -> str | None:
 
     if (backend or default_backend()) != "mjx" or jax.default_backend() != "gpu":
         return None
-    flags = os.environ.get("XLA_FLAGS", "")
-    if gpu_determinism_chosen() and "deterministic_ops=false" not in flags and "nondeterministic_ops=false" not in flags:
+    if gpu_determinism():
         return None
     return ("generate: MJX on a GPU without deterministic scatters gives different labels from run to run, so the "
             f"dataset will not be reproducible byte for byte; start Python with XLA_FLAGS={DETERMINISTIC_GPU_FLAG} "

@@ -342,11 +342,11 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None
     fn = _mjx_rollout_fn(scene)
     dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
     arrays = [a.astype(dt) for a in mjx_model_fields(scene, physics)] + [p.qpos0.astype(dt), p.ctrl.astype(dt)]
-    # on a CPU a device batch of 128 or more hangs MJX (DESIGN.md): run chunks of <= 64 per device,
-    # every chunk padded to the same shape (one compile)
     # one compile per batch shape (45-100 s on an H100): the per-device batch is rounded up to a power of
     # two, so batches of 65-128 rollouts share one program, 129-256 the next, ... (padding <= 2x)
     per_device = 1 << max(0, -(-n // nd) - 1).bit_length()
+    # on a CPU a device batch of 128 or more hangs MJX (DESIGN.md): run chunks of <= 64 per device,
+    # every chunk padded to the same shape (one compile)
     if devices[0].platform == "cpu":
         per_device = min(per_device, MJX_CPU_MAX_BATCH)
     chunk = per_device * nd
@@ -392,13 +392,18 @@ _MJX_CACHE: "weakref.WeakKeyDictionary[Scene, Any]" = weakref.WeakKeyDictionary(
 #: it they were bit for bit equal; BENCHMARKS.md, "GPU"), so a dataset would not be reproducible. XLA
 #: reads XLA_FLAGS once, when JAX starts its backend: set it before (`request_deterministic_gpu`).
 DETERMINISTIC_GPU_FLAG = "--xla_gpu_deterministic_ops=true"
-_DETERMINISM_FLAGS = ("xla_gpu_deterministic_ops", "xla_gpu_exclude_nondeterministic_ops")
+_DETERMINISM_FLAGS = ("--xla_gpu_deterministic_ops", "--xla_gpu_exclude_nondeterministic_ops")
 
 
-def gpu_determinism_chosen(environ=None) -> bool:
-    """Does XLA_FLAGS already say whether GPU scatters are deterministic (either way)?"""
-    flags = (os.environ if environ is None else environ).get("XLA_FLAGS", "")
-    return any(f in flags for f in _DETERMINISM_FLAGS)
+def gpu_determinism(environ=None) -> bool | None:
+    """What XLA_FLAGS says of deterministic GPU scatters: True (on), False (off), None (nothing; XLA's
+    default, non-deterministic)."""
+    setting = None
+    for token in (os.environ if environ is None else environ).get("XLA_FLAGS", "").split():
+        name, _, value = token.partition("=")
+        if name in _DETERMINISM_FLAGS:
+            setting = value.lower() in ("", "true", "1")  # a bare boolean flag means true; the last one wins
+    return setting
 
 
 def request_deterministic_gpu(environ=None) -> bool:
@@ -406,7 +411,7 @@ def request_deterministic_gpu(environ=None) -> bool:
     Takes effect only if JAX has not started its backend yet; the CLI calls it first. Returns whether
     it added the flag. No effect on a CPU, where the scatters are deterministic anyway."""
     env = os.environ if environ is None else environ
-    if gpu_determinism_chosen(env):
+    if gpu_determinism(env) is not None:
         return False
     env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + " " + DETERMINISTIC_GPU_FLAG).strip()
     return True
@@ -672,6 +677,15 @@ def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, run_pla
     return Labels(**full)
 
 
+def _traces_of_rows(scene: Scene, n: int, nstep: int, run: np.ndarray, sensordata: np.ndarray | None) -> np.ndarray:
+    """Sensor traces [n, nstep, nsensordata]: rows `run` from `sensordata` (the stepped rollouts), NaN in the
+    others (infeasible, not stepped)."""
+    full = np.full((n, nstep, scene.model.nsensordata), np.nan)
+    if len(run):
+        full[run] = sensordata
+    return full
+
+
 def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: SimConfig,
                      nthread: int | None, keep_sensordata: bool = False) -> tuple[Plan, Labels, np.ndarray | None]:
     """Plan, step (feasible rollouts only) and label block by block (`NATIVE_BLOCK`)."""
@@ -691,10 +705,7 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
         labels.append(_feasible_labels(scene, task, p, run, run_plan, qvel_peak, sensordata, config))
         plans.append(p)
         if keep_sensordata:
-            full = np.full((hi - lo, p.nstep, scene.model.nsensordata), np.nan)
-            if len(run):
-                full[run] = sensordata
-            sens.append(full)
+            sens.append(_traces_of_rows(scene, hi - lo, p.nstep, run, sensordata))
     merged = Labels(**{f: np.concatenate([getattr(lab, f) for lab in labels]) for f in LABEL_FIELDS})
     return _concat_plans(plans), merged, (np.concatenate(sens) if keep_sensordata else None)
 
@@ -734,10 +745,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
             qvel_peak, sensordata = rollout_mjx(scene, run_plan, _slice_physics(physics, run), devices=devices)
         labels = _feasible_labels(scene, task, pl, run, run_plan, qvel_peak, sensordata, config)
         if traces:
-            full = np.full((len(grasps), pl.nstep, scene.model.nsensordata), np.nan)
-            if len(run):
-                full[run] = sensordata
-            sensordata = full
+            sensordata = _traces_of_rows(scene, len(grasps), pl.nstep, run, sensordata)
     else:
         pl, labels, sensordata = _simulate_native(scene, task, grasps, physics, config, nthread, traces)
     tr = None

@@ -222,3 +222,12 @@ def test_cli_asks_xla_for_deterministic_gpu_scatters(monkeypatch):
     monkeypatch.setenv("XLA_FLAGS", "")  # restored after the test
     assert main(["bench", "walk"]) == 2
     assert os.environ["XLA_FLAGS"] == DETERMINISTIC_GPU_FLAG
+
+
+def test_importing_the_cli_does_not_start_jax():
+    """XLA reads XLA_FLAGS when JAX starts its backend: `main` can set the GPU determinism flag only if
+    importing the package started nothing."""
+    code = "import itup_jax.cli\nfrom jax._src import xla_bridge\nprint(len(xla_bridge._backends))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "0"

@@ -413,6 +413,19 @@ def test_deterministic_gpu_flag_is_added_once_and_a_users_choice_stands():
     for chosen in ("--xla_gpu_deterministic_ops=false", "--xla_gpu_exclude_nondeterministic_ops=true"):
         env = {"XLA_FLAGS": chosen}
         assert not request_deterministic_gpu(env) and env["XLA_FLAGS"] == chosen
+    # a similar name is not the flag
+    env = {"XLA_FLAGS": "--xla_gpu_deterministic_ops_foo=1"}
+    assert request_deterministic_gpu(env)
+
+
+def test_gpu_determinism_reads_the_flags_value():
+    from itup_jax.simulate import gpu_determinism
+
+    assert gpu_determinism({}) is None and gpu_determinism({"XLA_FLAGS": "--xla_dump_to=/tmp"}) is None
+    assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_deterministic_ops=true"}) is True
+    assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_deterministic_ops"}) is True
+    assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_exclude_nondeterministic_ops=false"}) is False
+    assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_deterministic_ops=true --xla_gpu_deterministic_ops=false"}) is False
 
 
 def test_generate_warns_when_gpu_mjx_labels_would_not_be_reproducible(monkeypatch):

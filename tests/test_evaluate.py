@@ -279,6 +279,11 @@ def test_mjx_vs_native_quick(tmp_path, monkeypatch):
     assert row["mjx_repeat_bitwise_equal"]  # the same inputs twice on a CPU: the same labels
     ctl = row["native_control"]  # native against itself, grasps moved 1 micrometre: nearly the same labels
     assert ctl["valid_both"] == row["valid_both"] and ctl["torque_rel_median"] < 1e-3
+    # the traced rows' peaks are the labels' peak torques of the same grasps (label and trace agree)
+    assert 1 <= len(row["traces"]) <= 2
+    for tr in row["traces"]:
+        assert tr["native_peak_nm"] == pytest.approx(tr["native_label_nm"], rel=1e-9)
+        assert tr["mjx_peak_nm"] == pytest.approx(tr["mjx_label_nm"], rel=1e-9)
     assert doc["precision"] == "float64"  # the tests run in x64
 
 
