@@ -17,8 +17,9 @@ the firm-grasp tolerances on a few grasps; this is the same comparison over a wh
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
 
-With `--traces K`, the first K grasps valid in both are simulated again with per-step traces, and each
-row records both backends' peak wrist torque during the motion, its time, and the time from which the two
+With `--traces K`, the first K grasps valid in both are simulated again, as a batch of K with per-step
+traces. `simulate` draws the physics by position in the batch, so these K rollouts have physics drawn for
+them (the same seed), not the draws they had in the comparison above. Each traced row records both backends' peak wrist torque during the motion, its time, and the time from which the two
 torque traces differ by more than 5 % of the native peak: where in the motion the labels part.
 
 Timing, per task: the native path on all of this machine's cores (end to end: IK plan, stepping, labels)
@@ -130,8 +131,9 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
         t0 = time.perf_counter()
         mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed)
         t_warm = time.perf_counter() - t0
-    steps = int((~nat.plan.infeasible).sum()) * nat.plan.nstep
-    row = {"task": kind, "tool": tool.name, "grasps": n, "feasible": int((~nat.plan.infeasible).sum()),
+    feasible = int((~nat.plan.infeasible).sum())
+    steps = feasible * nat.plan.nstep
+    row = {"task": kind, "tool": tool.name, "grasps": n, "feasible": feasible,
            "nstep": int(nat.plan.nstep), "timestep_s": float(scene.model.opt.timestep),
            "native_threads": nthread, "native_s": round(t_native, 2), "mjx_first_s": round(t_first, 2),
            "native_steps_per_s": round(steps / t_native)}
@@ -140,7 +142,7 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
                    mjx_steps_per_s=round(steps / t_warm), mjx_over_native=round(t_native / t_warm, 2))
     row.update(compare(nat.labels, mjx.labels))
     row["native_control"] = compare(nat.labels, control.labels)
-    if traces:  # the first `traces` grasps valid in both, simulated again with per-step traces
+    if traces:  # the first `traces` grasps valid in both, simulated again as a batch (own physics draws)
         both = np.nonzero(np.asarray(nat.labels.valid) & np.asarray(mjx.labels.valid))[0][:traces]
         if len(both):
             row["traces"] = trace_rows(tool, task, scene, grasps[both], seed, nthread)
