@@ -12,7 +12,8 @@ precision (float32 unless JAX_ENABLE_X64 is set, as in `itup generate`). On the 
   - peak wrist torque: Spearman rank correlation, median and 90th-percentile relative difference;
   - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
   - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
-and the rows that only one backend calls valid (diverged on one side). `tests/test_simulate.py` checks
+and the rows that only one backend calls valid (diverged on one side); `per_row` keeps both backends' torque,
+slip and flags row by row. MJX collides capsules with boxes by `itup_jax.mjx_collision`, as `simulate` does. `tests/test_simulate.py` checks
 the firm-grasp tolerances on a few grasps; this is the same comparison over a whole batch. The control
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
@@ -82,6 +83,18 @@ def compare(native, mjx) -> dict:
     return out
 
 
+def per_row(native, mjx) -> dict:
+    """Both backends' labels row by row, for a closer look: {field: {"native": [N], "mjx": [N]}} of the peak
+    wrist torque (N m), slip (m) and the valid and failed flags; null where a label is NaN (unstepped rows)."""
+    out = {}
+    for f in ("peak_torque", "slip_translation", "valid", "failed"):
+        out[f] = {}
+        for name, lab in (("native", native), ("mjx", mjx)):
+            x = np.asarray(getattr(lab, f))
+            out[f][name] = [bool(v) for v in x] if x.dtype == bool else [None if np.isnan(v) else float(v) for v in x]
+    return out
+
+
 def trace_rows(tool, task, scene, grasps, seed: int, nthread: int) -> list[dict]:
     """Per grasp (all valid in both backends): when and how high each backend's wrist torque peaks during the
     motion, and when their two torque traces first part by more than 5 % of the native peak."""
@@ -142,6 +155,7 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
                    mjx_steps_per_s=round(steps / t_warm), mjx_over_native=round(t_native / t_warm, 2))
     row.update(compare(nat.labels, mjx.labels))
     row["native_control"] = compare(nat.labels, control.labels)
+    row["per_row"] = per_row(nat.labels, mjx.labels)
     if traces:  # the first `traces` grasps valid in both, simulated again as a batch (own physics draws)
         both = np.nonzero(np.asarray(nat.labels.valid) & np.asarray(mjx.labels.valid))[0][:traces]
         if len(both):
@@ -195,7 +209,9 @@ def main(argv=None) -> dict:
     out = {"schema": "itup.mjx_vs_native/1", "experiment": "mjx_vs_native", "seed": a.seed, "quick": a.quick,
            "precision": "float64" if jax.config.jax_enable_x64 else "float32",
            "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
-           "xla_flags": os.environ.get("XLA_FLAGS", ""), "rows": rows,
+           "xla_flags": os.environ.get("XLA_FLAGS", ""),
+           # MJX collides capsules with boxes by itup_jax.mjx_collision (session 18; session 17's runs used MJX's own)
+           "mjx_capsule_box": "itup_jax.mjx_collision", "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "mjx_vs_native.json"), out, indent=1)

@@ -38,6 +38,7 @@ from mujoco import rollout as mj_rollout
 from itup_jax import ik, units
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.mjx_collision import native_capsule_box
 from itup_jax.precision import full_precision
 from itup_jax.scene import Scene, build_scene, restitution_solref
 from itup_jax.task import Task
@@ -463,7 +464,10 @@ def _mjx_rollout_fn(scene: Scene):
                 spec = jax.sharding.PartitionSpec("batch")
                 # check_vma off: MJX's solver mixes batch-varying and replicated values in lax.cond
                 jits[key] = jax.jit(jax.shard_map(batched, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
-        return jits[key](*args)
+        # MJX's stock capsule-box collider picks the wrong face for long capsules (mjx_collision.py); the
+        # program is traced on the first call of a shape, inside this block, and keeps the fixed collider
+        with native_capsule_box():
+            return jits[key](*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
     fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)

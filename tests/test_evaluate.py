@@ -285,6 +285,11 @@ def test_mjx_vs_native_quick(tmp_path, monkeypatch):
         assert tr["native_peak_nm"] == pytest.approx(tr["native_label_nm"], rel=1e-9)
         assert tr["mjx_peak_nm"] == pytest.approx(tr["mjx_label_nm"], rel=1e-9)
     assert doc["precision"] == "float64"  # the tests run in x64
+    assert doc["mjx_capsule_box"] == "itup_jax.mjx_collision"
+    per = row["per_row"]  # row by row, the same rows the summary counts
+    nv, mv = np.array(per["valid"]["native"]), np.array(per["valid"]["mjx"])
+    assert len(nv) == len(per["peak_torque"]["mjx"]) == 3 and int((nv & mv).sum()) == row["valid_both"]
+    assert all(t is not None for t, v in zip(per["peak_torque"]["native"], nv) if v)
 
 
 def test_mjx_vs_native_compare_measures_what_it_says():
