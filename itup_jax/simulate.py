@@ -14,7 +14,10 @@ Backends (same inputs, same outputs):
     friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
   * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
     when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
-    batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device.
+    batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device. Capsule-box
+    contacts go through `mjx_collision.capsule_box_collider` (MJX's own reverses a pad's contact on long
+    tilted handles). Its labels match native MuJoCo's in float64; in float32 the pads' stiff contacts
+    spike (BENCHMARKS.md, "MJX against native").
 
 Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible`:
 the native path does not step them at all, and for both backends their measured labels are NaN (flags False,
