@@ -7,8 +7,9 @@
 Dataset generation runs MJX on an accelerator and native MuJoCo on a CPU (`simulate.default_backend`), and
 a dataset mixes neither: this script measures how far the two label sets differ when they could be mixed.
 Per task (its built-in tool), `sample_grasps(tool, N, seed)` is simulated with both backends under the
-same randomised physics (`simulate(..., seed=)`: the draws depend on the seed only), in JAX's default
-precision (float32 unless JAX_ENABLE_X64 is set, as in `itup generate`). On the rows both call valid:
+same randomised physics (`simulate(..., seed=)`: the draws depend on the seed only), MJX in float64 as
+`simulate` runs it (`MJX_FLOAT64`; `--mjx-float32` for float32; before session 18 it followed
+JAX_ENABLE_X64). On the rows both call valid:
   - peak wrist torque: Spearman rank correlation, median and 90th-percentile relative difference;
   - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
   - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
@@ -37,7 +38,6 @@ import argparse
 import os
 import time
 
-import jax
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
@@ -95,13 +95,13 @@ def per_row(native, mjx) -> dict:
     return out
 
 
-def trace_rows(tool, task, scene, grasps, seed: int, nthread: int) -> list[dict]:
+def trace_rows(tool, task, scene, grasps, seed: int, nthread: int, mjx_float64: bool = True) -> list[dict]:
     """Per grasp (all valid in both backends): when and how high each backend's wrist torque peaks during the
     motion, and when their two torque traces first part by more than 5 % of the native peak."""
     import itup_jax as itup
 
     nat = itup.simulate(tool, task, grasps, scene=scene, backend="native", seed=seed, nthread=nthread, traces=True)
-    mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, traces=True)
+    mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, traces=True, mjx_float64=mjx_float64)
     t = nat.traces["t"]
     motion = t >= 0  # the settle phase runs at t < 0
     rows = []
@@ -117,7 +117,7 @@ def trace_rows(tool, task, scene, grasps, seed: int, nthread: int) -> list[dict]
 
 
 def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int, repeat: bool = True,
-             traces: int = 0) -> dict:
+             traces: int = 0, mjx_float64: bool = True) -> dict:
     """Both backends on `n` sampled grasps of the task's built-in tool; agreement and timing."""
     import itup_jax as itup
     from itup_jax.scene import build_scene
@@ -136,13 +136,13 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
                    q_tool_grasp=grasps.q_tool_grasp, width=grasps.width)
     control = itup.simulate(tool, task, moved, scene=scene, backend="native", seed=seed, nthread=nthread)
     t0 = time.perf_counter()
-    first = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed)
+    first = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, mjx_float64=mjx_float64)
     t_first = time.perf_counter() - t0
     print(f"  {kind}: mjx first call {t_first:.1f} s", flush=True)
     mjx, t_warm = first, None
     if repeat:  # the same inputs twice: equal on a CPU; on a GPU only with deterministic scatters (XLA_FLAGS)
         t0 = time.perf_counter()
-        mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed)
+        mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, mjx_float64=mjx_float64)
         t_warm = time.perf_counter() - t0
     feasible = int((~nat.plan.infeasible).sum())
     steps = feasible * nat.plan.nstep
@@ -159,7 +159,7 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
     if traces:  # the first `traces` grasps valid in both, simulated again as a batch (own physics draws)
         both = np.nonzero(np.asarray(nat.labels.valid) & np.asarray(mjx.labels.valid))[0][:traces]
         if len(both):
-            row["traces"] = trace_rows(tool, task, scene, grasps[both], seed, nthread)
+            row["traces"] = trace_rows(tool, task, scene, grasps[both], seed, nthread, mjx_float64)
     if repeat:
         rep = compare(first.labels, mjx.labels)
         a, b = np.asarray(first.labels.peak_torque), np.asarray(mjx.labels.peak_torque)
@@ -180,6 +180,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--traces", type=int, default=0, metavar="K",
                     help="also trace K grasps valid in both: each backend's torque peak and its time, and when the "
                     "two torque traces part (one more MJX compile)")
+    ap.add_argument("--mjx-float32", action="store_true", help="MJX in float32 (default: float64, as simulate runs it)")
     ap.add_argument("--quick", action="store_true", help="hammer, 3 grasps, 2 ms steps (for tests)")
     a = ap.parse_args(argv)
     tasks = QUICK["tasks"] if a.quick else tuple(t for t in a.tasks.split(",") if t)
@@ -200,14 +201,14 @@ def main(argv=None) -> dict:
     rows = []
     for kind in tasks:
         rows.append(run_task(kind, n, a.seed, QUICK["timestep"] if a.quick else None, nthread, repeat=not a.once,
-                             traces=2 if a.quick else a.traces))
+                             traces=2 if a.quick else a.traces, mjx_float64=not a.mjx_float32))
         r = rows[-1]
         print(f"{kind}: {r['valid_both']}/{r['rows']} valid in both (native only {r['valid_native_only']}, mjx only "
               f"{r['valid_mjx_only']}); torque Spearman {r.get('torque_spearman')}, rel. diff median "
               f"{r.get('torque_rel_median')}; native {r['native_s']} s, mjx {r['mjx_first_s']} s first / "
               f"{r.get('mjx_warm_s')} s warm; repeat bitwise equal {r.get('mjx_repeat_bitwise_equal')}", flush=True)
     out = {"schema": "itup.mjx_vs_native/1", "experiment": "mjx_vs_native", "seed": a.seed, "quick": a.quick,
-           "precision": "float64" if jax.config.jax_enable_x64 else "float32",
+           "precision": "float32" if a.mjx_float32 else "float64",  # MJX's; native MuJoCo is float64
            "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
            "xla_flags": os.environ.get("XLA_FLAGS", ""),
            # MJX collides capsules with boxes by itup_jax.mjx_collision (session 18; session 17's runs used MJX's own)

@@ -127,7 +127,8 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
 
     raw: only `mujoco.rollout` on prepared models, states and controls. labels: `simulate` end to end
     (IK planning, per-rollout models, rollout, labels), with the scene prebuilt and the grasps given.
-    MJX: `rollout_mjx`'s jitted vmap(scan(step)) on the first `mjx_steps` steps, compile timed apart.
+    MJX: `rollout_mjx`'s jitted vmap(scan(step)) on the first `mjx_steps` steps, compile timed apart, in
+    the float type it rolls out in (`simulate.MJX_FLOAT64`; each row's `dtype`).
     """
     import mujoco
     from mujoco import rollout as mj_rollout
@@ -178,7 +179,7 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
         jax.block_until_ready(fn(*args))
         first = time.perf_counter() - t0
         warm = min(_timed(lambda: jax.block_until_ready(fn(*args)), max(1, repeats - 1)))
-        out["mjx"].append({"batch": b, "steps": mjx_steps, "compile_s": round(first - warm, 2),
+        out["mjx"].append({"batch": b, "steps": mjx_steps, "dtype": str(np.dtype(dt)), "compile_s": round(first - warm, 2),
                            "steps_per_s": round(b * mjx_steps / warm, 1)})
         _progress(f"mjx batch {b}: compile {out['mjx'][-1]['compile_s']} s, {out['mjx'][-1]['steps_per_s']} env-steps/s")
     for nt in sorted({1, max(threads)} & set(threads)):  # the MJX rows against 1 thread and all threads timed

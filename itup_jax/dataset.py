@@ -393,22 +393,6 @@ def gpu_determinism_warning(backend: str | None) -> str | None:
             "(as `itup generate` does)")
 
 
-def _float64_enabled() -> bool:
-    import jax
-
-    return bool(jax.config.jax_enable_x64)
-
-
-def mjx_precision_warning(backend: str | None) -> str | None:
-    """Why MJX labels made with `backend` here would not be native MuJoCo's, or None: MJX in float32. On the
-    reach, float32 MJX shows pad-force spikes that native MuJoCo does not, and its torques rank at 0.52
-    against native's where float64 MJX's rank at 0.995 (BENCHMARKS.md, "MJX against native")."""
-    if (backend or default_backend()) != "mjx" or _float64_enabled():
-        return None
-    return ("generate: MJX runs in float32 here, where its labels differ from native MuJoCo's (the pads' stiff contacts "
-            "are not resolved: BENCHMARKS.md); start Python with JAX_ENABLE_X64=1, or use backend='native'")
-
-
 def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progress: bool = True,
              after_shard: Callable[[int], None] | None = None, mcap_dir: str | None = None,
              mcap_per_shard: int = 2, process_index: int = 0, process_count: int = 1,
@@ -433,9 +417,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     """
     config.validate()
     _check_process(process_index, process_count)
-    for note in (gpu_determinism_warning(config.backend), mjx_precision_warning(config.backend)):
-        if note:
-            warnings.warn(note, stacklevel=2)
+    note = gpu_determinism_warning(config.backend)
+    if note:
+        warnings.warn(note, stacklevel=2)
     if process_count > 1 and os.name != "posix":
         raise InputError("generate: several processes share the manifest through POSIX file locks, which this "
                          f"platform ({os.name}) lacks; run one process")

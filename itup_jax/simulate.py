@@ -16,8 +16,8 @@ Backends (same inputs, same outputs):
     when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
     batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device. Capsule-box
     contacts go through `mjx_collision.capsule_box_collider` (MJX's own reverses a pad's contact on long
-    tilted handles). Its labels match native MuJoCo's in float64; in float32 the pads' stiff contacts
-    spike (BENCHMARKS.md, "MJX against native").
+    tilted handles). It runs in float64 (`MJX_FLOAT64`), where its reach labels match native MuJoCo's; in
+    float32 the pads' stiff contacts spike (BENCHMARKS.md, "MJX against native").
 
 Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible`:
 the native path does not step them at all, and for both backends their measured labels are NaN (flags False,
@@ -31,7 +31,6 @@ import dataclasses
 import math
 import os
 import weakref
-from typing import Any
 
 import jax
 import mujoco
@@ -59,6 +58,10 @@ ARM_CLEARANCE = 0.03
 INITIAL_SQUEEZE = 3e-4
 #: MJX on CPU hangs at a device batch of 128 or more (DESIGN.md): never exceed this there.
 MJX_CPU_MAX_BATCH = 64
+#: MJX rollouts run in float64 by default. In float32 the pads' stiff contacts spike while a tool is held
+#: still: on the reach, float32 MJX's torques rank at 0.52 against native MuJoCo's and float64 MJX's at
+#: 0.995 (session 18, CPU; BENCHMARKS.md "MJX against native"). On a GPU float64 costs speed (not measured).
+MJX_FLOAT64 = True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -328,8 +331,12 @@ def _step(scene: Scene, qpos0: np.ndarray, ctrl: np.ndarray, nstep: int, models:
     return np.maximum(qvel.max(axis=(1, 2)), -qvel.min(axis=(1, 2))), sensordata
 
 
-def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None = None,
+                float64: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Same outputs as `rollout_native`, from MJX: one jit of vmap(scan(step)) (built per scene).
+
+    `float64`: run MJX in float64 (`jax.enable_x64` for this call only, whatever the process's setting) or,
+    False, in float32; None: `MJX_FLOAT64` (True).
 
     With several devices (default: this process's devices of JAX's default backend, `jax.local_devices()`:
     a GPU machine's GPUs, or host devices from XLA_FLAGS=--xla_force_host_platform_device_count=2; under
@@ -342,9 +349,15 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None
     devices = list(jax.local_devices()) if devices is None else list(devices)
     if not devices:
         raise InputError("rollout_mjx: devices is empty")
+    float64 = MJX_FLOAT64 if float64 is None else bool(float64)
+    with jax.enable_x64(float64):  # device_put and the call too: under float32, float64 inputs would be cast
+        return _rollout_mjx(scene, p, physics, devices, float64)
+
+
+def _rollout_mjx(scene: Scene, p: Plan, physics: Physics, devices: list, float64: bool) -> tuple[np.ndarray, np.ndarray]:
     n, nd = len(p.qpos0), len(devices)
-    fn = _mjx_rollout_fn(scene)
-    dt = fn.dtype  # the model's float type: float32, or float64 under jax_enable_x64
+    fn = _mjx_rollout_fn(scene, float64)
+    dt = fn.dtype  # the model's float type
     arrays = [a.astype(dt) for a in mjx_model_fields(scene, physics)] + [p.qpos0.astype(dt), p.ctrl.astype(dt)]
     # one compile per batch shape (45-100 s on an H100): the per-device batch is rounded up to a power of
     # two, so batches of 65-128 rollouts share one program, 129-256 the next, ... (padding <= 2x)
@@ -389,7 +402,7 @@ def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
     return mass, inertia, friction, solref
 
 
-_MJX_CACHE: "weakref.WeakKeyDictionary[Scene, Any]" = weakref.WeakKeyDictionary()
+_MJX_CACHE: "weakref.WeakKeyDictionary[Scene, dict]" = weakref.WeakKeyDictionary()  # scene -> {float64: fn}
 
 #: XLA's switch for deterministic scatters on a GPU. Without it two MJX calls on the same inputs return
 #: different labels there (an H100, 512 hammer rollouts: the peak torques differed between two calls; with
@@ -432,13 +445,18 @@ def import_mjx():
     return mjx
 
 
-def _mjx_rollout_fn(scene: Scene):
-    """The jitted batched rollout for a scene's model (compiled once per scene and batch shape)."""
-    if scene in _MJX_CACHE:
-        return _MJX_CACHE[scene]
+def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
+    """The jitted batched rollout for a scene's model in float64 or float32 (None: `MJX_FLOAT64`); compiled
+    once per scene, float type and batch shape; the model is put and the program traced and called under
+    `jax.enable_x64(float64)`."""
+    float64 = MJX_FLOAT64 if float64 is None else bool(float64)
+    cached = _MJX_CACHE.setdefault(scene, {})
+    if float64 in cached:
+        return cached[float64]
     mjx = import_mjx()
 
-    mx = mjx.put_model(scene.model)
+    with jax.enable_x64(float64):
+        mx = mjx.put_model(scene.model)
 
     def one(mass, inertia, friction, solref, qpos0, ctrl):
         mi = mx.tree_replace({"body_mass": mass, "body_inertia": inertia, "pair_friction": friction,
@@ -469,12 +487,13 @@ def _mjx_rollout_fn(scene: Scene):
                 jits[key] = jax.jit(jax.shard_map(batched, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
         # MJX's stock capsule-box collider picks the wrong face for long capsules (mjx_collision.py); the
         # program is traced on the first call of a shape, inside this block, and keeps the fixed collider
-        with native_capsule_box():
+        with native_capsule_box(), jax.enable_x64(float64):
             return jits[key](*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
+    fn.float64 = float64
     fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)
-    _MJX_CACHE[scene] = fn
+    cached[float64] = fn
     return fn
 
 
@@ -725,7 +744,7 @@ def default_backend() -> str:
 def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = None, seed: int = 0,
              randomize: Randomization | None = Randomization(), config: SimConfig = SimConfig(),
              traces: bool = False, nthread: int | None = None, scene: Scene | None = None,
-             devices: list | None = None) -> SimResult:
+             devices: list | None = None, mjx_float64: bool | None = None) -> SimResult:
     """Roll out every grasp along the task in MuJoCo and return its labels (arrays [N]).
 
     Args:
@@ -735,6 +754,7 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
       config: `SimConfig`.  traces: also return per-step sensor traces.  nthread: native threads.
       scene: a prebuilt `build_scene(tool, task)` to reuse.
       devices: MJX only: the devices the batch is sharded over (default: all of JAX's default backend).
+      mjx_float64: MJX only: float64 (None: `MJX_FLOAT64`, True) or float32 (`rollout_mjx`).
     """
     backend = backend or default_backend()
     if backend not in ("native", "mjx"):
@@ -749,7 +769,8 @@ def simulate(tool: Tool, task: Task, grasps: Grasps, *, backend: str | None = No
         run_plan = _take_plan(pl, run)
         qvel_peak = sensordata = None
         if len(run):
-            qvel_peak, sensordata = rollout_mjx(scene, run_plan, _slice_physics(physics, run), devices=devices)
+            qvel_peak, sensordata = rollout_mjx(scene, run_plan, _slice_physics(physics, run), devices=devices,
+                                                float64=mjx_float64)
         labels = _feasible_labels(scene, task, pl, run, run_plan, qvel_peak, sensordata, config)
         if traces:
             sensordata = _traces_of_rows(scene, len(grasps), pl.nstep, run, sensordata)

@@ -428,25 +428,6 @@ def test_gpu_determinism_reads_the_flags_value():
     assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_deterministic_ops=true --xla_gpu_deterministic_ops=false"}) is False
 
 
-def test_generate_warns_when_mjx_runs_in_float32(monkeypatch, tmp_path):
-    import jax
-
-    from itup_jax import dataset
-    from itup_jax.dataset import GenerateConfig, generate, mjx_precision_warning
-
-    assert mjx_precision_warning("mjx") is None and mjx_precision_warning(None) is None  # the tests run in x64
-    monkeypatch.setattr(dataset, "_float64_enabled", lambda: False)
-    assert "JAX_ENABLE_X64=1" in mjx_precision_warning("mjx")
-    assert mjx_precision_warning("native") is None and mjx_precision_warning(None) is None  # None: native on a CPU
-    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")  # None resolves to MJX there
-    monkeypatch.setenv("XLA_FLAGS", "--xla_gpu_deterministic_ops=true")  # (the other warning, tested below)
-    assert mjx_precision_warning(None)
-    # generate() says so before it makes anything (here it then refuses mcap_per_shard)
-    with pytest.warns(UserWarning, match="float32"), pytest.raises(itup.InputError):
-        generate(str(tmp_path / "d"), GenerateConfig(backend="mjx"), mcap_per_shard=-1)
-    assert not (tmp_path / "d").exists()
-
-
 def test_generate_warns_when_gpu_mjx_labels_would_not_be_reproducible(monkeypatch):
     import jax
 

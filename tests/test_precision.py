@@ -57,9 +57,11 @@ def test_mjx_rollout_traces_float32_products(tasks):
     sim = importlib.import_module("itup_jax.simulate")
     tool, task = tasks["hammer"]
     scene = build_scene(tool, task, timestep=0.002)
-    fn = sim._mjx_rollout_fn(scene)
+    fn = sim._mjx_rollout_fn(scene, float64=False)  # the float32 program, where a GPU would use TF32
     physics = sim.sample_physics(tool, 2, 0)
     fields = [a.astype(fn.dtype) for a in sim.mjx_model_fields(scene, physics)]
     qpos0 = np.tile(scene.model.qpos0, (2, 1)).astype(fn.dtype)
     ctrl = np.zeros((2, 2, scene.model.nu), fn.dtype)
-    assert_full_precision(jax.jit(fn.batched).lower(*fields, qpos0, ctrl))
+    assert fn.dtype == np.float32
+    with jax.enable_x64(False):
+        assert_full_precision(jax.jit(fn.batched).lower(*fields, qpos0, ctrl))

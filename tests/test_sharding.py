@@ -78,7 +78,7 @@ def test_cpu_mjx_batches_are_chunked_not_hung(n, monkeypatch):
         qpos0 = np.zeros((n, 3))
         ctrl = np.zeros((n, 5, 2))
 
-    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene: fake_fn)
+    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene, float64=None: fake_fn)
     monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.arange(n, dtype=float)[:, None],))
     import jax
 
@@ -111,10 +111,44 @@ def test_accelerator_batches_are_padded_to_a_power_of_two(n, batch, monkeypatch)
     class GPU:
         platform, id = "gpu", 0
 
-    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene: fake_fn)
+    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene, float64=None: fake_fn)
     monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.arange(n, dtype=float)[:, None],))
     monkeypatch.setattr(sim.jax, "device_put", lambda a, place: a)
     qv, sens = sim.rollout_mjx(None, P, None, devices=[GPU()])
     assert seen == [batch]
     assert qv.shape == (n, 5) and sens.shape == (n, 5, 2)
     np.testing.assert_array_equal(qv[:, 0], np.arange(n))
+
+
+def test_mjx_rolls_out_in_float64_unless_told_whatever_the_process_says(monkeypatch):
+    """`rollout_mjx` runs MJX in float64 by default (simulate.MJX_FLOAT64: in float32 the pads' contacts
+    spike), with its inputs placed as float64, also in a float32 process; float64=False gives float32."""
+    import importlib
+
+    import jax
+    import numpy as np
+
+    sim = importlib.import_module("itup_jax.simulate")
+    seen = []
+
+    def fake_rollout_fn(scene, float64=None):
+        def fn(*args, mesh=None):
+            seen.append((float64, bool(jax.config.jax_enable_x64), args[0].dtype))
+            b = args[0].shape[0]
+            return np.zeros((b, 5)), np.zeros((b, 5, 2))
+
+        fn.dtype = np.float64 if float64 else np.float32
+        return fn
+
+    class P:
+        qpos0 = np.zeros((3, 3))
+        ctrl = np.zeros((3, 5, 2))
+
+    monkeypatch.setattr(sim, "_mjx_rollout_fn", fake_rollout_fn)
+    monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.zeros((3, 1)),))
+    with jax.enable_x64(False):
+        sim.rollout_mjx(None, P, None, devices=jax.devices()[:1])
+        assert seen[-1] == (True, True, np.float64)
+    sim.rollout_mjx(None, P, None, devices=jax.devices()[:1], float64=False)
+    assert seen[-1] == (False, False, np.float32)
+    assert jax.config.jax_enable_x64  # the tests' setting is back

@@ -11,7 +11,7 @@ from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, reachable, samp
 
 # Static holding torque: the settled arm still creeps (servo residuals, pad creep): 1 %.
 STATIC_RTOL = 0.01
-# MJX runs in float32 and its contact solver differs in detail from the C one: raw peak torques agree
+# MJX runs in float64 (simulate.MJX_FLOAT64) but its contact solver differs in detail from the C one: raw peak torques agree
 # to ~10 % on firm grasps (DESIGN.md measured 3 % on a simpler scene), slip to a few mm, alignment
 # drift to a few hundredths of a radian. Labels of grasps that slip (>5 mm) are chaotic and not compared.
 MJX_TORQUE_RTOL = 0.15
