@@ -245,7 +245,7 @@ def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_nat
     sim = sys.modules["itup_jax.simulate"]
     (tool, task, scene), (g, res) = hammer, hammer_native
 
-    def stepped_natively(scene, p, physics, devices=None):
+    def stepped_natively(scene, p, physics, devices=None, float64=None):
         assert not p.infeasible.any() and len(p.qpos0) == len(physics.mu)  # unreachable rows are not stepped
         models = [sim.randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
         qv, sd = sim._step(scene, p.qpos0, p.ctrl, p.nstep, models, 2)
