@@ -16,7 +16,9 @@ where native MuJoCo lost it in 13 (BENCHMARKS.md, "MJX against native").
 before handing it to MJX's own routine. No point of the segment outside that region can be within the
 radius of the box, so no contact is lost, and the end points that remain lie within a few radii of the
 box. Where the segment misses the region the pair is more than `CLIP_SLACK` apart, and the distance is
-reported as at least that.
+reported as at least that. What it does not change: over an edge of the box, MJX's routine can miss a
+shallow contact (under 0.5 mm) that native MuJoCo reports, and near a face's rim native MuJoCo tilts the
+normal towards the edge where MJX keeps the face's (depths then differ by up to 0.2 mm).
 
 `native_capsule_box()` installs it in MJX's table of collision functions for the duration of a `with`
 block; `simulate.rollout_mjx` traces its jitted rollout inside one. MJX looks the function up while it
