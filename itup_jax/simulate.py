@@ -60,8 +60,13 @@ INITIAL_SQUEEZE = 3e-4
 MJX_CPU_MAX_BATCH = 64
 #: MJX rollouts run in float64 by default. In float32 the pads' stiff contacts spike while a tool is held
 #: still: on the reach, float32 MJX's torques rank at 0.52 against native MuJoCo's and float64 MJX's at
-#: 0.995 (session 18, CPU; BENCHMARKS.md "MJX against native"). On a GPU float64 costs speed (not measured).
+#: 0.995 (session 18, CPU; BENCHMARKS.md "MJX against native"). On a GPU float64 may cost speed (not measured).
 MJX_FLOAT64 = True
+
+
+def _mjx_float64(float64: bool | None) -> bool:
+    """An MJX float-type choice: True (float64), False (float32), None (`MJX_FLOAT64`, read at the call)."""
+    return MJX_FLOAT64 if float64 is None else bool(float64)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -349,7 +354,7 @@ def rollout_mjx(scene: Scene, p: Plan, physics: Physics, *, devices: list | None
     devices = list(jax.local_devices()) if devices is None else list(devices)
     if not devices:
         raise InputError("rollout_mjx: devices is empty")
-    float64 = MJX_FLOAT64 if float64 is None else bool(float64)
+    float64 = _mjx_float64(float64)
     with jax.enable_x64(float64):  # device_put and the call too: under float32, float64 inputs would be cast
         return _rollout_mjx(scene, p, physics, devices, float64)
 
@@ -449,7 +454,7 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
     """The jitted batched rollout for a scene's model in float64 or float32 (None: `MJX_FLOAT64`); compiled
     once per scene, float type and batch shape; the model is put and the program traced and called under
     `jax.enable_x64(float64)`."""
-    float64 = MJX_FLOAT64 if float64 is None else bool(float64)
+    float64 = _mjx_float64(float64)
     cached = _MJX_CACHE.setdefault(scene, {})
     if float64 in cached:
         return cached[float64]
@@ -491,7 +496,6 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
             return jits[key](*args)
 
     fn.dtype = np.asarray(mx.body_mass).dtype
-    fn.float64 = float64
     fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)
     cached[float64] = fn
     return fn
