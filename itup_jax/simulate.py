@@ -26,6 +26,7 @@ their traces NaN). Rollouts that blow up are flagged `diverged`. Neither is a la
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import math
@@ -40,6 +41,7 @@ from mujoco import rollout as mj_rollout
 from itup_jax import ik, units
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.mjx_cholesky import jax_cholesky
 from itup_jax.mjx_collision import native_capsule_box
 from itup_jax.precision import full_precision
 from itup_jax.scene import Scene, build_scene, restitution_solref
@@ -56,7 +58,9 @@ JOINT_LIMITS = np.array([2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * mat
 ARM_CLEARANCE = 0.03
 #: Pads start this much inside the tool's surface so contact exists at step 0 (m).
 INITIAL_SQUEEZE = 3e-4
-#: MJX on CPU hangs at a device batch of 128 or more (DESIGN.md): never exceed this there.
+#: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128 (DESIGN.md), a
+#: deadlock in jaxlib's LAPACK Cholesky that `mjx_cholesky` now avoids (a hammer batch of 128 ran in
+#: session 19); the cap stays until larger batches have run more than once.
 MJX_CPU_MAX_BATCH = 64
 #: MJX rollouts run in float64 by default. In float32 the pads' stiff contacts spike while a tool is held
 #: still: on the reach, float32 MJX's torques rank at 0.52 against native MuJoCo's and float64 MJX's at
@@ -478,7 +482,7 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
     batched = full_precision(jax.vmap(one))  # float32 products on a GPU too (precision.py)
     jits: dict = {}
 
-    def fn(*args, mesh: jax.sharding.Mesh | None = None):
+    def program(mesh):
         """Unsharded: jit(vmap(one)). With a mesh: jit(shard_map(vmap(one))), each device running
         vmap(one) on its slice. XLA compiles the partitioned program differently, so in float32 its
         rounding differs from an unsharded call (labels agree to ~1e-7 relative in float64)."""
@@ -490,11 +494,34 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
                 spec = jax.sharding.PartitionSpec("batch")
                 # check_vma off: MJX's solver mixes batch-varying and replicated values in lax.cond
                 jits[key] = jax.jit(jax.shard_map(batched, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
-        # MJX's stock capsule-box collider picks the wrong face for long capsules (mjx_collision.py); the
-        # program is traced on the first call of a shape, inside this block, and keeps the fixed collider
-        with native_capsule_box(), jax.enable_x64(float64):
-            return jits[key](*args)
+        return jits[key]
 
+    @contextlib.contextmanager
+    def tracing(args):
+        """The blocks a program is traced in. MJX's stock capsule-box collider picks the wrong face for long
+        capsules (mjx_collision.py), and on a CPU jaxlib's LAPACK Cholesky can deadlock XLA's thread pool
+        (mjx_cholesky.py). A program is traced on the first call of a shape, inside these blocks, and
+        keeps both replacements."""
+        devices = getattr(args[0], "devices", None)  # host arrays go to the default device
+        platform = next(iter(devices())).platform if devices is not None else jax.default_backend()
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(native_capsule_box())
+            if platform == "cpu":
+                stack.enter_context(jax_cholesky())
+            stack.enter_context(jax.enable_x64(float64))
+            yield
+
+    def fn(*args, mesh: jax.sharding.Mesh | None = None):
+        """(qvel_max [N, T], sensordata [N, T, nsensordata]) of the batch; args are device arrays."""
+        with tracing(args):
+            return program(mesh)(*args)
+
+    def lower(*args, mesh: jax.sharding.Mesh | None = None):
+        """The program `fn(*args, mesh=mesh)` runs, lowered (not compiled), for inspection (tests)."""
+        with tracing(args):
+            return program(mesh).lower(*args)
+
+    fn.lower = lower
     fn.dtype = np.asarray(mx.body_mass).dtype
     fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)
     cached[float64] = fn
