@@ -86,7 +86,7 @@ def cho_solve(c_and_lower, b, overwrite_b: bool = False, check_finite: bool = Tr
     del overwrite_b, check_finite
     c, lower = c_and_lower
     c, b = jnp.asarray(c), jnp.asarray(b)
-    low = jnp.tril(c) if lower else jnp.swapaxes(jnp.triu(c), -1, -2)
+    low = c if lower else jnp.swapaxes(c, -1, -2)  # solve_lower reads only the lower triangle
     return solve_lower(low, solve_lower(low, b), transpose=True)
 
 

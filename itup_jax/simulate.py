@@ -13,8 +13,9 @@ Backends (same inputs, same outputs):
   * 'native': `mujoco.rollout` with one MjData per thread and one MjModel per rollout (so mass,
     friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
   * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
-    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md) and a device
-    batch of 128 or more hangs: `rollout_mjx` runs chunks of at most 64 per CPU device. Capsule-box
+    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md), `rollout_mjx` runs
+    chunks of at most 64 per CPU device, and MJX's Cholesky is `mjx_cholesky`'s (jaxlib's LAPACK kernel
+    deadlocked there: the knock at a batch of 16, the hammer at 128). Capsule-box
     contacts go through `mjx_collision.capsule_box_collider` (MJX's own reverses a pad's contact on long
     tilted handles). It runs in float64 (`MJX_FLOAT64`), where its reach labels match native MuJoCo's; in
     float32 the pads' stiff contacts spike (BENCHMARKS.md, "MJX against native").
