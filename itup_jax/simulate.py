@@ -483,28 +483,38 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
     batched = full_precision(jax.vmap(one))  # float32 products on a GPU too (precision.py)
     jits: dict = {}
 
-    def program(mesh):
+    def program(mesh, platform):
         """Unsharded: jit(vmap(one)). With a mesh: jit(shard_map(vmap(one))), each device running
         vmap(one) on its slice. XLA compiles the partitioned program differently, so in float32 its
-        rounding differs from an unsharded call (labels agree to ~1e-7 relative in float64)."""
-        key = None if mesh is None else tuple(d.id for d in mesh.devices.flat)
+        rounding differs from an unsharded call (labels agree to ~1e-7 relative in float64). One program
+        per platform: JAX caches a trace per function object and cannot see the blocks of `tracing`, so
+        each platform's jit wraps its own function (otherwise a GPU call after a CPU call of the same
+        shape would reuse the CPU's trace, plain-JAX Cholesky included, and a CPU call after a GPU call
+        would get LAPACK's Cholesky back, which can deadlock)."""
+        key = (platform, None if mesh is None else tuple(d.id for d in mesh.devices.flat))
         if key not in jits:  # the outer call: one jit for the whole batch
+
+            def run(*a):
+                return batched(*a)
+
             if mesh is None:
-                jits[key] = jax.jit(batched)
+                jits[key] = jax.jit(run)
             else:
                 spec = jax.sharding.PartitionSpec("batch")
                 # check_vma off: MJX's solver mixes batch-varying and replicated values in lax.cond
-                jits[key] = jax.jit(jax.shard_map(batched, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
+                jits[key] = jax.jit(jax.shard_map(run, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
         return jits[key]
 
+    def platform_of(args) -> str:
+        devices = getattr(args[0], "devices", None)  # host arrays go to the default device
+        return next(iter(devices())).platform if devices is not None else jax.default_backend()
+
     @contextlib.contextmanager
-    def tracing(args):
+    def tracing(platform):
         """The blocks a program is traced in. MJX's stock capsule-box collider picks the wrong face for long
         capsules (mjx_collision.py), and on a CPU jaxlib's LAPACK Cholesky can deadlock XLA's thread pool
         (mjx_cholesky.py). A program is traced on the first call of a shape, inside these blocks, and
         keeps both replacements."""
-        devices = getattr(args[0], "devices", None)  # host arrays go to the default device
-        platform = next(iter(devices())).platform if devices is not None else jax.default_backend()
         with contextlib.ExitStack() as stack:
             stack.enter_context(native_capsule_box())
             if platform == "cpu":
@@ -514,13 +524,17 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
 
     def fn(*args, mesh: jax.sharding.Mesh | None = None):
         """(qvel_max [N, T], sensordata [N, T, nsensordata]) of the batch; args are device arrays."""
-        with tracing(args):
-            return program(mesh)(*args)
+        platform = platform_of(args)
+        with tracing(platform):
+            return program(mesh, platform)(*args)
 
-    def lower(*args, mesh: jax.sharding.Mesh | None = None):
-        """The program `fn(*args, mesh=mesh)` runs, lowered (not compiled), for inspection (tests)."""
-        with tracing(args):
-            return program(mesh).lower(*args)
+    def lower(*args, mesh: jax.sharding.Mesh | None = None, platform: str | None = None):
+        """The program `fn(*args, mesh=mesh)` runs, lowered (not compiled), for inspection (tests).
+        `platform` (default: the args') picks the tracing blocks of another platform, lowered for the
+        args' devices: `platform="gpu"` on a CPU shows MJX's stock solver, LAPACK's Cholesky included."""
+        platform = platform_of(args) if platform is None else platform
+        with tracing(platform):
+            return program(mesh, platform).lower(*args)
 
     fn.lower = lower
     fn.dtype = np.asarray(mx.body_mass).dtype

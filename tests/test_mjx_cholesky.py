@@ -119,8 +119,10 @@ def test_mjx_step_unchanged():
 
 
 def test_cpu_rollout_program_has_no_lapack_call(tasks):
-    """The program `simulate` runs on this CPU calls no LAPACK kernel; MJX's stock program does (so the
-    check reads the right thing)."""
+    """The program `simulate` runs on this CPU calls no LAPACK kernel; the program it would trace for a GPU
+    is MJX's stock one, which does (so the check reads the right thing). The two are traced one after the
+    other from the same rollout function: each platform keeps its own trace, where JAX's trace cache,
+    keyed by the function, would hand the second the first one's."""
     from itup_jax.scene import build_scene
 
     sim = importlib.import_module("itup_jax.simulate")
@@ -132,7 +134,7 @@ def test_cpu_rollout_program_has_no_lapack_call(tasks):
     args += [np.tile(scene.model.qpos0, (2, 1)).astype(fn.dtype), np.zeros((2, 2, scene.model.nu), fn.dtype)]
     args = [jax.device_put(a, jax.devices("cpu")[0]) for a in args]
     ours = fn.lower(*args).as_text()
-    with jax.enable_x64(True):  # a new function object: JAX would reuse the trace cached for fn.batched
-        stock = jax.jit(lambda *a: fn.batched(*a)).lower(*args).as_text()
+    stock = fn.lower(*args, platform="gpu").as_text()  # a GPU's tracing blocks, lowered for this CPU
+    again = fn.lower(*args).as_text()
     assert "lapack_dpotrf" in stock
-    assert "lapack" not in ours
+    assert "lapack" not in ours and "lapack" not in again
