@@ -684,7 +684,7 @@ REACH_SUCCESS_FRACTION = 0.5  # of the commanded pull/push distance
 
 def _task_outcome(scene: Scene, task: Task, sensordata: np.ndarray, p: Plan) -> tuple[np.ndarray, np.ndarray]:
     s = lambda name: scene.sensor(sensordata, name)  # noqa: E731
-    if task.kind == "hammer":  # driven during the motion (the nail may creep while the arm settles)
+    if task.kind == "hammer":  # driven during the motion (from the end of the settle)
         depth = s("nail_depth")[:, p.n_settle - 1, 0] - s("nail_depth")[:, -1, 0]
         return depth, depth >= NAIL_DEPTH_SUCCESS
     if task.kind == "sweep":
