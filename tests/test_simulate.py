@@ -107,17 +107,22 @@ def test_both_pads_touch_the_tool_at_the_grip_force(hammer):
 
 
 def test_grasp_near_the_head_feels_less_torque_than_at_the_handle_end(hammer):
-    """Peak wrist torque (raw) grows as the grasp moves from the head to the handle's end.
+    """The torque the strike adds at the wrist (projected, as the labels and C_tau take it) grows as the
+    grasp moves from the head towards the handle's end, as the lever arm to the contact does; so does
+    the static holding torque (m g times its lever arm).
 
-    Measured here with the closure axis along the face normal. The *induced* impact torque does not
-    follow the contact lever arm (it is nearly flat, and with the closure axis along the swing axis
-    it falls towards the handle's centre of percussion): see the closing notes; the experiments decide.
+    Measured here with the closure axis along the face normal. Far less than the lever arms predict
+    (2.10 against 2.33 N m, where the rigid-body cost grows 3.3x): the grip is compliant. The raw peak,
+    the sum of the static and the strike's torque vectors, follows no order: they partly cancel at the
+    strike (1.71-1.90 N m over seven grasps along the handle, session 20). Before session 20 the nail
+    crept, the strike came late in the follow-through, and the raw peak happened to grow too.
     """
     tool, task, scene = hammer
     g = make_grasps([[0.0, 0.0, 0.22], [0.0, 0.0, 0.06]], np.stack([R_FROM_SIDE] * 2), [0.029] * 2)
     L = simulate(tool, task, g, scene=scene, randomize=None).labels
-    assert L.valid.all()
-    assert L.peak_torque[0] < L.peak_torque[1]
+    assert L.valid.all() and L.success.all()  # both drive the nail
+    assert L.peak_torque_projected[0] < L.peak_torque_projected[1]
+    assert L.peak_torque_induced[0] < L.peak_torque_induced[1]
     assert L.static_torque[0] < L.static_torque[1]
     analytic = itup.wrench_costs(tool, task, g, itup.CostParams(torque_projection="full"))
     assert float(analytic.tau[0]) < float(analytic.tau[1])  # the lever arms predict this order
