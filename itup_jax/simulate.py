@@ -538,7 +538,7 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
 
     fn.lower = lower
     fn.dtype = np.asarray(mx.body_mass).dtype
-    fn.batched = batched  # the function each jit traces (tests lower it to read its matmul precision)
+    fn.batched = batched  # what every platform's jit runs, wrapped (tests lower it to read its matmul precision)
     cached[float64] = fn
     return fn
 
