@@ -126,13 +126,18 @@ def plot(d: dict, thr: dict, sup: list[dict], path: str) -> None:
     ax[1].set_title("failure probability vs peak torque (logistic fits)")
     ax[1].legend(fontsize=7)
 
-    for r in sup:
-        if r["failure_reduction_pct"] is None or not np.isfinite(r["torque_reduction_pct"]):
-            continue
+    # colour: the task (as in the other panels); marker: the baseline. Many points share a failure
+    # reduction of 100 %, so a legend names them instead of labels that would overlap.
+    shown = [r for r in sup if r["failure_reduction_pct"] is not None and np.isfinite(r["torque_reduction_pct"])]
+    baselines = sorted({r["baseline"] for r in shown})
+    markers = dict(zip(baselines, "osD^vP*X"))
+    for r in shown:
         k = tasks.index(r["task"]) if r["task"] in tasks else 0
-        ax[2].scatter(r["torque_reduction_pct"], r["failure_reduction_pct"], color=f"C{k}", s=30)
-        ax[2].annotate(f"{r['task']} vs {r['baseline']}", (r["torque_reduction_pct"], r["failure_reduction_pct"]),
-                       fontsize=6, xytext=(3, 3), textcoords="offset points")
+        ax[2].scatter(r["torque_reduction_pct"], r["failure_reduction_pct"], color=f"C{k}",
+                      marker=markers.get(r["baseline"], "o"), s=30, alpha=0.8)
+    handles = [plt.Line2D([], [], ls="", marker="o", color=f"C{k}", label=t) for k, t in enumerate(tasks)]
+    handles += [plt.Line2D([], [], ls="", marker=markers[b], color="0.3", label=f"vs {b}") for b in baselines]
+    ax[2].legend(handles=handles, fontsize=7, loc="lower left")
     ax[2].axhline(0, color="0.5", lw=0.6)
     ax[2].axvline(0, color="0.5", lw=0.6)
     ax[2].set_xlabel("SDG-Net torque suppression vs baseline (%)")
