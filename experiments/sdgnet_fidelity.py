@@ -191,7 +191,9 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     fields (`task_pick_stats`) judge the pick by `tau` and by `total` (weighted by `weights`) on draw 0;
     with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws. With `verify` K >= 1,
     the same for the verified picks (`verified_picks`: SDG-Net's K best rolled out once more under
-    `verify_physics`): `regret_verified_projected`, `percentile_verified_projected`, `*_verified_total`."""
+    `verify_physics`): `regret_verified_projected`, `percentile_verified_projected` and `*_verified_tau` (the
+    pick by torque alone, and whether it did the task), `*_verified_total` and
+    `regret_verified_total_projected` (the pick by the total, against the best candidate whatever it did)."""
     with open(os.path.join(test_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
@@ -225,8 +227,12 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             row["verify_s"] = vp["verify_s"]
             for stat, v in pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
                 row[f"{stat}_verified_projected"] = v
+            for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
+                row[f"{stat}_verified_tau"] = v  # does the verified pick by torque alone do the task?
             for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_total"])).items():
                 row[f"{stat}_verified_total"] = v
+            # the verified pick by the total against the best candidate, whether or not that did the task
+            row["regret_verified_total_projected"] = pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_total"]))["regret"]
         for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
             if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
                 pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
@@ -311,10 +317,12 @@ def summarise(rows: list[dict]) -> dict:
                            "task_regret_retest", "success_retest",
                            "task_regret_tau", "task_regret_total", "success_auc", "regret_verified_projected",
                            "percentile_verified_projected", "success_verified_total", "task_regret_verified_total",
+                           "success_verified_tau", "task_regret_verified_tau", "regret_verified_total_projected",
                            "success_draws_verified_total", "failed_draws_verified_total", "torque_draws_verified_total",
                            "verify_s", "best_gap_projected", "within_goal_projected", "best_gap_mean",
                            "within_goal_mean") if any(k in r for r in tr)}
-            for k in ("task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total"):
+            for k in ("task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total",
+                      "regret_verified_total_projected"):
                 by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
         s["by_task"] = by_task
         out[subset] = s
@@ -343,7 +351,9 @@ def plot(rows: list[dict], path: str) -> None:
     ax[0].legend(fontsize=8)
     scorers = [("sdgnet", "C0", "sdgnet")]
     if any("regret_verified_projected" in r for r in held):
-        scorers.append(("verified", "C2", "sdgnet + verify"))
+        scorers.append(("verified", "C2", "sdgnet C_tau + verify"))
+    if any("regret_verified_total_projected" in r for r in held):
+        scorers.append(("verified_total", "C3", "sdgnet total + verify"))
     scorers += [("analytic", "C1", "analytic"), ("random", "C7", "random")]
     wd = 0.8 / len(scorers)
     for j, (scorer, c, label) in enumerate(scorers):
@@ -357,11 +367,14 @@ def plot(rows: list[dict], path: str) -> None:
     ax[1].set_ylim(0, 1e6)
     ax[1].legend(fontsize=8, loc="upper center", ncol=2)
     draws = any("success_draws_total" in r for r in held)
-    for j, (pick, c) in enumerate((("tau", "C7"), ("total", "C0"))):
-        key = f"success_draws_{pick}" if draws else f"success_{pick}"
+    picks = [("tau", "C7", "pick by predicted C_tau"), ("total", "C0", "pick by the scorer's total")]
+    if any("success_verified_tau" in r for r in held):  # judged on draw 0 only
+        picks.append(("verified_tau", "C2", "C_tau + verify (draw 0)"))
+    wp = 0.8 / len(picks)
+    for j, (pick, c, label) in enumerate(picks):
+        key = f"success_draws_{pick}" if draws and pick != "verified_tau" else f"success_{pick}"
         v = [100 * np.nanmean([r.get(key, np.nan) for r in held if r["task"] == t]) for t in tasks]
-        ax[2].bar(x + 0.38 * (j - 0.5), v, 0.38, color=c,
-                  label={"tau": "pick by predicted C_tau", "total": "pick by the scorer's total"}[pick])
+        ax[2].bar(x + wp * (j - (len(picks) - 1) / 2), v, wp, color=c, label=label)
     ax[2].set_xticks(x, tasks)
     ax[2].set_ylim(0, 130)
     ax[2].set_ylabel("pick achieves the task (% of rollouts)")
@@ -499,7 +512,9 @@ def main(argv=None) -> dict:
               f"{100 * h['regret_verified_projected']['median']:.0f}% (SDG-Net alone "
               f"{100 * h['regret_sdgnet_projected']['median']:.0f}%), mean {100 * h['regret_verified_projected']['mean']:.0f}%, "
               f"within the goal in {100 * np.mean([r['regret_verified_projected'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
-              f"of tools; by the total: task achieved {100 * h['success_verified_total']['mean']:.0f}% (draw 0), task regret median "
+              f"of tools, the task done by it in {100 * h['success_verified_tau']['mean']:.0f}% (draw 0); by the total: task achieved "
+              f"{100 * h['success_verified_total']['mean']:.0f}% (draw 0), top-1 regret median "
+              f"{100 * h['regret_verified_total_projected']['median']:.0f}%, task regret median "
               f"{100 * h['task_regret_verified_total']['median']:.0f}%"
               + (f"; over draws 0-{args.redraws}: success {100 * h['success_draws_verified_total']['mean']:.0f}%, "
                  f"fails in the grip {100 * h['failed_draws_verified_total']['mean']:.1f}%, torque "
@@ -507,8 +522,9 @@ def main(argv=None) -> dict:
                  if draws else ""))
         for t, v in h["by_task"].items():
             print(f"  {t:7s} regret verified {100 * v['regret_verified_projected_median']:.0f}% (median; mean "
-                  f"{100 * v['regret_verified_projected']:.0f}%) | task regret verified median "
-                  f"{100 * v['task_regret_verified_total_median']:.0f}% | success {100 * v['success_verified_total']:.0f}%")
+                  f"{100 * v['regret_verified_projected']:.0f}%), does the task {100 * v['success_verified_tau']:.0f}% | by the "
+                  f"total: regret median {100 * v['regret_verified_total_projected_median']:.0f}%, task regret median "
+                  f"{100 * v['task_regret_verified_total_median']:.0f}%, success {100 * v['success_verified_total']:.0f}%")
     return out
 
 

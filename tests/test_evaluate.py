@@ -218,6 +218,11 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     # --verify 2: the verified picks are judged on draw 0 like SDG-Net's own
     assert doc["verify"] == 2 and all(r["regret_verified_projected"] >= 0 and r["verify_s"] > 0 for r in rows)
     assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
+    # both verified picks are judged against the task and against the best candidate
+    assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_projected"] >= 0 for r in rows)
+    for r in rows:  # a task regret exactly where the pick did the task
+        t = r["task_regret_verified_tau"]
+        assert (t is not None and np.isfinite(t) and t >= 0) if r["success_verified_tau"] else (t is None or np.isnan(t))
     # the redraws were kept: a second run on the same test set reads them instead of simulating again
     assert (tmp_path / "redraws.npz").exists()
     fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))
