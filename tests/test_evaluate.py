@@ -220,6 +220,8 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
     # both verified picks are judged against the task and against the best candidate
     assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_projected"] >= 0 for r in rows)
+    # the regret in the total's own measured terms: zero exactly when the pick has the lowest measured total
+    assert all(r["total_regret_total"] >= 0 and r["total_regret_verified_total"] >= 0 for r in rows)
     for r in rows:  # a task regret exactly where the pick did the task
         t = r["task_regret_verified_tau"]
         assert (t is not None and np.isfinite(t) and t >= 0) if r["success_verified_tau"] else (t is None or np.isnan(t))
