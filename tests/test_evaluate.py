@@ -220,8 +220,21 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
     # both verified picks are judged against the task and against the best candidate
     assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_projected"] >= 0 for r in rows)
-    # the regret in the total's own measured terms: zero exactly when the pick has the lowest measured total
-    assert all(r["total_regret_total"] >= 0 and r["total_regret_verified_total"] >= 0 for r in rows)
+    # the regret in the total's own measured terms: (1 + regret) x the shard's lowest measured total (the
+    # ScoreWeights formula on its labels) is the measured total of one of its candidates, the pick's
+    from itup_jax.dataset import load_shard
+
+    w = doc["weights"]
+    manifest = json.loads((tmp_path / "test" / "manifest.json").read_text())
+    for r in rows:
+        entry = next(e for e in manifest["shards"] if (e["task"], e["variant"]) == (r["task"], r["variant"]))
+        a = load_shard(str(tmp_path / "test"), entry)
+        ok = a["label_valid"].astype(bool)
+        m = (w["w_tau"] * a["label_peak_torque_projected"] + w["w_slip"] * a["label_slip_translation"]
+             + w["w_align"] * a["label_alignment_drift"] + w["w_task"] * (1 - a["label_success"])
+             + w["w_fail"] * a["label_failed"])[ok]
+        for key in ("total_regret_total", "total_regret_verified_total"):
+            assert r[key] >= 0 and np.isclose((1 + r[key]) * m.min(), m, rtol=1e-9).any(), key
     for r in rows:  # a task regret exactly where the pick did the task
         t = r["task_regret_verified_tau"]
         assert (t is not None and np.isfinite(t) and t >= 0) if r["success_verified_tau"] else (t is None or np.isnan(t))
