@@ -228,6 +228,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             for stat, v in task_pick_stats(y_ok, s_ok, sc).items():
                 row[f"{stat}_{name}"] = v
         row["total_regret_total"] = pick_stats(m_ok, total_all[ok])["regret"]
+        row["rho_total_measured"] = spearman(total_all[ok], m_ok)  # the planner's objective, predicted vs measured
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
         vp = (verified_picks(config, entry, a, ok, pred_all[ok], total_all[ok], verify, verify_physics,
@@ -328,7 +329,7 @@ def summarise(rows: list[dict]) -> dict:
                            "task_regret_tau", "task_regret_total", "success_auc", "regret_verified_projected",
                            "percentile_verified_projected", "success_verified_total", "task_regret_verified_total",
                            "success_verified_tau", "task_regret_verified_tau", "regret_verified_total_projected",
-                           "total_regret_total", "total_regret_verified_total",
+                           "total_regret_total", "total_regret_verified_total", "rho_total_measured",
                            "success_draws_verified_total", "failed_draws_verified_total", "torque_draws_verified_total",
                            "verify_s", "best_gap_projected", "within_goal_projected", "best_gap_mean",
                            "within_goal_mean") if any(k in r for r in tr)}
@@ -484,7 +485,8 @@ def main(argv=None) -> dict:
           f"{100 * h['success_draws_total' if draws else 'success_total']['mean']:.0f}% of tools (candidates "
           f"{100 * h['success_rate_candidates']['mean']:.0f}%); task regret (vs the best candidate that did it, draw 0, "
           f"picks that did it) by the total median {100 * h['task_regret_total']['median']:.0f}%; regret of the measured "
-          f"total (torque, slip, drift, task and grip penalties) by the total median "
+          f"total (torque, slip, drift, task and grip penalties; Spearman of the predicted total with it, median "
+          f"{h['rho_total_measured']['median']:.2f}) by the total median "
           f"{100 * h['total_regret_total']['median']:.0f}%, within 5% in "
           f"{100 * np.mean([r['total_regret_total'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% of tools"
           + (f"; success head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['success_auc_held_out'].items())}"
@@ -498,7 +500,7 @@ def main(argv=None) -> dict:
         print(f"  {t:7s} pick success tau {100 * v['success_draws_tau' if draws else 'success_tau']:.0f}% total "
               f"{100 * v['success_draws_total' if draws else 'success_total']:.0f}% | task regret total median "
               f"{100 * v['task_regret_total_median']:.0f}% (tau mean {100 * v['task_regret_tau']:.0f}%) | measured-total "
-              f"regret median {100 * v['total_regret_total_median']:.0f}%")
+              f"regret median {100 * v['total_regret_total_median']:.0f}% (rho of the total {v['rho_total_measured']:+.2f})")
     if args.redraws:
         print(f"with {args.redraws} more physics draws per grasp: retest rho (draw 0 vs draw 1) median "
               f"{h['retest_rho']['median']:.2f} (a perfect prior-blind scorer's rho against one draw: ~sqrt of it, "

@@ -233,6 +233,7 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
         m = (w["w_tau"] * a["label_peak_torque_projected"] + w["w_slip"] * a["label_slip_translation"]
              + w["w_align"] * a["label_alignment_drift"] + w["w_task"] * (1 - a["label_success"])
              + w["w_fail"] * a["label_failed"])[ok]
+        assert r["rho_total_measured"] is None or -1 <= r["rho_total_measured"] <= 1
         for key in ("total_regret_total", "total_regret_verified_total"):
             assert r[key] >= 0 and np.isclose((1 + r[key]) * m.min(), m, rtol=1e-9).any(), key
     for r in rows:  # a task regret exactly where the pick did the task
