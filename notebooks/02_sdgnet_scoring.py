@@ -153,11 +153,14 @@ assert np.all((p_k >= 0) & (p_k <= 1)) and p_k[i_total] >= p_k[i_tau]
 
 # %% [markdown]
 # ## Checking the shortlist in MuJoCo
-# SDG-Net ranks an unseen tool's grasps well, but its single pick often misses the lowest-torque grasp,
-# which tends to be a lone one well below the rest and almost always among the network's first five.
+# SDG-Net ranks an unseen tool's grasps well, but its single pick is often not the best one: the best
+# candidate tends to be a lone one well below the rest. (The lowest-torque grasp itself usually fails the
+# task, on the knock and the reach almost always, which is why the total carries the task and grip terms.)
 # `best_grasp_verified` skips the grasps the arm cannot reach, rolls the k best reachable ones out once
 # under the priors' nominal physics and keeps the lowest *measured* total (the same `ScoreWeights`, on
-# measured torque, slip, drift, task success and grip failure). Five rollouts cost ~0.1-0.3 s here.
+# measured torque, slip, drift, task success and grip failure). Five rollouts cost ~0.1-0.3 s here. On
+# the unseen test tools the verified pick's measured total is a median 0 % above the best candidate's,
+# against 16 % for the scorer's pick alone (README, "Results").
 
 # %%
 v = itup.best_grasp_verified(other, task_o, g_o, k=5, scores=s_o)
