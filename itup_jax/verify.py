@@ -3,11 +3,14 @@
     v = itup.best_grasp_verified(tool, task, grasps, k=5)   # SDG-Net, then 5 nominal rollouts
     v.index, v.grasp, v.labels.peak_torque_projected, v.chosen_by
 
-SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick often misses
-the lowest-torque grasp, which is frequently a lone grasp well below the rest; the lowest one is almost
-always among its first few (docs/results_history.md, "Session 12: verified picks"). Rolling the k best
-reachable ones out once each (k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and
-taking the lowest *measured* total finds it. The measured total is the SDG-Net total (`ScoreWeights`)
+SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick is often not
+the best, which is frequently a lone grasp well below the rest and usually among its first few
+(docs/results_history.md, "Session 12: verified picks"). Rolling the k best reachable ones out once each
+(k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and taking the lowest *measured*
+total finds it: on the unseen test tools the pick's measured total is a median 0 % above the lowest
+among all candidates (16 % for the scorer's own pick; session 21, README "Results"). With a torque-only
+`weights` the pick is the lowest measured torque, which on most tools is a grasp that fails the task.
+The measured total is the SDG-Net total (`ScoreWeights`)
 with each prediction replaced by what the rollout measured: projected peak torque (N m), slip (m),
 alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed in the grip
 (1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
