@@ -71,6 +71,25 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
     assert max(moved.values()) < _AT_REST[kind], moved
 
 
+@pytest.mark.xfail(strict=True, reason="known, not fixed (session 21): the nail's stop and wood friction are soft "
+                   "constraints on a 3 g body, and the follow-through pushes it 26-29 mm past its 9 mm of travel "
+                   "(docs/results_history.md, session 21). Strict: this test starts passing when the nail is fixed.")
+def test_a_strike_leaves_the_nail_within_its_travel(scenes, tasks):
+    """The joint's range stops the nail head 1 mm above the board; a struck nail goes no further (1 mm of
+    give). Two grasps of the built-in hammer that strike (rows 12 and 36 of 64, seed 0; nominal physics)."""
+    from itup_jax.grasp import Grasps
+
+    tool, task = tasks["hammer"]
+    scene = scenes["hammer"]
+    g = itup.sample_grasps(tool, 64, seed=0)
+    rows = [12, 36]
+    g = Grasps(np.asarray(g.p_tool_grasp)[rows], np.asarray(g.q_tool_grasp)[rows], np.asarray(g.width)[rows])
+    labels = itup.simulate(tool, task, g, scene=scene, backend="native", randomize=None).labels
+    travel = -float(scene.model.joint("nail_depth").range[0])
+    assert labels.valid.all() and labels.success.all()  # both strike and drive the nail
+    assert (labels.task_metric <= travel + 0.001).all(), (labels.task_metric, travel)
+
+
 def test_restitution_maps_to_a_damping_ratio_and_the_contact_duration():
     for e, dur in ((0.4, 0.02), (0.7, 0.05), (0.2, 0.01)):
         tc, zeta = restitution_solref(e, dur)
