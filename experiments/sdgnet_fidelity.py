@@ -23,8 +23,15 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
     task regret = the pick's torque / the lowest torque among the candidates that achieved the task
     - 1 (NaN where the pick itself failed, so read it beside the pick's success rate); and the AUC of
     the predicted success probability, pooled per task over the held-out tools;
+  * the planner's objective: the measured total (`verify.measured_total` of the labels: torque, slip,
+    drift, and the task and grip penalties with the scorer's weights), its Spearman rho with the
+    predicted total, and the pick by the total's regret on it (`total_regret_*`). The lowest-torque
+    candidate usually fails the task (never does on the knock and the reach), so the torque regret
+    above is measured against a grasp no planner should pick;
   * how hard the regret goal is on the tool (`best_gap_stats`): the second-best candidate's torque over
     the best's - 1, and how many candidates lie within the goal (5 %) of the best.
+With `--verify K`, both verified picks (by C_tau alone, and by the total as `itup plan --verify K`
+picks) are judged in the same terms, and the one by C_tau also against the task.
 Also the wall time of training (`--train-model` retrains on --train and times it; otherwise the
 model given by --model, default the shipped checkpoint). Writes fidelity.json and fidelity.png.
 The redraws (`--redraws K`) are deterministic (seeded by the shard); they are kept in --out as
