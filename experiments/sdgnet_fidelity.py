@@ -26,7 +26,7 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
   * the planner's objective: the measured total (`verify.measured_total` of the labels: torque, slip,
     drift, and the task and grip penalties with the scorer's weights), its Spearman rho with the
     predicted total, and the pick by the total's regret on it (`total_regret_*`). The lowest-torque
-    candidate usually fails the task (never does on the knock and the reach), so the torque regret
+    candidate usually fails the task (on the knock and the reach almost always), so the torque regret
     above is measured against a grasp no planner should pick;
   * how hard the regret goal is on the tool (`best_gap_stats`): the second-best candidate's torque over
     the best's - 1, and how many candidates lie within the goal (5 %) of the best.
