@@ -19,10 +19,12 @@ the firm-grasp tolerances on a few grasps; this is the same comparison over a wh
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
 
-With `--traces K`, the first K grasps valid in both are simulated again, as a batch of K with per-step
-traces. `simulate` draws the physics by position in the batch, so these K rollouts have physics drawn for
-them (the same seed), not the draws they had in the comparison above. Each traced row records both backends' peak wrist torque during the motion, its time, and the time from which the two
-torque traces differ by more than 5 % of the native peak: where in the motion the labels part.
+With `--traces K`, the whole batch is simulated again with per-step traces and the same seed, so the
+traced rollouts are the compared ones (the same physics draws; MJX reuses its compiled program), and
+the first K grasps valid in both are reported (`row`: the grasp's index). Each traced row records both
+backends' peak wrist torque during the motion, its time, and the time from which the two torque traces
+differ by more than 5 % of the native peak: where in the motion the labels part. (Before session 21 the
+K grasps were simulated as a batch of their own, with their own physics draws and a second MJX compile.)
 
 Timing, per task: the native path on all of this machine's cores (end to end: IK plan, stepping, labels)
 and MJX's first call (compile included) and a second, warm call on the same inputs (`--once`: the first
@@ -95,25 +97,28 @@ def per_row(native, mjx) -> dict:
     return out
 
 
-def trace_rows(tool, task, scene, grasps, seed: int, nthread: int, mjx_float64: bool = True) -> list[dict]:
-    """Per grasp (all valid in both backends): when and how high each backend's wrist torque peaks during the
-    motion, and when their two torque traces first part by more than 5 % of the native peak."""
+def trace_rows(tool, task, scene, grasps, rows, seed: int, nthread: int, mjx_float64: bool = True) -> list[dict]:
+    """Per row of `rows` (indices into `grasps`, all valid in both backends): when and how high each
+    backend's wrist torque peaks during the motion, and when their two torque traces first part by more
+    than 5 % of the native peak. The whole batch is simulated again with traces, with the comparison's
+    seed, so each traced rollout is the compared one (same physics draw) and MJX reuses its compiled
+    program (same batch shape)."""
     import itup_jax as itup
 
     nat = itup.simulate(tool, task, grasps, scene=scene, backend="native", seed=seed, nthread=nthread, traces=True)
     mjx = itup.simulate(tool, task, grasps, scene=scene, backend="mjx", seed=seed, traces=True, mjx_float64=mjx_float64)
     t = nat.traces["t"]
     motion = t >= 0  # the settle phase runs at t < 0
-    rows = []
-    for i in range(len(grasps)):
+    out = []
+    for i in (int(r) for r in rows):
         a = np.linalg.norm(nat.traces["gripper/wrist_torque"][i], axis=-1)
         b = np.linalg.norm(mjx.traces["gripper/wrist_torque"][i], axis=-1)
         ia, ib = (int(np.argmax(np.where(motion, x, -np.inf))) for x in (a, b))
         apart = motion & (np.abs(a - b) > 0.05 * a[ia])
-        rows.append({"native_peak_nm": float(a[ia]), "native_peak_t_s": float(t[ia]), "mjx_peak_nm": float(b[ib]),
-                     "mjx_peak_t_s": float(t[ib]), "apart_from_t_s": float(t[np.argmax(apart)]) if apart.any() else None,
-                     "native_label_nm": float(nat.labels.peak_torque[i]), "mjx_label_nm": float(mjx.labels.peak_torque[i])})
-    return rows
+        out.append({"row": i, "native_peak_nm": float(a[ia]), "native_peak_t_s": float(t[ia]), "mjx_peak_nm": float(b[ib]),
+                    "mjx_peak_t_s": float(t[ib]), "apart_from_t_s": float(t[np.argmax(apart)]) if apart.any() else None,
+                    "native_label_nm": float(nat.labels.peak_torque[i]), "mjx_label_nm": float(mjx.labels.peak_torque[i])})
+    return out
 
 
 def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int, repeat: bool = True,
@@ -156,10 +161,10 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
     row.update(compare(nat.labels, mjx.labels))
     row["native_control"] = compare(nat.labels, control.labels)
     row["per_row"] = per_row(nat.labels, mjx.labels)
-    if traces:  # the first `traces` grasps valid in both, simulated again as a batch (own physics draws)
+    if traces:  # the first `traces` grasps valid in both: the compared rollouts, simulated again with traces
         both = np.nonzero(np.asarray(nat.labels.valid) & np.asarray(mjx.labels.valid))[0][:traces]
         if len(both):
-            row["traces"] = trace_rows(tool, task, scene, grasps[both], seed, nthread, mjx_float64)
+            row["traces"] = trace_rows(tool, task, scene, grasps, both, seed, nthread, mjx_float64)
     if repeat:
         rep = compare(first.labels, mjx.labels)
         a, b = np.asarray(first.labels.peak_torque), np.asarray(mjx.labels.peak_torque)

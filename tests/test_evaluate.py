@@ -302,12 +302,16 @@ def test_mjx_vs_native_quick(tmp_path, monkeypatch):
     assert ctl["valid_both"] == row["valid_both"] and ctl["torque_rel_median"] < 1e-3
     # the traced rows' peaks are the labels' peak torques of the same grasps (label and trace agree)
     assert 1 <= len(row["traces"]) <= 2
+    per = row["per_row"]
     for tr in row["traces"]:
         assert tr["native_peak_nm"] == pytest.approx(tr["native_label_nm"], rel=1e-9)
         assert tr["mjx_peak_nm"] == pytest.approx(tr["mjx_label_nm"], rel=1e-9)
+        # the traced rollouts are the compared ones: the same physics draws, so the same labels
+        assert tr["native_label_nm"] == pytest.approx(per["peak_torque"]["native"][tr["row"]], rel=1e-12)
+        assert tr["mjx_label_nm"] == pytest.approx(per["peak_torque"]["mjx"][tr["row"]], rel=1e-12)
     assert doc["precision"] == "float64"  # the tests run in x64
     assert doc["mjx_capsule_box"] == "itup_jax.mjx_collision"
-    per = row["per_row"]  # row by row, the same rows the summary counts
+    # row by row, the same rows the summary counts
     nv, mv = np.array(per["valid"]["native"]), np.array(per["valid"]["mjx"])
     assert len(nv) == len(per["peak_torque"]["mjx"]) == 3 and int((nv & mv).sum()) == row["valid_both"]
     assert all(t is not None for t, v in zip(per["peak_torque"]["native"], nv) if v)
