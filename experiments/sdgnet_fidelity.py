@@ -246,11 +246,12 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_verified_projected"] = v
             for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
                 row[f"{stat}_verified_tau"] = v  # does the verified pick by torque alone do the task?
-            for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_total"])).items():
+            pick_total = _one_hot(len(y_ok), vp["pick_total"])
+            for stat, v in task_pick_stats(y_ok, s_ok, pick_total).items():
                 row[f"{stat}_verified_total"] = v
             # the verified pick by the total against the best candidate, whether or not that did the task
-            row["regret_verified_total_projected"] = pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_total"]))["regret"]
-            row["total_regret_verified_total"] = pick_stats(m_ok, _one_hot(len(y_ok), vp["pick_total"]))["regret"]
+            row["regret_verified_total_projected"] = pick_stats(y_ok, pick_total)["regret"]
+            row["total_regret_verified_total"] = pick_stats(m_ok, pick_total)["regret"]
         for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
             if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
                 pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
