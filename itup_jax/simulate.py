@@ -45,7 +45,7 @@ from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.mjx_cholesky import jax_cholesky
 from itup_jax.mjx_collision import native_capsule_box
 from itup_jax.precision import full_precision
-from itup_jax.scene import Scene, build_scene, restitution_solref
+from itup_jax.scene import Scene, build_scene, target_solref
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 
@@ -301,7 +301,7 @@ def _set_physics(m: mujoco.MjModel, scene: Scene, physics: Physics, i: int) -> m
     m.body_inertia[b] = scene.model.body_inertia[b] * physics.mass_scale[i]
     for p in scene.pad_tool_pairs:
         m.pair_friction[p, :2] = physics.mu[i]
-    solref = restitution_solref(physics.restitution[i], physics.contact_duration[i], scene.model.opt.timestep)
+    solref = target_solref(scene.kind, physics.restitution[i], physics.contact_duration[i], scene.model.opt.timestep)
     for p in scene.tool_target_pairs:
         m.pair_solref[p] = solref
     return m
@@ -408,7 +408,7 @@ def mjx_model_fields(scene: Scene, physics: Physics) -> tuple[np.ndarray, ...]:
     friction[:, pad, 1] = physics.mu[:, None]
     solref = np.tile(m.pair_solref, (n, 1, 1))
     for i in range(n):
-        solref[i, tt] = restitution_solref(physics.restitution[i], physics.contact_duration[i], m.opt.timestep)
+        solref[i, tt] = target_solref(scene.kind, physics.restitution[i], physics.contact_duration[i], m.opt.timestep)
     return mass, inertia, friction, solref
 
 
