@@ -110,6 +110,7 @@ class HammerParams:
     # the nail's 9 mm travel; a deeper reference makes the position servos press the stopped nail (0.05 rad
     # until session 21: median raw peak 2.9 N m, 11 of 27 reachable grasps lost their grip)
     follow_through: float = 0.015
+    t_hold: float = 0.2  # s held at the end of the follow-through, so that the rollout sees the blow land
     rest_angle: float = 0.15  # rad short of the impact pose at the start (the face clear of the nail)
     pivot_offset: float = 0.10  # m, pivot behind the handle butt along the handle
     target: tuple = (0.55, 0.0, 0.05)  # m, nail head (world)
@@ -225,7 +226,7 @@ def _validate_params(kind: str, params: Any) -> None:
             a = np.asarray(value, dtype=float)
             if a.ndim != 1 or a.size == 0 or np.any(~np.isfinite(a)) or np.any(a <= 0):
                 raise InputError(f"{what}: expected positive distances (m), got {value!r}")
-        elif f.name == "tilt":
+        elif f.name in ("tilt", "t_hold"):
             if not math.isfinite(value) or value < 0:
                 raise InputError(f"{what}: must be finite and >= 0, got {value!r}")
         elif f.name == "target_mass":
@@ -247,6 +248,9 @@ def _time_grid(steps: int, durations: list[float]) -> tuple[np.ndarray, list[flo
     knots[-1] = total
     for i in range(1, len(knots)):  # keep knots strictly increasing after snapping
         knots[i] = max(knots[i], knots[i - 1] + dt)
+    if knots[-1] > total + 1e-9 * max(total, 1.0):
+        raise InputError(f"the task's phases ({', '.join(f'{d:.3g}' for d in durations)} s) do not fit {steps} "
+                         f"samples: a phase shorter than one sample ({dt:.3g} s) falls off the end; use more steps")
     return t, knots
 
 
@@ -265,13 +269,15 @@ def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray,
     # A quintic from rest to rate w over angle A peaks above w unless it lasts >= ~1.8 A / w; with
     # 2 A / w the rate rises monotonically to w (and falls monotonically to rest after the impact).
     t_swing, t_follow = 2.0 * prm.wind_up / omega_impact, 2.0 * prm.follow_through / omega_impact
-    t, (k0, k1, k2, k3) = _time_grid(prm.steps, [prm.t_wind, t_swing, t_follow])
+    t_hold = getattr(prm, "t_hold", 0.0)  # the knock's follow-through is long enough without one
+    t, knots = _time_grid(prm.steps, [prm.t_wind, t_swing, t_follow] + ([t_hold] if t_hold > 0 else []))
+    k0, k1, k2, k3 = knots[:4]
     theta = Profile.through([
         (k0, -prm.rest_angle, 0.0, 0.0),
         (k1, -prm.wind_up, 0.0, 0.0),
         (k2, 0.0, omega_impact, 0.0),
         (k3, prm.follow_through, 0.0, 0.0),
-    ])
+    ] + [(k, prm.follow_through, 0.0, 0.0) for k in knots[4:]])
 
     def pose(tt):
         R_swing = _rot(axis, theta(tt))

@@ -8,7 +8,8 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.scene import CONTACT_MIN_TIMECONST, TARGET_BODIES, TASK_TIMESTEP, build_scene, restitution_solref
+from itup_jax.scene import (CONTACT_MIN_TIMECONST, PLASTIC_TARGETS, TARGET_BODIES, TASK_TIMESTEP, build_scene,
+                            restitution_solref, scene_xml, target_solref)
 from itup_jax.simulate import NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, plan, sample_physics
 
 
@@ -52,7 +53,7 @@ def test_trajectory_runs_without_nan_or_mujoco_warnings(scenes, tasks, kind):
 
 
 #: How far a task's objects may move, left alone for 2 s: a tenth of what the task's success counts
-#: (the nail driven 1 mm, the top block moved 3 cm, debris 10 cm past a line, the block pulled half of
+#: (the nail driven 0.1 mm, the top block moved 3 cm, debris 10 cm past a line, the block pulled half of
 #: about 10 cm).
 _AT_REST = {"hammer": 0.1 * NAIL_DEPTH_SUCCESS, "knock": 0.1 * TOPPLE_SUCCESS, "sweep": 0.01, "reach": 0.005}
 
@@ -71,19 +72,82 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
     assert max(moved.values()) < _AT_REST[kind], moved
 
 
-@pytest.mark.xfail(strict=True, reason="known, not fixed (session 21): the nail's stop and wood friction are soft "
-                   "constraints on a 3 g body, and the follow-through pushes it 26-29 mm past its 9 mm of travel "
-                   "(docs/results_history.md, session 21). Strict: this test starts passing when the nail is fixed.")
-def test_a_strike_leaves_the_nail_within_its_travel(scenes, tasks):
-    """The joint's range stops the nail head 1 mm above the board; a struck nail goes no further (1 mm of
-    give). Two grasps of the built-in hammer that strike (rows 12 and 36 of 64, seed 0; nominal physics)."""
+def test_strikes_leave_the_nail_within_its_travel(scenes, tasks):
+    """The joint's range stops the nail head 1 mm above the board; no strike drives it further. Every
+    reachable grasp of 64 of the built-in hammer (seed 0, nominal physics); until session 22 the nail's
+    soft stop let the follow-through push it 20-50 mm."""
     tool, task = tasks["hammer"]
     scene = scenes["hammer"]
-    g = itup.sample_grasps(tool, 64, seed=0)[np.array([12, 36])]
-    labels = itup.simulate(tool, task, g, scene=scene, backend="native", randomize=None).labels
+    labels = itup.simulate(tool, task, itup.sample_grasps(tool, 64, seed=0), scene=scene, backend="native",
+                           randomize=None).labels
     travel = -float(scene.model.joint("nail_depth").range[0])
-    assert labels.valid.all() and labels.success.all()  # both strike and drive the nail
-    assert (labels.task_metric <= travel + 0.001).all(), (labels.task_metric, travel)
+    assert travel == pytest.approx(0.009)
+    ok = labels.valid
+    assert ok.sum() >= 20 and labels.success[ok].sum() >= 3  # some strikes drive the nail
+    assert (labels.task_metric[ok] <= travel + 2e-4).all(), (labels.task_metric[ok].max(), travel)
+
+
+def _nail_and_block(block_mass: float) -> mujoco.MjModel:
+    """The hammer scene's nail (as the XML gives it, 20 mm of travel) under a free 20 mm block whose
+    face is 0.1 mm above the nail head, touching it as a tool would, at the hammer's step."""
+    spec = mujoco.MjSpec.from_file(str(scene_xml("hammer")))
+    head_top = spec.body("nail").pos[2]
+    body = spec.worldbody.add_body(name="block", pos=[spec.body("nail").pos[0], 0.0, head_top + 0.0101])
+    body.add_freejoint(name="block")
+    body.add_geom(name="block", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.01] * 3, mass=block_mass,
+                  contype=0, conaffinity=0)
+    spec.add_pair(geomname1="block", geomname2="nail_head", condim=3, solref=list(target_solref("hammer", 0.4, 2e-3)))
+    spec.option.timestep = TASK_TIMESTEP["hammer"]
+    return spec.compile()
+
+
+def test_a_struck_nail_is_driven_by_the_work_energy_law():
+    """A block of mass M hitting the nail (mass m, gripped with F by the wood) at v shares its momentum
+    (plastic contact) and the pair is stopped by F against the block's weight:
+    depth = (M v)^2 / (2 (M + m)) / (F - M g). Strong blows land within 10 %; none beyond the bound."""
+    for M, v in ((0.5, 0.8), (1.0, 0.8), (0.5, 1.2), (0.2, 0.8), (0.5, 0.5)):
+        m = _nail_and_block(M)
+        d = mujoco.MjData(m)
+        d.qvel[m.jnt_dofadr[m.joint("block").id] + 2] = -v  # falling at v, touching the head in 0.1 mm
+        for _ in range(int(0.5 / m.opt.timestep)):
+            mujoco.mj_step(m, d)
+        nail = m.joint("nail_depth")
+        grip, m_nail = float(m.dof_frictionloss[nail.dofadr[0]]), float(m.body("nail").mass[0])
+        bound = (M * v) ** 2 / (2 * (M + m_nail)) / (grip - M * 9.81)
+        depth = -float(d.qpos[nail.qposadr[0]])
+        assert depth <= 1.05 * bound, (M, v, depth, bound)
+        if bound >= 0.004:
+            assert depth == pytest.approx(bound, rel=0.10), (M, v)
+        assert d.qvel[m.jnt_dofadr[m.joint("block").id] + 2] == pytest.approx(0.0, abs=1e-3)  # at rest on it
+
+
+def test_the_nail_holds_below_its_grip_and_stops_at_its_limit():
+    m = _nail_and_block(0.5)
+    nail = m.joint("nail_depth")
+    grip = float(m.dof_frictionloss[nail.dofadr[0]])
+    assert grip == 40.0
+    for push, duration, most in ((0.5 * grip, 0.1, 5e-5), (5 * grip, 0.5, -float(nail.range[0]) + 2e-4)):
+        d = mujoco.MjData(m)
+        d.qpos[m.jnt_qposadr[m.joint("block").id] + 2] += 0.5  # the block out of the way
+        for _ in range(int(duration / m.opt.timestep)):
+            d.qfrc_applied[nail.dofadr[0]] = -push
+            mujoco.mj_step(m, d)
+        depth = -float(d.qpos[nail.qposadr[0]])
+        assert depth < most, (push, depth)
+        if push > grip:
+            assert depth > -float(nail.range[0]) - 1e-4  # it did go, to the stop
+
+
+def test_the_hammers_contact_with_the_nail_is_plastic(tasks):
+    """The nail gives way: its pairs are critically damped whatever the tool's restitution; the other
+    kinds' targets bounce with the restitution (`restitution_solref`)."""
+    assert PLASTIC_TARGETS == {"hammer"}
+    for kind in itup.TASK_KINDS:
+        tc, zeta = target_solref(kind, 0.4, 2e-3)
+        assert tc == restitution_solref(0.4, 2e-3)[0]
+        assert zeta == (1.0 if kind == "hammer" else restitution_solref(0.4, 2e-3)[1])
+    scene = build_scene(*tasks["hammer"])
+    assert (scene.model.pair_solref[scene.tool_target_pairs, 1] == 1.0).all()
 
 
 def test_restitution_maps_to_a_damping_ratio_and_the_contact_duration():

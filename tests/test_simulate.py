@@ -112,10 +112,10 @@ def test_grasp_near_the_head_feels_less_torque_than_at_the_handle_end(hammer):
     the static holding torque (m g times its lever arm).
 
     Measured here with the closure axis along the face normal. Far less than the lever arms predict
-    (2.10 against 2.33 N m, where the rigid-body cost grows 3.3x): the grip is compliant. The raw peak,
-    the sum of the static and the strike's torque vectors, follows no order: they partly cancel at the
-    strike (1.71-1.90 N m over seven grasps along the handle, session 20). Before session 20 the nail
-    crept, the strike came late in the follow-through, and the raw peak happened to grow too.
+    (4.35 against 5.44 N m, where the rigid-body cost grows 3.3x; the projected peak rises from the head
+    to mid-handle, then stays): the grip is compliant and the arm's servos, not the nail, stop the
+    hammer. The raw peak, the sum of the static and the strike's torque vectors, follows no order
+    (4.07-4.99 N m over seven grasps along the handle, session 22).
     """
     tool, task, scene = hammer
     g = make_grasps([[0.0, 0.0, 0.22], [0.0, 0.0, 0.06]], np.stack([R_FROM_SIDE] * 2), [0.029] * 2)

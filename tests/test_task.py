@@ -51,6 +51,34 @@ def test_hammer_winds_up_before_it_swings(tasks):
     assert z[:i].max() > z[i] + 0.2  # the head rises well above the nail first
 
 
+def test_hammer_holds_still_after_its_follow_through(tools):
+    """The hammer ends with `t_hold` s at its follow-through pose (the rollout sees the blow land even
+    when the arm lags its reference); `t_hold=0` ends on the follow-through."""
+    tool = tools["hammer"]
+    prm = itup.task.HammerParams()
+    assert prm.t_hold == 0.2
+    task = itup.make_task("hammer", tool)
+    t = np.asarray(task.traj.t)
+    i = int(np.argmax(np.asarray(task.impact[:, 0])))
+    c = np.asarray(task.traj.point_position(task.c_tool[0]))
+    held = t >= t[-1] - prm.t_hold + 1e-9
+    assert held.sum() >= 5 and not held[: i + 1].any()
+    np.testing.assert_allclose(c[held], np.broadcast_to(c[-1], c[held].shape), atol=1e-12)
+    np.testing.assert_allclose(np.asarray(task.traj.point_velocity(task.c_tool[0]))[held], 0.0, atol=1e-12)
+    # the last pose is the follow-through's: the contact point past the impact pose, along the swing
+    assert c[-1, 2] < c[i, 2] - 0.004
+    bare = itup.make_task("hammer", tool, t_hold=0.0, follow_through=0.05)
+    longer = itup.make_task("hammer", tool, follow_through=0.05)
+    assert np.asarray(longer.traj.t)[-1] == pytest.approx(np.asarray(bare.traj.t)[-1] + prm.t_hold)
+    np.testing.assert_allclose(np.asarray(bare.traj.point_position(bare.c_tool[0]))[-1],
+                               np.asarray(longer.traj.point_position(longer.c_tool[0]))[-1], atol=1e-9)
+    # without the hold, the 15 ms follow-through is shorter than one of 64 samples: refused, not cut off
+    with pytest.raises(itup.InputError, match="falls off the end"):
+        itup.make_task("hammer", tool, t_hold=0.0)
+    with pytest.raises(itup.InputError, match="t_hold"):
+        itup.make_task("hammer", tool, t_hold=-0.1)
+
+
 def test_sweep_has_several_contacts_at_once(tasks):
     _, task = tasks["sweep"]
     acting = (np.maximum(np.asarray(task.impact), np.asarray(task.drag)) > 0).sum(axis=1)
