@@ -78,7 +78,8 @@ CATEGORY_PRIORS = MappingProxyType(
             restitution=Quantity(
                 0.4, "-",
                 "assumed: steel on steel bounces at 0.6-0.9 between free bodies, but a nail backed "
-                "by wood dissipates much of the energy; to be calibrated against MuJoCo",
+                "by wood dissipates much of the energy. The analytic impulse and the features use it; the "
+                "simulated nail takes the blow plastically (scene.PLASTIC_TARGETS)",
             ),
             mu=Quantity(0.7, "-", _PAD_FRICTION_SOURCE.format("a varnished wood handle")),
             contact_duration=Quantity(

@@ -107,10 +107,12 @@ class HammerParams:
     wind_up: float = 0.9  # rad, swing angle raised before the strike
     t_wind: float = 0.8  # s (a rest-to-rest quintic peaks at 1.875 x its mean rate)
     # rad past the impact pose: the reference ends ~6 mm past the nail head's top (lever ~0.4 m), inside
-    # the nail's 9 mm travel; a deeper reference makes the position servos press the stopped nail (0.05 rad
-    # until session 21: median raw peak 2.9 N m, 11 of 27 reachable grasps lost their grip)
+    # the nail's 9 mm travel; a deeper reference makes the position servos press the stopped nail (0.05 rad,
+    # the default until session 21, on a nail that holds: 11 of 27 reachable grasps of the built-in hammer
+    # lost their grip, session 22)
     follow_through: float = 0.015
-    t_hold: float = 0.2  # s held at the end of the follow-through, so that the rollout sees the blow land
+    t_hold: float = 0.2  # s held after the follow-through: the arm lags its reference by ~30 ms, and without
+    # a hold the 0.015 rad follow-through would land the blow in the rollout's last 2 ms
     rest_angle: float = 0.15  # rad short of the impact pose at the start (the face clear of the nail)
     pivot_offset: float = 0.10  # m, pivot behind the handle butt along the handle
     target: tuple = (0.55, 0.0, 0.05)  # m, nail head (world)

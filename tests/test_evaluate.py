@@ -295,7 +295,7 @@ def test_mjx_vs_native_quick(tmp_path, monkeypatch):
     doc = json.loads((tmp_path / "mjx_vs_native.json").read_text())
     jsonschema.validate(doc, load_schema("mjx_vs_native"))
     row = doc["rows"][0]
-    assert row["task"] == "hammer" and row["grasps"] == 3 and row["nstep"] == 1019
+    assert row["task"] == "hammer" and row["grasps"] == 3 and row["nstep"] == 1101
     assert row["valid_both"] >= 1 and row["valid_native_only"] == row["valid_mjx_only"] == 0
     assert row["mjx_repeat_bitwise_equal"]  # the same inputs twice on a CPU: the same labels
     ctl = row["native_control"]  # native against itself, grasps moved 1 micrometre: nearly the same labels
