@@ -677,11 +677,11 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
 
 
 #: Success thresholds of the task metrics.
-# m driven: the blow overcame the wood's grip. A position-servoed UR5e stops the hammer within the
-# follow-through, so one blow at 0.8 m/s drives the nail 0.2-0.6 mm when the face lands square on it
-# (the built-in hammer held from the side, anywhere along the handle; session 22), far less than the
-# hammer's kinetic energy could (~3.5 mm). 1 mm until session 21, when the nail's soft stop let the
-# follow-through press it 20-50 mm.
+# m driven: the blow overcame the wood's grip. A position-servoed UR5e stops the hammer within its
+# follow-through: a square blow at 0.8 m/s alone drove the nail 0.2-0.6 mm (the built-in hammer held
+# from the side anywhere along the handle, no hold; session 22), far less than the hammer's kinetic
+# energy could (~3.5 mm); with the servos pressing through the hold, 0.6-7 mm. 1 mm until session 21,
+# while the nail's soft stop let the follow-through press it 20-50 mm.
 NAIL_DEPTH_SUCCESS = 1e-4
 TOPPLE_SUCCESS = 0.03  # m top-block displacement
 REACH_SUCCESS_FRACTION = 0.5  # of the commanded pull/push distance
