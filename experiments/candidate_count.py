@@ -1,6 +1,6 @@
 """How much torque does scoring more candidates save? SDG-Net's pick among N fresh candidates, measured.
 
-    python experiments/candidate_count.py --test /tmp/sdg_v3_test8 --n 256,1024,4096 --out results/candidates
+    python experiments/candidate_count.py --test /tmp/sdg_v4_test8 --n 256,1024,4096 --out results/candidates
     python experiments/candidate_count.py --quick --out /tmp/cand      # a tiny test set made here (tests)
 
 The top-1 regret goal compares SDG-Net's pick with the best of the *same* candidates, and a tool's

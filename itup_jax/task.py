@@ -260,8 +260,9 @@ def _rot(axis: np.ndarray, angle: jax.Array) -> jax.Array:
     return jaxlie.SO3.exp(jnp.asarray(axis) * angle).as_matrix()
 
 
-def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray, kind: str) -> Task:
-    """Shared by hammer and knock: a rotation about a fixed world `axis` through a pivot."""
+def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray, kind: str, t_hold: float = 0.0) -> Task:
+    """Shared by hammer and knock: a rotation about a fixed world `axis` through a pivot, then `t_hold` s
+    held at the follow-through pose (the knock's follow-through is long enough without one)."""
     c_tool = np.asarray(tool.contact_point, float)
     target = np.asarray(prm.target, float)
     p_impact = target - R_impact @ c_tool  # tool origin at impact
@@ -271,7 +272,6 @@ def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray,
     # A quintic from rest to rate w over angle A peaks above w unless it lasts >= ~1.8 A / w; with
     # 2 A / w the rate rises monotonically to w (and falls monotonically to rest after the impact).
     t_swing, t_follow = 2.0 * prm.wind_up / omega_impact, 2.0 * prm.follow_through / omega_impact
-    t_hold = getattr(prm, "t_hold", 0.0)  # the knock's follow-through is long enough without one
     t, knots = _time_grid(prm.steps, [prm.t_wind, t_swing, t_follow] + ([t_hold] if t_hold > 0 else []))
     k0, k1, k2, k3 = knots[:4]
     theta = Profile.through([
@@ -298,7 +298,8 @@ def _swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray,
 
 
 def _hammer(tool: Tool, prm: HammerParams) -> Task:
-    return _swing_task(tool, prm, axis=np.array([0.0, 1.0, 0.0]), R_impact=_R_HANDLE_X_FACE_DOWN, kind="hammer")
+    return _swing_task(tool, prm, axis=np.array([0.0, 1.0, 0.0]), R_impact=_R_HANDLE_X_FACE_DOWN, kind="hammer",
+                       t_hold=prm.t_hold)
 
 
 def _knock(tool: Tool, prm: KnockParams) -> Task:

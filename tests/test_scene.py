@@ -10,7 +10,8 @@ import trimesh
 import itup_jax as itup
 from itup_jax.scene import (CONTACT_MIN_TIMECONST, PLASTIC_TARGETS, TARGET_BODIES, TASK_TIMESTEP, build_scene,
                             restitution_solref, scene_xml, target_solref)
-from itup_jax.simulate import NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, plan, sample_physics
+from itup_jax.simulate import (NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, mjx_model_fields, plan, randomized_model,
+                               sample_physics)
 
 
 @pytest.fixture(scope="module")
@@ -148,6 +149,15 @@ def test_the_hammers_contact_with_the_nail_is_plastic(tasks):
         assert zeta == (1.0 if kind == "hammer" else restitution_solref(0.4, 2e-3)[1])
     scene = build_scene(*tasks["hammer"])
     assert (scene.model.pair_solref[scene.tool_target_pairs, 1] == 1.0).all()
+    # and so are the per-rollout models both backends step, whatever restitution the physics draws
+    tool = tasks["hammer"][0]
+    physics = sample_physics(tool, 4, seed=3)
+    assert np.ptp(physics.restitution) > 0
+    solref = mjx_model_fields(scene, physics)[3]
+    assert (solref[:, scene.tool_target_pairs, 1] == 1.0).all()
+    for i in range(4):
+        m = randomized_model(scene, physics, i)
+        np.testing.assert_array_equal(m.pair_solref[scene.tool_target_pairs], solref[i, scene.tool_target_pairs])
 
 
 def test_restitution_maps_to_a_damping_ratio_and_the_contact_duration():
