@@ -31,7 +31,11 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
   * how hard the regret goal is on the tool (`best_gap_stats`): the second-best candidate's torque over
     the best's - 1, and how many candidates lie within the goal (5 %) of the best.
 With `--verify K`, both verified picks (by C_tau alone, and by the total as `itup plan --verify K`
-picks) are judged in the same terms, and the one by C_tau also against the task.
+picks) are judged in the same terms, and the one by C_tau also against the task. With
+`--verify-draws R` each of the K grasps is rolled out under R draws of the priors and the pick has
+the lowest mean measured total (`itup plan --verify K --verify-draws R`); `--torque-first` makes the
+total torque alone with the task and grip penalties (`ScoreWeights.torque_first`): together, the
+robust planner (README, "Results").
 Also the wall time of training (`--train-model` retrains on --train and times it; otherwise the
 model given by --model, default the shipped checkpoint). Writes fidelity.json and fidelity.png.
 The redraws (`--redraws K`) are deterministic (seeded by the shard); they are kept in --out as
@@ -159,13 +163,14 @@ def _draws(ok: np.ndarray, first: np.ndarray, extra: np.ndarray) -> np.ndarray:
 
 def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray, pred_tau: np.ndarray,
                    pred_total: np.ndarray, k: int, physics: str, timestep: float,
-                   weights: ScoreWeights) -> dict[str, int | float]:
-    """SDG-Net's shortlist of the k best of a shard's valid grasps, each rolled out once more and the best
-    measured taken (`best_grasp_verified`): by predicted C_tau then measured projected torque (`tau`), and
-    by the scorer's total then the measured total (`total`, `weights`). The check rollouts run under
-    nominal physics (`physics` = 'nominal') or one fresh draw each (`random`: the shard's seed + 2; the
-    redraws use + 1), never under draw 0, which judges the pick. Returns {pick_tau, pick_total (indices
-    into the valid rows), verify_s (wall time of both checks)}."""
+                   weights: ScoreWeights, draws: int = 1) -> dict[str, int | float]:
+    """SDG-Net's shortlist of the k best of a shard's valid grasps, each rolled out `draws` more times and
+    the best measured (mean over the draws) taken (`best_grasp_verified`): by predicted C_tau then
+    measured projected torque (`tau`), and by the scorer's total then the measured total (`total`,
+    `weights`). The check rollouts run under nominal physics (`physics` = 'nominal') or fresh draws
+    (`random`: from the shard's seed + 2; the redraws use + 1), never under draw 0, which judges the
+    pick. Returns {pick_tau, pick_total (indices into the valid rows), verify_s (wall time of both
+    checks)}."""
     tool, task = unit_tool(config, entry["task"], entry["variant"])
     scene = build_scene(tool, task, timestep=timestep)
     g = Grasps(a["grasp_p"][ok], a["grasp_q"][ok], a["grasp_width"][ok])
@@ -176,7 +181,7 @@ def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray,
     t0 = time.perf_counter()
     for name, total, w in (("tau", pred_tau, only_tau), ("total", pred_total, weights)):
         z = np.zeros(len(total))
-        v = best_grasp_verified(tool, task, g, k=k, seed=seed, randomize=randomize, weights=w, scene=scene,
+        v = best_grasp_verified(tool, task, g, k=k, draws=draws, seed=seed, randomize=randomize, weights=w, scene=scene,
                                 scores=Scores(tau=z, slip=z, align=z, total=np.asarray(total, float), scorer="sdgnet"))
         out[f"pick_{name}"] = v.index
     out["verify_s"] = time.perf_counter() - t0
@@ -184,7 +189,8 @@ def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray,
 
 
 def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None,
-             weights: ScoreWeights = ScoreWeights(), verify: int = 0, verify_physics: str = "nominal") -> dict:
+             weights: ScoreWeights = ScoreWeights(), verify: int = 0, verify_physics: str = "nominal",
+             verify_draws: int = 1) -> dict:
     """Per test shard: rank correlations and regrets of SDG-Net and the analytic cost against the measured
     torques. With `redraws` k >= 1 every grasp is rolled out k more times under new physics draws, which
     adds the retest correlation between two draws (`retest_rho` = r) and the target `mean` (the mean over
@@ -198,8 +204,8 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     `regret_sdgnet_same_rows_projected` SDG-Net's on the same rows (valid in every draw). The task
     fields (`task_pick_stats`) judge the pick by `tau` and by `total` (weighted by `weights`) on draw 0;
     with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws. With `verify` K >= 1,
-    the same for the verified picks (`verified_picks`: SDG-Net's K best rolled out once more under
-    `verify_physics`): `regret_verified_projected`, `percentile_verified_projected` and `*_verified_tau` (the
+    the same for the verified picks (`verified_picks`: SDG-Net's K best rolled out `verify_draws` more
+    times under `verify_physics`): `regret_verified_projected`, `percentile_verified_projected` and `*_verified_tau` (the
     pick by torque alone, and whether it did the task), `*_verified_total` and
     `regret_verified_total_projected` (the pick by the total, against the best candidate whatever it did).
     `total_regret_total` / `total_regret_verified_total`: the regret of the pick by the total (unverified /
@@ -234,12 +240,16 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         for name, sc in (("tau", pred_all[ok]), ("total", total_all[ok])):
             for stat, v in task_pick_stats(y_ok, s_ok, sc).items():
                 row[f"{stat}_{name}"] = v
+        slip_ok, drift_ok = a["label_slip_translation"][ok], a["label_alignment_drift"][ok]
+        i_total = int(np.argmin(total_all[ok]))
+        row["pick_slip_mm_total"], row["pick_drift_total"] = 1e3 * float(slip_ok[i_total]), float(drift_ok[i_total])
+        row["task_within_goal_total"] = float(row["task_regret_total"] <= GOALS["regret"])  # NaN (missed) counts as not
         row["total_regret_total"] = pick_stats(m_ok, total_all[ok])["regret"]
         row["rho_total_measured"] = spearman(total_all[ok], m_ok)  # the planner's objective, predicted vs measured
         if p_success is not None:
             row["success_auc"] = roc_auc(p_success[ok], s_ok)
         vp = (verified_picks(config, entry, a, ok, pred_all[ok], total_all[ok], verify, verify_physics,
-                             steps[entry["task"]], weights) if verify else None)
+                             steps[entry["task"]], weights, verify_draws) if verify else None)
         if vp is not None:
             row["verify_s"] = vp["verify_s"]
             for stat, v in pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
@@ -251,6 +261,9 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 row[f"{stat}_verified_total"] = v
             # the verified pick by the total against the best candidate, whether or not that did the task
             row["regret_verified_total_projected"] = pick_stats(y_ok, pick_total)["regret"]
+            row["task_within_goal_verified_total"] = float(row["task_regret_verified_total"] <= GOALS["regret"])
+            row["pick_slip_mm_verified_total"] = 1e3 * float(slip_ok[vp["pick_total"]])
+            row["pick_drift_verified_total"] = float(drift_ok[vp["pick_total"]])
             row["total_regret_verified_total"] = pick_stats(m_ok, pick_total)["regret"]
         for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
             if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
@@ -318,7 +331,8 @@ def summarise(rows: list[dict]) -> dict:
         s = {"tools": len(sel)}
         keys = [k for k in dict.fromkeys(k for r in sel for k in r)
                 if k.startswith(("rho_", "regret_", "percentile_", "over_p10_", "retest_", "success_", "task_regret_", "total_regret_",
-                                 "failed_", "torque_draws_", "verify_", "best_gap_", "within_goal_"))]
+                                 "failed_", "torque_draws_", "verify_", "best_gap_", "within_goal_", "task_within_",
+                                 "pick_"))]
         for k in keys:
             v = np.array([r.get(k, np.nan) for r in sel], float)
             s[k] = {"median": _nan_stat(np.nanmedian, v), "mean": _nan_stat(np.nanmean, v)}
@@ -340,7 +354,9 @@ def summarise(rows: list[dict]) -> dict:
                            "total_regret_total", "total_regret_verified_total", "rho_total_measured",
                            "success_draws_verified_total", "failed_draws_verified_total", "torque_draws_verified_total",
                            "verify_s", "best_gap_projected", "within_goal_projected", "best_gap_mean",
-                           "within_goal_mean") if any(k in r for r in tr)}
+                           "within_goal_mean", "task_within_goal_total", "task_within_goal_verified_total",
+                           "pick_slip_mm_total", "pick_drift_total", "pick_slip_mm_verified_total",
+                           "pick_drift_verified_total") if any(k in r for r in tr)}
             for k in ("task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total",
                       "regret_verified_total_projected", "total_regret_total", "total_regret_verified_total"):
                 by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
@@ -424,8 +440,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--verify", type=int, default=0, metavar="K",
                     help="also judge the verified pick: SDG-Net's K best of each tool rolled out once more, the best "
                     "measured taken (itup.best_grasp_verified)")
-    ap.add_argument("--verify-physics", choices=("nominal", "random"), default="nominal",
-                    help="the check rollouts' physics: the priors' nominal values (default) or one fresh draw each")
+    ap.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
+                    help="the check rollouts' physics: the priors' nominal values (the default for one draw) or "
+                    "fresh draws (the default with --verify-draws > 1)")
+    ap.add_argument("--verify-draws", type=int, default=1, metavar="R",
+                    help="roll each of the K grasps out R times (random physics); the pick has the lowest mean")
+    ap.add_argument("--torque-first", action="store_true",
+                    help="the total weighs torque alone, with the task and grip penalties (ScoreWeights.torque_first)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 1 redraw, --verify 2 (for the tests)")
     ap.add_argument("--out", default="results/fidelity")
     args = ap.parse_args(argv)
@@ -436,10 +457,16 @@ def main(argv=None) -> dict:
         generate(args.train[0], GenerateConfig(tasks=("hammer",), tools_per_task=3, grasps=12, seed=0), progress=False)
         generate(args.test, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1), progress=False)
         args.train_model, args.redraws, args.verify = True, 1, 2
-    for flag, v in (("--redraws", args.redraws), ("--verify", args.verify)):
-        if v < 0:
-            print(f"sdgnet_fidelity: {flag} must be >= 0, got {v}", file=sys.stderr)
+    for flag, v, lowest in (("--redraws", args.redraws, 0), ("--verify", args.verify, 0),
+                            ("--verify-draws", args.verify_draws, 1)):
+        if v < lowest:
+            print(f"sdgnet_fidelity: {flag} must be >= {lowest}, got {v}", file=sys.stderr)
             raise SystemExit(2)
+    args.verify_physics = args.verify_physics or ("random" if args.verify_draws > 1 else "nominal")
+    if args.verify_draws > 1 and args.verify_physics == "nominal":
+        print("sdgnet_fidelity: --verify-draws > 1 needs --verify-physics random (nominal physics rolls out the "
+              "same every time)", file=sys.stderr)
+        raise SystemExit(2)
     if not args.test or not os.path.exists(os.path.join(args.test, MANIFEST)):
         print(f"sdgnet_fidelity: --test {args.test!r} holds no dataset manifest", file=sys.stderr)
         raise SystemExit(2)
@@ -460,13 +487,15 @@ def main(argv=None) -> dict:
         save_model(os.path.join(args.out, "model.npz"), model)
     else:
         model = load_model(args.model)
-    weights = ScoreWeights(w_task=args.w_task, w_fail=args.w_fail, w_align=args.w_align)
+    weights = (ScoreWeights.torque_first(w_task=args.w_task, w_fail=args.w_fail) if args.torque_first
+               else ScoreWeights(w_task=args.w_task, w_fail=args.w_fail, w_align=args.w_align))
     res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights,
-                   verify=args.verify, verify_physics=args.verify_physics)
+                   verify=args.verify, verify_physics=args.verify_physics, verify_draws=args.verify_draws)
     summary = summarise(res["rows"])
     out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
            "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws,
-           "verify": args.verify, "verify_physics": args.verify_physics if args.verify else None, "goals": GOALS,
+           "verify": args.verify, "verify_physics": args.verify_physics if args.verify else None,
+           "verify_draws": args.verify_draws if args.verify else None, "goals": GOALS,
            "success_head": model.has_success_head, "class_heads": model.class_heads, "weights": dataclasses.asdict(weights), "summary": summary,
            "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
            "per_tool": res["rows"], "test_config": res["test_config"]}
@@ -532,7 +561,8 @@ def main(argv=None) -> dict:
                   f"{v['rho_analytic_mean']:+.2f} regret sdgnet {100 * v['regret_sdgnet_mean']:.0f}% percentile "
                   f"{100 * v['percentile_sdgnet_mean']:.0f}")
     if args.verify:
-        print(f"verified pick (SDG-Net's {args.verify} best per tool rolled out once more, {args.verify_physics} physics, "
+        times = "once more" if args.verify_draws == 1 else f"{args.verify_draws} times each, the mean taken"
+        print(f"verified pick (SDG-Net's {args.verify} best per tool rolled out {times}, {args.verify_physics} physics, "
               f"{h['verify_s']['mean']:.2f} s per tool for both checks): top-1 regret median "
               f"{100 * h['regret_verified_projected']['median']:.0f}% (SDG-Net alone "
               f"{100 * h['regret_sdgnet_projected']['median']:.0f}%), mean {100 * h['regret_verified_projected']['mean']:.0f}%, "
@@ -540,7 +570,10 @@ def main(argv=None) -> dict:
               f"of tools, the task done by it in {100 * h['success_verified_tau']['mean']:.0f}% (draw 0); by the total: task achieved "
               f"{100 * h['success_verified_total']['mean']:.0f}% (draw 0), top-1 regret median "
               f"{100 * h['regret_verified_total_projected']['median']:.0f}%, task regret median "
-              f"{100 * h['task_regret_verified_total']['median']:.0f}%, measured-total regret median "
+              f"{100 * h['task_regret_verified_total']['median']:.0f}% (within 5% in "
+              f"{100 * np.mean([r['task_regret_verified_total'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
+              f"of tools; the pick slips {h['pick_slip_mm_verified_total']['median']:.1f} mm and drifts "
+              f"{h['pick_drift_verified_total']['median']:.3f} rad, medians, draw 0), measured-total regret median "
               f"{100 * h['total_regret_verified_total']['median']:.0f}% (within 5% in "
               f"{100 * np.mean([r['total_regret_verified_total'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% of tools)"
               + (f"; over draws 0-{args.redraws}: success {100 * h['success_draws_verified_total']['mean']:.0f}%, "

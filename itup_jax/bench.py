@@ -273,19 +273,22 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
     }
 
 
-def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None) -> dict[str, Any]:
+def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None, draws: int = 1) -> dict[str, Any]:
     """Per task (its built-in tool, its own time step): the cost of a verified pick
-    (`verify.best_grasp_verified`, SDG-Net's k best rolled out under nominal physics) against SDG-Net's
+    (`verify.best_grasp_verified`, SDG-Net's k best rolled out under nominal physics; with `draws` r > 1,
+    each r times under random physics with the torque-first weights, the robust planner) against SDG-Net's
     scoring of the n sampled candidates (`score`, warm), measured in the same run. The scene is built once
     per task and reused, as a planner would; its build time is reported apart, like the scorer's compile."""
     from itup_jax.grasp_sampler import sample_grasps
     from itup_jax.scene import build_scene
-    from itup_jax.scoring import score
+    from itup_jax.scoring import ScoreWeights, score
     from itup_jax.sdgnet import Model, load_model
+    from itup_jax.simulate import Randomization
     from itup_jax.task import TASK_KINDS
     from itup_jax.verify import best_grasp_verified
 
     m = model if isinstance(model, Model) else load_model(model)
+    kw = {} if draws == 1 else {"draws": draws, "randomize": Randomization(), "weights": ScoreWeights.torque_first()}
     rows = []
     for kind in TASK_KINDS:
         tool = load_tool(DEFAULT_TOOL[kind])
@@ -295,20 +298,21 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None)
         scene = build_scene(tool, task)
         scene_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-        s = score(tool, task, grasps, m)
+        s = score(tool, task, grasps, m, weights=kw.get("weights", ScoreWeights()))
         jax.block_until_ready(s.total)
         first_s = time.perf_counter() - t0
         score_s = statistics.median(_timed(lambda: jax.block_until_ready(score(tool, task, grasps, m).total), repeats))
-        v = best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene)
-        verify_s = statistics.median(_timed(lambda: best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene),
-                                            repeats))
+        v = best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene, **kw)
+        verify_s = statistics.median(_timed(lambda: best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene,
+                                                                        **kw), repeats))
         rows.append({"task": kind, "tool": tool.name, "timestep_s": scene.model.opt.timestep,
                      "scene_build_s": round(scene_s, 3), "score_first_s": round(first_s, 3),
                      "score_warm_ms": round(1e3 * score_s, 2), "verify_ms": round(1e3 * verify_s, 1),
-                     "rollouts": int(len(v.shortlist)), "valid_rollouts": int(v.labels.valid.sum()),
+                     "rollouts": int(len(v.labels.valid)), "valid_rollouts": int(v.labels.valid.sum()),
                      "verify_over_score": round(verify_s / score_s, 1),
                      "pick_changed": bool(v.index != int(np.argmin(np.asarray(s.total))))})
-    return {"benchmark": "verify", "n": n, "k": k, "repeats": repeats, "physics": "nominal", "tasks": rows,
+    return {"benchmark": "verify", "n": n, "k": k, "draws": draws, "repeats": repeats,
+            "physics": "nominal" if draws == 1 else "random", "tasks": rows,
             "machine": machine_info()}
 
 

@@ -83,9 +83,23 @@ def cmd_plan(args) -> int:
     import itup_jax as itup
     from itup_jax.grasp import to_graspnet
 
-    for flag, v, lowest in (("--n", args.n, 1), ("--top", args.top, 1), ("--verify", args.verify, 0)):
+    for flag, v, lowest in (("--n", args.n, 1), ("--top", args.top, 1), ("--verify", args.verify, 0),
+                            ("--verify-draws", args.verify_draws, 1)):
         if v < lowest:
             raise_input(f"{flag} must be >= {lowest}, got {v}")
+    # several draws per grasp mean random physics (nominal physics rolls out the same every time)
+    physics = args.verify_physics or ("random" if args.verify_draws > 1 else "nominal")
+    if args.verify_draws > 1 and physics == "nominal":
+        raise_input(f"--verify-draws {args.verify_draws} needs --verify-physics random: under nominal physics "
+                    "every draw of a grasp rolls out the same")
+    if args.verify_draws > 1 and args.verify == 0:
+        raise_input("--verify-draws applies to the verified pick: give --verify K too")
+    if args.torque_first:
+        clash = [f"--{k.replace('_', '-')}" for k in ("w_tau", "w_slip", "w_align") if getattr(args, k) is not None]
+        if clash or args.scorer != "sdgnet":
+            raise_input("--torque-first sets SDG-Net's weights (torque alone, the task and grip penalties kept); "
+                        + (f"it cannot be combined with {', '.join(clash)}" if clash else f"not the {args.scorer!r} scorer's"))
+        args.w_tau, args.w_slip, args.w_align = 1.0, 0.0, 0.0
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
@@ -143,7 +157,7 @@ def cmd_plan(args) -> int:
         }
 
     result = {
-        "schema": "itup.plan/2",
+        "schema": "itup.plan/3",
         "task": args.task,
         "tool": {"name": tool.name, "category": tool.category, "mass_kg": round(tool.mass, 6)},
         "regime": regime.name.lower(),
@@ -188,39 +202,47 @@ def cmd_plan(args) -> int:
     if args.verify > 0:
         from itup_jax.scoring import ScoreWeights
         from itup_jax.simulate import Randomization
-        from itup_jax.verify import best_grasp_verified
+        from itup_jax.verify import best_grasp_verified, measured_total
 
         # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
         # weights, whatever the scorer (the analytic cost's weights are for N, not m)
         measure_w = sw if args.scorer == "sdgnet" else ScoreWeights()
-        v = best_grasp_verified(tool, task, grasps, k=args.verify, seed=args.seed, scores=costs, weights=measure_w,
-                                randomize=None if args.verify_physics == "nominal" else Randomization())
+        draws = args.verify_draws
+        v = best_grasp_verified(tool, task, grasps, k=args.verify, draws=draws, seed=args.seed, scores=costs,
+                                weights=measure_w, randomize=None if physics == "nominal" else Randomization())
         L = v.labels
-        print(f"MuJoCo ({args.verify_physics} physics{', seed ' + str(args.seed) if args.verify_physics == 'random' else ''}) "
-              f"for the {len(v.shortlist)} best reachable grasps by the scorer: the pick is the lowest measured total (*)")
+        per_rollout = measured_total(L, measure_w)
+        print(f"MuJoCo ({physics} physics{', seed ' + str(args.seed) if physics == 'random' else ''}"
+              f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
+              f"by the scorer: the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
         print(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
               f"{'failed':>6} {'success':>7} {'measured C':>10}")
         rows = []
         for r, i in enumerate(v.shortlist):
-            row_r = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[r]) for f in
-                     ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
-                      "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
-            row_r["index"] = int(i)
-            row_r["measured_total"] = float(v.measured_total[r]) if np.isfinite(v.measured_total[r]) else None
-            rows.append(row_r)
-            status = "ok" if row_r["valid"] else "diverged"
-            print(f"{r + 1:>4} {int(i):>5} {status:>8} {row_r['peak_torque_induced']:>11.3f} "
-                  f"{row_r['peak_torque_projected']:>12.3f} {1e3 * row_r['slip_translation']:>8.2f} "
-                  f"{np.degrees(row_r['slip_rotation']):>7.2f} {str(row_r['failed']):>6} {str(row_r['success']):>7} "
-                  f"{v.measured_total[r]:>10.3f}{' *' if int(i) == v.index else ''}")
+            for d in range(draws):
+                j = r * draws + d
+                row_r = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[j]) for f in
+                         ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
+                          "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
+                row_r["index"], row_r["draw"] = int(i), d
+                row_r["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
+                rows.append(row_r)
+                status = "ok" if row_r["valid"] else "diverged"
+                mean = (f"{v.measured_total[r]:>10.3f}{' *' if int(i) == v.index else ''}" if d == draws - 1 else "")
+                print(f"{(str(r + 1) if d == 0 else ''):>4} {(str(int(i)) if d == 0 else ''):>5} {status:>8} "
+                      f"{row_r['peak_torque_induced']:>11.3f} {row_r['peak_torque_projected']:>12.3f} "
+                      f"{1e3 * row_r['slip_translation']:>8.2f} {np.degrees(row_r['slip_rotation']):>7.2f} "
+                      f"{str(row_r['failed']):>6} {str(row_r['success']):>7} {mean}")
         ahead = int(np.sum(total[v.unreachable] <= total[v.shortlist[-1]])) if len(v.shortlist) else len(v.unreachable)
         if ahead:
             print(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
         if v.chosen_by == "score":
             print("no rollout was valid: the scorer's pick stands (it may be unreachable)")
-        result["verified"] = {"k": args.verify, "tried": len(v.shortlist), "backend": v.backend,
+        result["verified"] = {"k": args.verify, "draws": draws, "tried": len(v.shortlist), "backend": v.backend,
                               "unreachable": [int(i) for i in v.unreachable],
-                              "physics": args.verify_physics, "weights": dataclasses.asdict(measure_w),
+                              "physics": physics, "weights": dataclasses.asdict(measure_w),
+                              "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
+                                             for i, m in zip(v.shortlist, v.measured_total)],
                               "chosen_by": v.chosen_by, "pick": {**row(v.index), "reachable": v.chosen_by == "measured" or None},
                               "labels": rows}
     if args.json:
@@ -391,9 +413,10 @@ def cmd_bench(args) -> int:
         from itup_jax.bench import bench_verify
 
         n = _given(args.n, 1000)
-        if n < 1 or args.k < 1:
-            raise_input(f"bench verify: need --n >= 1 and --k >= 1, got --n {n} --k {args.k}")
-        res = bench_verify(n=n, k=args.k, repeats=max(_given(args.repeats, 10) // 2, 1), model=args.model)
+        if n < 1 or args.k < 1 or args.draws < 1:
+            raise_input(f"bench verify: need --n, --k and --draws >= 1, got --n {n} --k {args.k} --draws {args.draws}")
+        res = bench_verify(n=n, k=args.k, repeats=max(_given(args.repeats, 10) // 2, 1), model=args.model,
+                           draws=args.draws)
         print(json.dumps(res) if args.json else "\n".join(
             f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
             f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
@@ -588,12 +611,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
     p.add_argument("--verify", type=int, default=0, metavar="K",
                    help="roll the K best grasps out in MuJoCo and pick the lowest measured total (5 is a good choice)")
-    p.add_argument("--verify-physics", choices=("nominal", "random"), default="nominal",
-                   help="physics of the --verify rollouts: the priors' nominal values (default) or one draw each from --seed")
+    p.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
+                   help="physics of the --verify rollouts: the priors' nominal values (the default for one draw) or one "
+                   "draw each from --seed (the default with --verify-draws > 1)")
+    p.add_argument("--verify-draws", type=int, default=1, metavar="R",
+                   help="roll each of the K grasps out R times under random physics; the pick has the lowest mean "
+                   "measured total (--verify 10 --verify-draws 3 --torque-first: README, 'the robust planner')")
+    p.add_argument("--torque-first", action="store_true",
+                   help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/2)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/3)")
     p.set_defaults(fn=cmd_plan)
 
     b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify, sample")
@@ -601,7 +630,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--n", type=int, default=None,
                    help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
                    "(default 64); verify: candidates (default 1000); sample: grasps (default 4096)")
-    b.add_argument("--k", type=int, default=5, help="verify: valid rollouts per verified pick (default 5)")
+    b.add_argument("--k", type=int, default=5, help="verify: verified grasps per pick (default 5)")
+    b.add_argument("--draws", type=int, default=1, help="verify: rollouts per verified grasp (> 1: random physics, "
+                   "torque-first weights, the robust planner; default 1)")
     b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
     b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")

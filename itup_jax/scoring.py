@@ -66,6 +66,14 @@ class ScoreWeights:
                 raise InputError(f"ScoreWeights: {f.name} must be a finite number >= 0 (every term is a cost "
                                  f"to minimise), got {v!r}")
 
+    @classmethod
+    def torque_first(cls, w_task: float = W_TASK, w_fail: float = W_FAIL) -> "ScoreWeights":
+        """The planner objective of the paper's headline measure: wrist torque alone (slip and drift weigh
+        nothing), with the task and grip penalties kept, so a grasp is judged by its torque among the
+        grasps that do the task and hold. Its picks slip further than the default's (session 15: 3.5-4.0
+        against 1.9-2.3 mm), within the failure threshold of 1 cm."""
+        return cls(w_tau=1.0, w_slip=0.0, w_align=0.0, w_task=w_task, w_fail=w_fail)
+
     def costs(self, dtype=jnp.float32) -> jax.Array:
         """[3] weights of (C_tau, C_s, C_alpha)."""
         return jnp.asarray([self.w_tau, self.w_slip, self.w_align], dtype)

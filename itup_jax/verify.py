@@ -2,6 +2,8 @@
 
     v = itup.best_grasp_verified(tool, task, grasps, k=5)   # SDG-Net, then 5 nominal rollouts
     v.index, v.grasp, v.labels.peak_torque_projected, v.chosen_by
+    v = itup.best_grasp_verified(tool, task, grasps, k=10, draws=3, randomize=itup.Randomization(),
+                                 weights=itup.ScoreWeights.torque_first())   # the robust, torque-first planner
 
 SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick is often not
 the best, which is frequently a lone grasp well below the rest and usually among its first few
@@ -10,12 +12,17 @@ the best, which is frequently a lone grasp well below the rest and usually among
 total finds it: on the unseen test tools the pick's measured total is a median 0 % above the lowest
 among all candidates (16 % for the scorer's own pick; session 21, README "Results"). With a torque-only
 `weights` the pick is the lowest measured torque, which on most tools is a grasp that fails the task.
+
+With `draws` r > 1 each shortlisted grasp is rolled out r times under r draws of the physical priors
+(`randomize`), and its measured total is the mean over them: a grasp that misses the task or slips out
+in one draw of three carries a third of that penalty. One nominal rollout cannot tell a grasp that does
+the task from one that does it only at the priors' nominal values (session 23, README "Results").
 The measured total is the SDG-Net total (`ScoreWeights`)
 with each prediction replaced by what the rollout measured: projected peak torque (N m), slip (m),
 alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed in the grip
 (1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
-rollout; a rollout that diverges cannot win and is replaced by the next reachable grasp; if no rollout is
-valid, the scorer's own pick stands (`chosen_by` = "score").
+rollout; a grasp with a rollout that diverges cannot win and is replaced by the next reachable grasp; if
+no grasp has valid rollouts, the scorer's own pick stands (`chosen_by` = "score").
 
 Nothing here is jit-compiled: the scoring inside `score` is (one jit at its outer call); the rollouts are
 native MuJoCo or MJX (`simulate`).
@@ -42,11 +49,14 @@ class Verified:
 
     index: the chosen grasp's index into the candidates.  grasp: that grasp.  scores: the scorer's
     scores of every candidate.  shortlist: [M] the candidates rolled out, best score first (M > k when
-    some rollouts diverged).  labels: their measured `Labels` (each [M]).  measured_total: [M] the
-    measured total (inf where the rollout is not valid).  chosen_by: "measured", or "score" when no
-    rollout was valid (then the best-scored grasp stands, reachable or not).  backend: the rollouts'
-    backend.  unreachable: the candidates skipped because the arm cannot follow their trajectory, best
-    score first (those scored ahead of the last one rolled out; every candidate when none is reachable).
+    some rollouts diverged).  draws: r, rollouts per shortlisted candidate.  labels: their measured
+    `Labels`, each [M * r], candidate-major (candidate j's draws at j r ... j r + r - 1;
+    `candidate_labels` reshapes one to [M, r]).  measured_total: [M] the candidate's measured total, the
+    mean over its draws (inf where one of its rollouts is not valid).  chosen_by: "measured", or "score"
+    when no candidate had valid rollouts (then the best-scored grasp stands, reachable or not).  backend:
+    the rollouts' backend.  unreachable: the candidates skipped because the arm cannot follow their
+    trajectory, best score first (those scored ahead of the last one rolled out; every candidate when
+    none is reachable).
     """
 
     index: int
@@ -58,6 +68,14 @@ class Verified:
     chosen_by: str
     backend: str
     unreachable: np.ndarray
+    draws: int = 1
+
+    def candidate_labels(self, field: str) -> np.ndarray:
+        """[M, r] one `Labels` field (e.g. "peak_torque_projected", "success") per shortlisted candidate and
+        draw."""
+        if field not in LABEL_FIELDS:
+            raise InputError(f"Verified.candidate_labels: field must be one of {LABEL_FIELDS}, got {field!r}")
+        return np.asarray(getattr(self.labels, field)).reshape(len(self.shortlist), self.draws)
 
 
 def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights()) -> np.ndarray:
@@ -73,21 +91,25 @@ def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights()) -> np
     return np.where(np.asarray(labels.valid, bool), total, np.inf)
 
 
-def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, k: int = 5, seed: int = 0,
+def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, k: int = 5, draws: int = 1,
+                        seed: int = 0,
                         randomize: Randomization | None = None, weights: ScoreWeights = ScoreWeights(),
                         scores: Any = None, scene: Scene | None = None, backend: str | None = None,
                         nthread: int | None = None) -> Verified:
     """Score every grasp, roll the k best reachable ones out in MuJoCo, pick the lowest measured total.
 
     The candidates are walked in score order: a grasp whose task trajectory the arm cannot follow
-    (closed-form IK, `simulate.reachable`) is skipped, and a rollout
-    that is not valid (diverged) is replaced by the next reachable grasp, until k rollouts are valid or
-    the candidates run out.
+    (closed-form IK, `simulate.reachable`) is skipped, and a grasp with a rollout that is not valid
+    (diverged) is replaced by the next reachable grasp, until k grasps have valid rollouts or the
+    candidates run out.
 
     Args:
       tool, task, grasps: as for `score` (grasps [N]).
       model: as for `score` (default: the shipped SDG-Net checkpoint); ignored when `scores` is given.
-      k: valid rollouts wanted (>= 1; k = 1 keeps the best-scored reachable grasp).
+      k: verified grasps wanted (>= 1; k = 1 with draws = 1 keeps the best-scored reachable grasp).
+      draws: rollouts per verified grasp (>= 1), each under its own draw of `randomize` (required when
+        draws > 1: nominal physics rolls out the same every time); the grasp's measured total is their
+        mean.
       seed, randomize: the rollouts' physics: nominal priors by default (`randomize=None`); with a
         `Randomization`, one draw per rollout (round r of replacements draws from seed + r).
       weights: the total that both the scorer's ranking and the measured pick use.
@@ -97,7 +119,13 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     """
     validate_grasps(grasps)
     if not is_integer(k) or k < 1:
-        raise InputError(f"best_grasp_verified: k must be an integer >= 1 (valid rollouts wanted), got {k!r}")
+        raise InputError(f"best_grasp_verified: k must be an integer >= 1 (verified grasps wanted), got {k!r}")
+    if not is_integer(draws) or draws < 1:
+        raise InputError(f"best_grasp_verified: draws must be an integer >= 1 (rollouts per verified grasp), "
+                         f"got {draws!r}")
+    if draws > 1 and randomize is None:
+        raise InputError(f"best_grasp_verified: draws={draws} needs randomize (a Randomization): under nominal "
+                         "physics every draw of a grasp rolls out the same")
     if scores is None:
         scores = score(tool, task, grasps, model, weights=weights, seed=seed)
     total = np.asarray(scores.total, np.float64)
@@ -121,20 +149,23 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         if not queue:
             break
         batch, queue = queue[: k - n_valid], queue[k - n_valid:]
-        res = simulate(tool, task, grasps[np.asarray(batch)], seed=seed + r, randomize=randomize, scene=scene,
-                       backend=backend, nthread=nthread)
+        # every grasp of the batch `draws` times, candidate-major; each rollout draws its own physics
+        res = simulate(tool, task, grasps[np.repeat(np.asarray(batch), draws)], seed=seed + r, randomize=randomize,
+                       scene=scene, backend=backend, nthread=nthread)
         parts.append(res.labels)
         tried += batch
-        n_valid, r, backend_used = n_valid + int(np.sum(res.labels.valid)), r + 1, res.backend
+        ok_all = np.asarray(res.labels.valid, bool).reshape(len(batch), draws).all(axis=1)
+        n_valid, r, backend_used = n_valid + int(ok_all.sum()), r + 1, res.backend
     if parts:
         labels = Labels(**{f: np.concatenate([getattr(L, f) for L in parts]) for f in LABEL_FIELDS})
     else:
         labels = Labels.unmeasured(0)
-    m = measured_total(labels, weights)
+    # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
+    m = measured_total(labels, weights).reshape(len(tried), draws).mean(axis=1)
     if np.isfinite(m).any():
         i, chosen_by = tried[int(np.argmin(m))], "measured"
     else:
         i, chosen_by = int(order[0]), "score"
     return Verified(index=int(i), grasp=grasps[int(i)], scores=scores, shortlist=np.asarray(tried, np.int64),
                     labels=labels, measured_total=m, chosen_by=chosen_by, backend=backend_used,
-                    unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64))
+                    unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64), draws=int(draws))

@@ -19,7 +19,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     out = tmp_path / "best.json"
     assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/2"
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/3"
     assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
     totals = [r["costs"]["total"] for r in res["top"]]
     assert totals == sorted(totals) and res["regime"] == "quasi_static"
@@ -96,6 +96,26 @@ def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
     assert "MuJoCo" in capsys.readouterr().out
 
 
+@pytest.mark.filterwarnings("ignore:.*joint-speed limit")
+def test_plan_verifies_over_draws_with_the_torque_first_weights(tmp_path, capsys):
+    """--verify 2 --verify-draws 2 --torque-first: random physics, two rollouts per grasp, and the pick is the
+    grasp with the lowest mean measured total (torque, task and grip penalties)."""
+    out = tmp_path / "v.json"
+    assert main(["plan", "--task", "sweep", "--n", "30", "--verify", "2", "--verify-draws", "2", "--torque-first",
+                 "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    ver = res["verified"]
+    assert ver["physics"] == "random" and ver["draws"] == 2 and res["weights"]["w_slip"] == 0.0
+    assert res["weights"]["w_align"] == 0.0 and res["weights"]["w_task"] > 0 and ver["weights"] == res["weights"]
+    assert len(ver["labels"]) == 2 * len(ver["candidates"]) and [r["draw"] for r in ver["labels"][:2]] == [0, 1]
+    for c in ver["candidates"]:
+        rows = [r for r in ver["labels"] if r["index"] == c["index"]]
+        mean = sum(r["peak_torque_projected"] + 10.0 * (not r["success"]) + 10.0 * r["failed"] for r in rows) / 2
+        assert c["measured_total"] == pytest.approx(mean, rel=1e-9)
+    assert ver["pick"]["index"] == min(ver["candidates"], key=lambda c: c["measured_total"])["index"]
+    assert "2 draws per grasp" in capsys.readouterr().out
+
+
 def test_plan_with_a_user_mesh_tool(tmp_path):
     import trimesh
 
@@ -131,6 +151,12 @@ def test_importing_mjx_prints_nothing_to_stdout():
     (["plan", "--task", "hammer", "--n", "0"], "--n must be >= 1"),
     (["plan", "--top", "0"], "--top must be >= 1"),
     (["plan", "--verify", "-1"], "--verify must be >= 0"),
+    (["plan", "--verify", "2", "--verify-draws", "0"], "--verify-draws must be >= 1"),
+    (["plan", "--verify-draws", "3"], "give --verify K too"),
+    (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics random"),
+    (["plan", "--torque-first", "--w-slip", "1"], "cannot be combined with --w-slip"),
+    (["plan", "--torque-first", "--scorer", "analytic"], "not the 'analytic' scorer's"),
+    (["bench", "verify", "--draws", "0"], "--draws 0"),
     (["plan", "--n", "5", "--seed", "-1"], "seed must be an integer >= 0, got -1"),
     (["plan", "--tool", "spoon"], "not a built-in tool"),
     (["plan", "--tool-spec", "x.toml"], "--tool-spec needs --tool"),

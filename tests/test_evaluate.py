@@ -195,7 +195,7 @@ def test_table1_quick(tmp_path, monkeypatch):
 
 
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
-    _run_experiment("sdgnet_fidelity.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    _run_experiment("sdgnet_fidelity.py", ["--quick", "--verify-draws", "2", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "fidelity.json").read_text())
     jsonschema.validate(doc, load_schema("fidelity"))
     rows = doc["per_tool"]
@@ -217,6 +217,9 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
     # --verify 2: the verified picks are judged on draw 0 like SDG-Net's own
     assert doc["verify"] == 2 and all(r["regret_verified_projected"] >= 0 and r["verify_s"] > 0 for r in rows)
+    # --verify-draws 2: each verified grasp rolled out under two draws of the priors
+    assert doc["verify_draws"] == 2 and doc["verify_physics"] == "random"
+    assert all(r["pick_slip_mm_verified_total"] >= 0 and r["task_within_goal_verified_total"] in (0.0, 1.0) for r in rows)
     assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
     # both verified picks are judged against the task and against the best candidate
     assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_projected"] >= 0 for r in rows)

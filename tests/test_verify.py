@@ -1,6 +1,8 @@
 """Verified picks (`itup_jax.verify`): the measured total in closed form and against SDG-Net's total, and
 the shortlist-then-simulate pick against single rollouts of native MuJoCo."""
 
+import types
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -86,3 +88,67 @@ def test_verified_pick_refuses_bad_arguments(hammer_case, kw, match):
     tool, task, scene, g, _ = hammer_case
     with pytest.raises(itup.InputError, match=match):
         best_grasp_verified(tool, task, g, scene=scene, **kw)
+
+
+def test_verified_pick_over_draws_is_the_lowest_mean_measured_total(hammer_case):
+    """draws = 3: each shortlisted grasp rolled out under three draws of the priors, candidate-major, the
+    same rollouts `simulate` gives for the repeated grasps; the pick has the lowest mean measured total."""
+    tool, task, scene, g, reach = hammer_case
+    good = np.nonzero(reach)[0][:2]
+    total = np.full(len(g), 10.0)
+    total[good] = [1.0, 2.0]
+    rnd = itup.Randomization()
+    w = ScoreWeights.torque_first()
+    v = best_grasp_verified(tool, task, g, k=2, draws=3, seed=4, randomize=rnd, weights=w, scores=_scores(total),
+                            scene=scene)
+    assert v.draws == 3 and v.shortlist.tolist() == good.tolist() and len(v.labels.valid) == 6
+    ref = itup.simulate(tool, task, g[np.repeat(good, 3)], seed=4, randomize=rnd, scene=scene).labels
+    np.testing.assert_allclose(v.labels.peak_torque_projected, ref.peak_torque_projected, rtol=1e-9)
+    tau = v.candidate_labels("peak_torque_projected")
+    assert tau.shape == (2, 3) and np.ptp(tau, axis=1).min() > 0  # the draws differ
+    per_rollout = measured_total(ref, w).reshape(2, 3)
+    np.testing.assert_allclose(v.measured_total, per_rollout.mean(axis=1), rtol=1e-12)
+    assert v.index == good[int(np.argmin(per_rollout.mean(axis=1)))] and v.chosen_by == "measured"
+    with pytest.raises(itup.InputError, match="field must be one of"):
+        v.candidate_labels("torque")
+
+
+def test_verified_pick_over_draws_penalises_a_miss_and_replaces_a_divergence(hammer_case, monkeypatch):
+    """The pick rule with scripted rollouts: a grasp that misses the task in one draw of two carries half
+    the task penalty; a grasp with one diverged draw cannot win and the next reachable one is rolled out."""
+    import itup_jax.verify as verify_mod
+
+    tool, task, scene, g, reach = hammer_case
+    good = np.nonzero(reach)[0][:3]
+    total = np.full(len(g), 10.0)
+    total[good] = [1.0, 2.0, 3.0]
+    # per call, per rollout (candidate-major, 2 draws): torque, success, valid
+    script = [dict(tau=[0.5, 0.5, 2.0, 2.0], success=[True, False, True, True], valid=[True, True, True, False]),
+              dict(tau=[3.0, 3.0], success=[True, True], valid=[True, True])]
+    calls = []
+
+    def fake_simulate(tool_, task_, grasps, seed=0, **kw):
+        s = script[len(calls)]
+        calls.append((len(grasps), seed))
+        return types.SimpleNamespace(backend="native", labels=_labels(
+            peak_torque_projected=s["tau"], success=s["success"], valid=s["valid"],
+            slip_translation=np.zeros(len(s["tau"])), alignment_drift=np.zeros(len(s["tau"])),
+            failed=np.zeros(len(s["tau"]), bool)))
+
+    monkeypatch.setattr(verify_mod, "simulate", fake_simulate)
+    w = ScoreWeights.torque_first()
+    v = best_grasp_verified(tool, task, g, k=2, draws=2, seed=7, randomize=itup.Randomization(), weights=w,
+                            scores=_scores(total), scene=scene)
+    assert calls == [(4, 7), (2, 8)]  # the diverged candidate is replaced in a second round (seed + 1)
+    assert v.shortlist.tolist() == good.tolist()
+    # grasp 0: torque 0.5, half a miss (w_task / 2 = 5); grasp 1: a diverged draw; grasp 2: 3.0, always done
+    np.testing.assert_allclose(v.measured_total, [0.5 + w.w_task / 2, np.inf, 3.0])
+    assert v.index == good[2]
+
+
+@pytest.mark.parametrize("kw, match", [({"draws": 0}, "draws must be"), ({"draws": 2.5}, "draws must be"),
+                                       ({"draws": 2}, "needs randomize")])
+def test_verified_pick_refuses_bad_draws(hammer_case, kw, match):
+    tool, task, scene, g, _ = hammer_case
+    with pytest.raises(itup.InputError, match=match):
+        best_grasp_verified(tool, task, g, k=1, scores=_scores(np.zeros(len(g))), scene=scene, **kw)
