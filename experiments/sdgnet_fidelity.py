@@ -34,8 +34,8 @@ With `--verify K`, both verified picks (by C_tau alone, and by the total as `itu
 picks) are judged in the same terms, and the one by C_tau also against the task. With
 `--verify-draws R` each of the K grasps is rolled out under R draws of the priors and the pick has
 the lowest mean measured total (`itup plan --verify K --verify-draws R`); `--torque-first` makes the
-total torque alone with the task and grip penalties (`ScoreWeights.torque_first`): together, the
-robust planner (README, "Results").
+total torque alone with the task and grip penalties (`ScoreWeights.torque_first`, `itup plan
+--torque-first`).
 Also the wall time of training (`--train-model` retrains on --train and times it; otherwise the
 model given by --model, default the shipped checkpoint). Writes fidelity.json and fidelity.png.
 The redraws (`--redraws K`) are deterministic (seeded by the shard); they are kept in --out as

@@ -145,11 +145,11 @@ def main(argv=None) -> dict:
     ap.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     ap.add_argument("--timestep", type=float, default=None, help="s, every scene's integration step (default: "
                     "each task's, scene.TASK_TIMESTEP: the coarsest that converges, timestep_convergence.py)")
-    ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 16 candidates, 1 seed, 4 methods")
+    ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 16 candidates, 1 seed, 5 methods")
     ap.add_argument("--out", default="results/table1")
     a = ap.parse_args(argv)
     if a.quick:
-        a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,sdgnet_verified,force_closure,random"
+        a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,sdgnet_verified,sdgnet_verified_torque,force_closure,random"
     tasks = [t for t in a.tasks.split(",") if t]
     methods = tuple(m for m in a.methods.split(",") if m)
     try:

@@ -273,10 +273,11 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
     }
 
 
-def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None, draws: int = 1) -> dict[str, Any]:
+def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None, draws: int = 1,
+                 torque_first: bool = False) -> dict[str, Any]:
     """Per task (its built-in tool, its own time step): the cost of a verified pick
     (`verify.best_grasp_verified`, SDG-Net's k best rolled out under nominal physics; with `draws` r > 1,
-    each r times under random physics with the torque-first weights, the robust planner) against SDG-Net's
+    each r times under random physics; `torque_first`: `ScoreWeights.torque_first`) against SDG-Net's
     scoring of the n sampled candidates (`score`, warm), measured in the same run. The scene is built once
     per task and reused, as a planner would; its build time is reported apart, like the scorer's compile."""
     from itup_jax.grasp_sampler import sample_grasps
@@ -288,7 +289,9 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
     from itup_jax.verify import best_grasp_verified
 
     m = model if isinstance(model, Model) else load_model(model)
-    kw = {} if draws == 1 else {"draws": draws, "randomize": Randomization(), "weights": ScoreWeights.torque_first()}
+    kw = {"weights": ScoreWeights.torque_first() if torque_first else ScoreWeights()}
+    if draws > 1:
+        kw.update(draws=draws, randomize=Randomization())
     rows = []
     for kind in TASK_KINDS:
         tool = load_tool(DEFAULT_TOOL[kind])
@@ -298,7 +301,7 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
         scene = build_scene(tool, task)
         scene_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-        s = score(tool, task, grasps, m, weights=kw.get("weights", ScoreWeights()))
+        s = score(tool, task, grasps, m, weights=kw["weights"])
         jax.block_until_ready(s.total)
         first_s = time.perf_counter() - t0
         score_s = statistics.median(_timed(lambda: jax.block_until_ready(score(tool, task, grasps, m).total), repeats))
@@ -311,7 +314,7 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
                      "rollouts": int(len(v.labels.valid)), "valid_rollouts": int(v.labels.valid.sum()),
                      "verify_over_score": round(verify_s / score_s, 1),
                      "pick_changed": bool(v.index != int(np.argmin(np.asarray(s.total))))})
-    return {"benchmark": "verify", "n": n, "k": k, "draws": draws, "repeats": repeats,
+    return {"benchmark": "verify", "n": n, "k": k, "draws": draws, "torque_first": torque_first, "repeats": repeats,
             "physics": "nominal" if draws == 1 else "random", "tasks": rows,
             "machine": machine_info()}
 

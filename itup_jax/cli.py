@@ -416,7 +416,7 @@ def cmd_bench(args) -> int:
         if n < 1 or args.k < 1 or args.draws < 1:
             raise_input(f"bench verify: need --n, --k and --draws >= 1, got --n {n} --k {args.k} --draws {args.draws}")
         res = bench_verify(n=n, k=args.k, repeats=max(_given(args.repeats, 10) // 2, 1), model=args.model,
-                           draws=args.draws)
+                           draws=args.draws, torque_first=args.torque_first)
         print(json.dumps(res) if args.json else "\n".join(
             f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
             f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
@@ -582,7 +582,7 @@ def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from itup_jax.evaluate import METHODS, VERIFY_K
+    from itup_jax.evaluate import METHODS, VERIFY_K, VERIFY_TORQUE_K
     from itup_jax.scene import TASK_TIMESTEP
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
@@ -616,7 +616,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "draw each from --seed (the default with --verify-draws > 1)")
     p.add_argument("--verify-draws", type=int, default=1, metavar="R",
                    help="roll each of the K grasps out R times under random physics; the pick has the lowest mean "
-                   "measured total (--verify 10 --verify-draws 3 --torque-first: README, 'the robust planner')")
+                   "measured total (default 1)")
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
@@ -631,8 +631,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
                    "(default 64); verify: candidates (default 1000); sample: grasps (default 4096)")
     b.add_argument("--k", type=int, default=5, help="verify: verified grasps per pick (default 5)")
-    b.add_argument("--draws", type=int, default=1, help="verify: rollouts per verified grasp (> 1: random physics, "
-                   "torque-first weights, the robust planner; default 1)")
+    b.add_argument("--draws", type=int, default=1, help="verify: rollouts per verified grasp (> 1: random physics; "
+                   "default 1)")
+    b.add_argument("--torque-first", action="store_true", help="verify: the torque-first weights "
+                   "(ScoreWeights.torque_first; `itup plan --torque-first`)")
     b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
     b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
     b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
@@ -729,7 +731,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_verify_args(ev, TASK_KINDS)
     ev.add_argument("--methods", default="sdgnet,force_closure,geometric,random",
                     help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's "
-                    f"{VERIFY_K} best rolled out under nominal physics, the best measured kept)")
+                    f"{VERIFY_K} best rolled out under nominal physics, the best measured kept; sdgnet_verified_torque: its "
+                    f"{VERIFY_TORQUE_K} best by the torque-first total, likewise)")
     ev.add_argument("--json", default=None, help="write the result (schema itup.evaluate/1)")
     ev.set_defaults(fn=cmd_evaluate)
 

@@ -9,7 +9,9 @@ Candidates are antipodal samples whose task trajectory the arm can reach (closed
 method is credited or blamed for reachability. Each pick is rolled out `seeds` times; rollout k of
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
 the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
-(`VERIFIED`); its time (`score_s`) includes those check rollouts.
+(`VERIFIED`), and `sdgnet_verified_torque` the torque-first verified pick (`VERIFIED_TORQUE`: a longer
+shortlist by the torque-first total, `ScoreWeights.torque_first`); their times (`score_s`) include those
+check rollouts, which run under nominal physics, not among the evaluation's draws.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import Scene, build_scene
-from itup_jax.scoring import SCORERS, score
+from itup_jax.scoring import SCORERS, ScoreWeights, score
 from itup_jax.simulate import Randomization, reachable, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
@@ -37,9 +39,15 @@ MEASURED = ("peak_torque", "peak_torque_induced", "peak_torque_projected", "slip
 #: (`verify.best_grasp_verified`); its check rollouts are not among the evaluation's draws.
 VERIFIED = "sdgnet_verified"
 VERIFY_K = 5
-#: Every method `evaluate` takes: the scorers and the verified pick.
-METHODS = SCORERS + (VERIFIED,)
-DEFAULT_METHODS = ("sdgnet", VERIFIED, "analytic", "static", "force_closure", "geometric", "random")
+#: The torque-first verified pick: SDG-Net's VERIFY_TORQUE_K best by the torque-first total
+#: (`ScoreWeights.torque_first`: torque, and the task and grip penalties) rolled out once more under nominal
+#: physics, the lowest measured total kept (`itup plan --verify 10 --torque-first`; k chosen on the
+#: validation set in session 23, README "Results").
+VERIFIED_TORQUE = "sdgnet_verified_torque"
+VERIFY_TORQUE_K = 10
+#: Every method `evaluate` takes: the scorers and the verified picks.
+METHODS = SCORERS + (VERIFIED, VERIFIED_TORQUE)
+DEFAULT_METHODS = ("sdgnet", VERIFIED, VERIFIED_TORQUE, "analytic", "static", "force_closure", "geometric", "random")
 
 
 def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0,
@@ -65,9 +73,10 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     """Each method's pick among the same candidates and its MuJoCo-measured labels over `seeds` rollouts.
 
     Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
-    "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` also has
-    "verified": {k, physics, tried (the candidates rolled out to check), chosen_by, unreachable (how many
-    candidates were skipped as unreachable: 0 unless `candidates` given here holds unreachable ones)}.
+    "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` and
+    `sdgnet_verified_torque` also have "verified": {k, weights, physics, tried (the candidates rolled out
+    to check), chosen_by, unreachable (how many candidates were skipped as unreachable: 0 unless
+    `candidates` given here holds unreachable ones)}.
     """
     unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:
@@ -83,14 +92,17 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
                            "candidates": counts, "methods": {}}
     for name in methods:
         t0 = time.perf_counter()
-        sdg = name in ("sdgnet", VERIFIED)
+        sdg = name in ("sdgnet", VERIFIED, VERIFIED_TORQUE)
+        weights = ScoreWeights.torque_first() if name == VERIFIED_TORQUE else ScoreWeights()
         s = score(tool, task, candidates, model=(model if sdg and model is not None else "sdgnet" if sdg else name),
-                  seed=seed)
+                  seed=seed, weights=weights)
         verified = None
-        if name == VERIFIED:
-            v = best_grasp_verified(tool, task, candidates, k=VERIFY_K, seed=seed, scores=s, scene=scene)
+        if name in (VERIFIED, VERIFIED_TORQUE):
+            k = VERIFY_K if name == VERIFIED else VERIFY_TORQUE_K
+            v = best_grasp_verified(tool, task, candidates, k=k, seed=seed, weights=weights, scores=s, scene=scene)
             i = v.index
-            verified = {"k": VERIFY_K, "physics": "nominal", "tried": [int(j) for j in v.shortlist],
+            verified = {"k": k, "weights": "torque_first" if name == VERIFIED_TORQUE else "default",
+                        "physics": "nominal", "tried": [int(j) for j in v.shortlist],
                         "chosen_by": v.chosen_by, "unreachable": len(v.unreachable)}
         else:
             i = int(np.argmin(np.asarray(s.total, float)))

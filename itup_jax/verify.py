@@ -2,8 +2,8 @@
 
     v = itup.best_grasp_verified(tool, task, grasps, k=5)   # SDG-Net, then 5 nominal rollouts
     v.index, v.grasp, v.labels.peak_torque_projected, v.chosen_by
-    v = itup.best_grasp_verified(tool, task, grasps, k=10, draws=3, randomize=itup.Randomization(),
-                                 weights=itup.ScoreWeights.torque_first())   # the robust, torque-first planner
+    v = itup.best_grasp_verified(tool, task, grasps, k=10, weights=itup.ScoreWeights.torque_first())
+    v = itup.best_grasp_verified(tool, task, grasps, k=10, draws=3, randomize=itup.Randomization())
 
 SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick is often not
 the best, which is frequently a lone grasp well below the rest and usually among its first few

@@ -187,11 +187,15 @@ def test_table1_quick(tmp_path, monkeypatch):
     valid = sum(r["methods"]["sdgnet"]["valid_rollouts"] for r in doc["per_tool"])
     assert cell["peak_torque_projected"]["n"] == valid and len(doc["per_tool"]) == 1
     assert "force_closure" in doc["table"]["hammer"]["sdgnet_torque_reduction_pct"]
-    assert "sdgnet_verified" not in doc["table"]["hammer"]["sdgnet_torque_reduction_pct"]  # not a baseline
-    assert (tmp_path / "table1.png").stat().st_size > 5_000 and (tmp_path / "table1.csv").read_text().count("\n") == 5
+    assert not {"sdgnet_verified", "sdgnet_verified_torque"} & set(doc["table"]["hammer"]["sdgnet_torque_reduction_pct"])  # not baselines
+    assert (tmp_path / "table1.png").stat().st_size > 5_000 and (tmp_path / "table1.csv").read_text().count("\n") == 6
     # the verified pick is one of the candidates SDG-Net shortlisted and checked in MuJoCo
     ver = doc["per_tool"][0]["methods"]["sdgnet_verified"]
     assert ver["index"] in ver["verified"]["tried"] and ver["verified"]["chosen_by"] in ("measured", "score")
+    # the torque-first verified pick: one of its (longer) shortlist
+    tor = doc["per_tool"][0]["methods"]["sdgnet_verified_torque"]
+    assert tor["index"] in tor["verified"]["tried"] and tor["verified"]["weights"] == "torque_first"
+    assert len(tor["verified"]["tried"]) > len(ver["verified"]["tried"])
 
 
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
