@@ -582,7 +582,7 @@ def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from itup_jax.evaluate import METHODS, VERIFY_K, VERIFY_TORQUE_K
+    from itup_jax.evaluate import METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
     from itup_jax.scene import TASK_TIMESTEP
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
@@ -732,7 +732,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--methods", default="sdgnet,force_closure,geometric,random",
                     help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's "
                     f"{VERIFY_K} best rolled out under nominal physics, the best measured kept; sdgnet_verified_torque: its "
-                    f"{VERIFY_TORQUE_K} best by the torque-first total, likewise)")
+                    f"{VERIFY_TORQUE_K} best by the torque-first total, each under {VERIFY_TORQUE_DRAWS} draws of the priors)")
     ev.add_argument("--json", default=None, help="write the result (schema itup.evaluate/1)")
     ev.set_defaults(fn=cmd_evaluate)
 

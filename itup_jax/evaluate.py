@@ -10,8 +10,9 @@ method is credited or blamed for reachability. Each pick is rolled out `seeds` t
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
 the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
 (`VERIFIED`), and `sdgnet_verified_torque` the torque-first verified pick (`VERIFIED_TORQUE`: a longer
-shortlist by the torque-first total, `ScoreWeights.torque_first`); their times (`score_s`) include those
-check rollouts, which run under nominal physics, not among the evaluation's draws.
+shortlist by the torque-first total, `ScoreWeights.torque_first`, each grasp under three draws of the
+priors); their times (`score_s`) include those check rollouts, which never share a physics draw with
+the evaluation's rollouts.
 """
 
 from __future__ import annotations
@@ -40,11 +41,12 @@ MEASURED = ("peak_torque", "peak_torque_induced", "peak_torque_projected", "slip
 VERIFIED = "sdgnet_verified"
 VERIFY_K = 5
 #: The torque-first verified pick: SDG-Net's VERIFY_TORQUE_K best by the torque-first total
-#: (`ScoreWeights.torque_first`: torque, and the task and grip penalties) rolled out once more under nominal
-#: physics, the lowest measured total kept (`itup plan --verify 10 --torque-first`; k chosen on the
-#: validation set in session 23, README "Results").
+#: (`ScoreWeights.torque_first`: torque, and the task and grip penalties), each rolled out under
+#: VERIFY_TORQUE_DRAWS draws of the priors, the lowest mean measured total kept (`itup plan --verify 10
+#: --verify-draws 3 --torque-first`; chosen on the validation set in session 23, README "Results").
 VERIFIED_TORQUE = "sdgnet_verified_torque"
 VERIFY_TORQUE_K = 10
+VERIFY_TORQUE_DRAWS = 3
 #: Every method `evaluate` takes: the scorers and the verified picks.
 METHODS = SCORERS + (VERIFIED, VERIFIED_TORQUE)
 DEFAULT_METHODS = ("sdgnet", VERIFIED, VERIFIED_TORQUE, "analytic", "static", "force_closure", "geometric", "random")
@@ -74,9 +76,11 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
 
     Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
     "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` and
-    `sdgnet_verified_torque` also have "verified": {k, weights, physics, tried (the candidates rolled out
-    to check), chosen_by, unreachable (how many candidates were skipped as unreachable: 0 unless
-    `candidates` given here holds unreachable ones)}.
+    `sdgnet_verified_torque` also have "verified": {k, draws, weights, physics, tried (the candidates
+    rolled out to check), chosen_by, unreachable (how many candidates were skipped as unreachable: 0
+    unless `candidates` given here holds unreachable ones)}. The torque-first pick's check rollouts draw
+    their physics from seed + 1 (with `randomize`, or the default spreads when it is None), the
+    evaluation's rollouts from seed.
     """
     unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:
@@ -97,13 +101,16 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         s = score(tool, task, candidates, model=(model if sdg and model is not None else "sdgnet" if sdg else name),
                   seed=seed, weights=weights)
         verified = None
-        if name in (VERIFIED, VERIFIED_TORQUE):
-            k = VERIFY_K if name == VERIFIED else VERIFY_TORQUE_K
-            v = best_grasp_verified(tool, task, candidates, k=k, seed=seed, weights=weights, scores=s, scene=scene)
+        if name == VERIFIED:
+            v = best_grasp_verified(tool, task, candidates, k=VERIFY_K, seed=seed, scores=s, scene=scene)
+            verified = {"k": VERIFY_K, "draws": 1, "weights": "default", "physics": "nominal"}
+        elif name == VERIFIED_TORQUE:
+            v = best_grasp_verified(tool, task, candidates, k=VERIFY_TORQUE_K, draws=VERIFY_TORQUE_DRAWS, seed=seed + 1,
+                                    randomize=randomize or Randomization(), weights=weights, scores=s, scene=scene)
+            verified = {"k": VERIFY_TORQUE_K, "draws": VERIFY_TORQUE_DRAWS, "weights": "torque_first", "physics": "random"}
+        if verified is not None:
             i = v.index
-            verified = {"k": k, "weights": "torque_first" if name == VERIFIED_TORQUE else "default",
-                        "physics": "nominal", "tried": [int(j) for j in v.shortlist],
-                        "chosen_by": v.chosen_by, "unreachable": len(v.unreachable)}
+            verified.update(tried=[int(j) for j in v.shortlist], chosen_by=v.chosen_by, unreachable=len(v.unreachable))
         else:
             i = int(np.argmin(np.asarray(s.total, float)))
         dt = time.perf_counter() - t0

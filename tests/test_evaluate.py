@@ -195,6 +195,7 @@ def test_table1_quick(tmp_path, monkeypatch):
     # the torque-first verified pick: one of its (longer) shortlist
     tor = doc["per_tool"][0]["methods"]["sdgnet_verified_torque"]
     assert tor["index"] in tor["verified"]["tried"] and tor["verified"]["weights"] == "torque_first"
+    assert tor["verified"]["draws"] == 3 and tor["verified"]["physics"] == "random"
     assert len(tor["verified"]["tried"]) > len(ver["verified"]["tried"])
 
 
