@@ -304,7 +304,8 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
         s = score(tool, task, grasps, m, weights=kw["weights"])
         jax.block_until_ready(s.total)
         first_s = time.perf_counter() - t0
-        score_s = statistics.median(_timed(lambda: jax.block_until_ready(score(tool, task, grasps, m).total), repeats))
+        score_s = statistics.median(_timed(lambda: jax.block_until_ready(score(tool, task, grasps, m, weights=kw["weights"]).total),
+                                           repeats))
         v = best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene, **kw)
         verify_s = statistics.median(_timed(lambda: best_grasp_verified(tool, task, grasps, k=k, scores=s, scene=scene,
                                                                         **kw), repeats))

@@ -99,7 +99,6 @@ def cmd_plan(args) -> int:
         if clash or args.scorer != "sdgnet":
             raise_input("--torque-first sets SDG-Net's weights (torque alone, the task and grip penalties kept); "
                         + (f"it cannot be combined with {', '.join(clash)}" if clash else f"not the {args.scorer!r} scorer's"))
-        args.w_tau, args.w_slip, args.w_align = 1.0, 0.0, 0.0
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
@@ -118,7 +117,8 @@ def cmd_plan(args) -> int:
     else:
         from itup_jax.scoring import ScoreWeights
 
-        sw = ScoreWeights(**given)
+        # --torque-first: the preset, with --w-task/--w-fail if given (the others were refused above)
+        sw = ScoreWeights.torque_first(**given) if args.torque_first else ScoreWeights(**given)
         weights = dataclasses.asdict(sw) if args.scorer == "sdgnet" else None
         model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
         costs = itup.score(tool, task, grasps, model=model, seed=args.seed, weights=sw)
