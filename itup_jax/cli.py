@@ -273,10 +273,12 @@ def cmd_generate(args) -> int:
 
 def _datasets_spec(folders, manifests) -> list[dict]:
     """What a checkpoint records of the datasets it was trained on."""
-    from itup_jax.dataset import dataset_timesteps
+    from itup_jax.dataset import dataset_timesteps, split_dataset_arg
 
-    return [{"folder": os.path.abspath(d), "config": m["config"], "timesteps": dataset_timesteps(m),
-             "totals": m.get("totals"), "code_version": m["code_version"]} for d, m in zip(folders, manifests)]
+    split = [split_dataset_arg(a) for a in folders]
+    return [{"folder": os.path.abspath(d), "tasks": list(t) if t else None, "config": m["config"],
+             "timesteps": dataset_timesteps(m), "totals": m.get("totals"), "code_version": m["code_version"]}
+            for (d, t), m in zip(split, manifests)]
 
 
 def _cmd_adapt(args) -> int:
@@ -678,7 +680,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = sub.add_parser("train", help="train SDG-Net on a dataset from `itup generate`")
     tr.add_argument("--data", required=True, nargs="+", metavar="DIR",
-                    help="dataset folder(s); several (e.g. generated with different seeds) are trained on as one")
+                    help="dataset folder(s); several (e.g. generated with different seeds) are trained on as one; "
+                         "DIR:TASK,TASK takes only those tasks' rows from DIR")
     tr.add_argument("--out", required=True, help="checkpoint to write (.npz, arrays only)")
     tr.add_argument("--hidden", default=None, help="hidden layer widths, e.g. 128,128,128 (default: TrainConfig's)")
     tr.add_argument("--weight-decay", type=float, default=None,

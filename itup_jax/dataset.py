@@ -525,10 +525,26 @@ def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] 
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+def split_dataset_arg(arg: str) -> tuple[str, tuple[str, ...] | None]:
+    """'DIR' -> (DIR, None); 'DIR:TASK[,TASK...]' -> (DIR, the tasks to take from that folder). A folder
+    whose own name contains ':' is taken whole when it exists. Unknown task names are refused."""
+    if os.path.isdir(arg) or ":" not in arg:
+        return arg, None
+    folder, spec = arg.rsplit(":", 1)
+    names = tuple(t.strip() for t in spec.split(","))
+    unknown = [t for t in names if t not in TASK_KINDS]
+    if not folder or unknown or not names:
+        raise InputError(f"dataset {arg!r}: give a folder, or FOLDER:TASKS with TASKS among {', '.join(TASK_KINDS)} "
+                         f"separated by commas{' (unknown: ' + ', '.join(map(repr, unknown)) + ')' if unknown else ''}")
+    return folder, names
+
+
 def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
                   tasks: Sequence[str] | None = None) -> tuple[dict[str, np.ndarray], list[dict]]:
     """Several datasets (e.g. `itup generate` runs with different seeds, whose procedural tools differ)
-    as one: rows concatenated, plus the manifests. Refused: a folder given twice (its rows would count
+    as one: rows concatenated, plus the manifests. An entry 'DIR:TASK,TASK' takes only those tasks'
+    shards from DIR (`split_dataset_arg`), e.g. one task's rows from a newer dataset and the other
+    tasks' from an older one; `tasks` filters every folder. Refused: a folder given twice (its rows would count
     twice), datasets whose features were made with different `FeatureSpec`s (their columns would
     mean different things) and datasets whose rows of one task were simulated at different timesteps
     (their labels measure different integrations; `dataset_timesteps`). Tasks at different steps mix.
@@ -537,23 +553,27 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     split by tool stays a split by tool."""
     if not out_dirs:
         raise InputError("load_datasets: no dataset folder given")
+    split = [split_dataset_arg(a) for a in out_dirs]
+    out_dirs = [d for d, _ in split]
+    picks = [tuple(t for t in (own if own is not None else TASK_KINDS) if tasks is None or t in tasks)
+             for _, own in split]
     real = [os.path.realpath(d) for d in out_dirs]
     if len(set(real)) != len(real):
         raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
     manifests = [read_manifest(d) for d in out_dirs]
     first: dict[str, tuple[float, str]] = {}  # task -> (step, the first folder holding it)
-    for d, m in zip(out_dirs, manifests):
+    for d, m, pick in zip(out_dirs, manifests, picks):
         if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
         for t, step in dataset_timesteps(m).items():
-            if tasks is not None and t not in tasks:
+            if t not in pick:
                 continue
             step0, d0 = first.setdefault(t, (step, d))
             if step != step0:
                 raise InputError(f"dataset {d!r}: its {t} rows simulated at a {step} s timestep, but those of "
                                  f"{d0!r} at {step0} s; their labels cannot be mixed")
-    parts = [load_dataset(d, valid_only=valid_only, tasks=tasks, manifest=m) for d, m in zip(out_dirs, manifests)]
+    parts = [load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m) for d, m, pick in zip(out_dirs, manifests, picks)]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:
         new_ids = p["tool_id"].copy()

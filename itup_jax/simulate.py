@@ -683,7 +683,11 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
 # energy could (~3.5 mm); with the servos pressing through the hold, 0.6-7 mm. 1 mm until session 21,
 # while the nail's soft stop let the follow-through press it 20-50 mm.
 NAIL_DEPTH_SUCCESS = 1e-4
-TOPPLE_SUCCESS = 0.03  # m top-block displacement
+TOPPLE_SUCCESS = 0.03  # m top-block displacement during the motion
+# m: the top block's largest horizontal move during the settle for a tower left standing. A tower
+# nobody touches sinks 1.4 mm into its soft contacts straight down and moves 0.000 mm sideways; one the
+# drooping tool touched moved 0.85 mm to 0.6 m (session 24)
+TOWER_STANDING = 5e-4
 REACH_SUCCESS_FRACTION = 0.5  # of the commanded pull/push distance
 
 
@@ -697,10 +701,16 @@ def _task_outcome(scene: Scene, task: Task, sensordata: np.ndarray, p: Plan) -> 
         line = float(np.asarray(task.c_obj_world, float)[:3].mean(0) @ d) + 0.10  # 10 cm past the debris
         past = sum((s(f"debris_{i}")[:, -1] @ d > line).astype(int) for i in range(3))
         return past.astype(float), past >= 2
-    if task.kind == "knock":
+    if task.kind == "knock":  # moved during the motion, and the tower still standing when it starts
         top = s("top_block")
-        moved = np.linalg.norm(top[:, -1] - top[:, 0], axis=-1)
-        return moved, moved >= TOPPLE_SUCCESS
+        settled = top[:, p.n_settle - 1]
+        moved = np.linalg.norm(top[:, -1] - settled, axis=-1)
+        # A grasp that cannot hold the tool still lets it droop in the pads during the settle, onto the
+        # tower 6 cm away, which it pushes over before the motion. Until session 24 that counted as a
+        # knock (measured from the first step): 2.2 % of the test set's knock rollouts, nearly all
+        # labelled successes with the low torque of a swing that meets nothing.
+        standing = np.linalg.norm((settled - top[:, 0])[:, :2], axis=-1) <= TOWER_STANDING
+        return moved, (moved >= TOPPLE_SUCCESS) & standing
     block = s("block")
     d = np.asarray(task.d_world, float)
     moved = (block[:, -1] - block[:, 0]) @ d

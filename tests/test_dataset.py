@@ -221,6 +221,27 @@ def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys)
     generate(reach, GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=2, seed=0), progress=False)
     both, _ = load_datasets([out, reach])
     assert sorted(set(both["task"].tolist())) == ["knock", "reach"]
+    # FOLDER:TASKS takes only those tasks from a folder: here its reach rows, whose knock rows (at 0.5 ms)
+    # would not mix with the 1 ms ones
+    mixed = str(tmp_path / "mixed")
+    generate(mixed, GenerateConfig(tasks=("knock", "reach"), tools_per_task=2, grasps=8, seed=3), progress=False)
+    with pytest.raises(itup.InputError, match="knock rows simulated at a 0.0005 s timestep"):
+        load_datasets([out, mixed])
+    both, _ = load_datasets([out, mixed + ":reach"])
+    only = load_dataset(mixed, tasks=["reach"])
+    np.testing.assert_array_equal(both["features"][both["task"] == "reach"], only["features"])
+    assert sorted(set(both["task"].tolist())) == ["knock", "reach"]
+    with pytest.raises(itup.InputError, match="no shards for reach"):
+        load_datasets([out + ":reach", mixed])
+    with pytest.raises(itup.InputError, match="unknown: 'knok'"):
+        load_datasets([out, mixed + ":knok"])
+    ckpt = str(tmp_path / "m.npz")
+    assert main(["train", "--data", out, mixed + ":reach", "--out", ckpt, "--epochs", "1", "--hidden", "4", "--quiet"]) == 0
+    from itup_jax.checkpoint import load
+
+    assert [d["tasks"] for d in load(ckpt)[1]["datasets"]] == [None, ["reach"]]
+    assert main(["train", "--data", mixed + ":nail", "--out", ckpt, "--quiet"]) == 2
+    assert "unknown: 'nail'" in capsys.readouterr().err
     assert main(["generate", "--out", str(tmp_path / "bad"), "--timestep", "-1", "--quiet"]) == 2
     assert "timestep must be in (0, 0.01] s" in capsys.readouterr().err and not (tmp_path / "bad").exists()
 

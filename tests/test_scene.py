@@ -10,8 +10,8 @@ import trimesh
 import itup_jax as itup
 from itup_jax.scene import (CONTACT_MIN_TIMECONST, PLASTIC_TARGETS, TARGET_BODIES, TASK_TIMESTEP, build_scene,
                             restitution_solref, scene_xml, target_solref)
-from itup_jax.simulate import (NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, mjx_model_fields, plan, randomized_model,
-                               sample_physics)
+from itup_jax.simulate import (NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, TOWER_STANDING, mjx_model_fields, plan,
+                               randomized_model, sample_physics)
 
 
 @pytest.fixture(scope="module")
@@ -71,6 +71,31 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
         mujoco.mj_step(m, d)
     moved = {b: float(np.linalg.norm(d.body(b).xpos - p)) for b, p in start.items()}
     assert max(moved.values()) < _AT_REST[kind], moved
+
+
+def test_a_tower_pushed_over_before_the_motion_is_no_knock(scenes, tasks):
+    """Grasp 29 of 64 on the built-in mallet (seed 0, nominal physics) cannot hold the tool still: during
+    the settle the tool droops in the pads onto the tower, 6 cm from its face, and pushes it over before
+    the swing starts. That is no knock; until session 24 it counted as one (the top block's move was
+    measured from the first step), with the low torque of a swing that meets nothing. Every other tower
+    stands still sideways through the settle (it sinks ~1.4 mm straight down into its soft contacts), and
+    its label is whether the motion moved the top block 3 cm."""
+    tool, task = tasks["knock"]
+    grasps = itup.sample_grasps(tool, 64, seed=0)[24:32]
+    res = itup.simulate(tool, task, grasps, scene=scenes["knock"], backend="native", randomize=None, traces=True)
+    labels, top, n = res.labels, res.traces["top_block"], res.plan.n_settle
+    sideways = np.linalg.norm((top[:, n - 1] - top[:, 0])[:, :2], axis=-1)  # during the settle
+    in_motion = np.linalg.norm(top[:, -1] - top[:, n - 1], axis=-1)
+    ok = labels.valid
+    assert ok.sum() >= 4 and ok[5]
+    pushed = ok & (sideways > TOWER_STANDING)
+    assert pushed.tolist() == [i == 5 for i in range(8)], sideways
+    assert sideways[5] > 0.1 and np.linalg.norm(top[5, -1] - top[5, 0]) > TOPPLE_SUCCESS  # over, before the swing
+    assert not labels.success[5]
+    assert sideways[ok & ~pushed].max() < 1e-5
+    np.testing.assert_allclose(labels.task_metric[ok], in_motion[ok])
+    np.testing.assert_array_equal(labels.success[ok & ~pushed], in_motion[ok & ~pushed] >= TOPPLE_SUCCESS)
+    assert labels.success[ok & ~pushed].any()  # some swings do knock it over
 
 
 def test_strikes_leave_the_nail_within_its_travel(scenes, tasks):
