@@ -533,7 +533,7 @@ def split_dataset_arg(arg: str) -> tuple[str, tuple[str, ...] | None]:
     folder, spec = arg.rsplit(":", 1)
     names = tuple(t.strip() for t in spec.split(","))
     unknown = [t for t in names if t not in TASK_KINDS]
-    if not folder or unknown or not names:
+    if not folder or unknown:
         raise InputError(f"dataset {arg!r}: give a folder, or FOLDER:TASKS with TASKS among {', '.join(TASK_KINDS)} "
                          f"separated by commas{' (unknown: ' + ', '.join(map(repr, unknown)) + ')' if unknown else ''}")
     return folder, names
@@ -555,8 +555,8 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
         raise InputError("load_datasets: no dataset folder given")
     split = [split_dataset_arg(a) for a in out_dirs]
     out_dirs = [d for d, _ in split]
-    picks = [tuple(t for t in (own if own is not None else TASK_KINDS) if tasks is None or t in tasks)
-             for _, own in split]
+    # per folder: the tasks to take (None: all it holds), its own filter within `tasks`
+    picks = [tasks if own is None else tuple(t for t in own if tasks is None or t in tasks) for _, own in split]
     real = [os.path.realpath(d) for d in out_dirs]
     if len(set(real)) != len(real):
         raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
@@ -567,7 +567,7 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
             raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
                              f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
         for t, step in dataset_timesteps(m).items():
-            if t not in pick:
+            if pick is not None and t not in pick:
                 continue
             step0, d0 = first.setdefault(t, (step, d))
             if step != step0:
