@@ -80,9 +80,9 @@ class SimConfig:
 
     settle_time: float = 0.3  # s, still, gripped, before the motion
     grip_force: float = 100.0  # N per pad (Robotiq 2F-85 range 20-235 N)
-    slip_threshold: float = 0.01  # m, failure when the tool moves this far in the gripper
+    slip_threshold: float = 0.01  # m, failure when the tool slides this far in the pads (at the grasp centre)
     rotation_threshold: float = math.radians(10.0)  # rad, failure when it turns this far
-    lost_distance: float = 0.05  # m, tool lost
+    lost_distance: float = 0.05  # m, tool lost (slid this far at the grasp centre)
     impact_window: float = 0.05  # s after an impact still counted as contact (alignment drift)
     diverged_qvel: float = 500.0  # rad/s or m/s: any |qvel| above is a blow-up
     static_window: float = 0.05  # s at the end of the settle phase averaged for the static wrench
@@ -563,8 +563,11 @@ class Labels:
     peak_torque_projected: max |(I - y y^T)(tau - tau_static)|, y the jaw-closure axis (the cost's
     projection).  peak_torque_closure: max |(tau - tau_static) . y|.  static_torque: |tau_static|.
     peak_force_induced: max |F - F_static| (N).  peak_pad_force: max normal force of either pad's
-    strongest contact during the motion (N).  slip_translation (m) and slip_rotation (rad): max
-    motion of the tool in the grasp frame after the settle phase.  alignment_drift (rad): max angle
+    strongest contact during the motion (N).  slip_translation (m): max distance over the motion by
+    which the tool's material point at the grasp centre (midway between the pads at the end of the
+    settle) moved away from it, in the grasp frame (`grasp_point_slip`; independent of where the tool's
+    frame has its origin).  slip_rotation (rad): max angle the tool turned in the grasp frame over the
+    motion, from its pose at the end of the settle.  alignment_drift (rad): max angle
     of the tool's z axis from the trajectory's during contact.  failed: slip or rotation over the
     thresholds, or tool lost.  task_metric: nail depth (m) | debris past the line (count) | top-block
     displacement (m) | block displacement along the task direction (m).  success: task_metric beyond
@@ -612,6 +615,25 @@ def _quat_angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(np.abs(np.einsum("...i,...i->...", q, q_ref)), 0.0, 1.0))
 
 
+def grasp_point_slip(pos_g: np.ndarray, quat_g: np.ndarray, ref: int) -> np.ndarray:
+    """How far the tool's material point at the grasp centre slid, [N, S, 3] x [N, S, 4] -> [N, S] (m).
+
+    pos_g [N, S, 3] (m) and quat_g [N, S, 4] (w, x, y, z) are the pose of the tool frame in the grasp
+    frame at each step. The grasp centre (the grasp frame's origin, midway between the pads) sits in
+    tool coordinates at c = -R^T p. The point of the tool that was there at step `ref` is, at step t,
+    at R(t) c(ref) + p(t) = R(t) (c(ref) - c(t)) in the grasp frame, a distance |c(t) - c(ref)| from
+    the centre. Unlike the displacement of the tool frame's origin (the label until code 0.4.0), it
+    does not depend on where the tool's mesh has its origin: a tool turning about the grasp centre does
+    not slide there however far its origin swings.
+    """
+    w, u = quat_g[..., :1], quat_g[..., 1:]
+    uxp = np.cross(u, pos_g)
+    # R^T p: p rotated by the conjugate quaternion (w, -u) = p - 2w (u x p) + 2 u x (u x p)
+    centre = -(pos_g - 2.0 * w * uxp + 2.0 * np.cross(u, uxp))
+    d = centre - centre[:, ref:ref + 1]
+    return np.sqrt(np.einsum("...i,...i->...", d, d))
+
+
 def _quat_z_axis(q: np.ndarray) -> np.ndarray:
     w, x, y, z = np.moveaxis(q, -1, 0)
     return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=-1)
@@ -635,9 +657,10 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     d_tau_sq = np.einsum("...i,...i->...", d_tau, d_tau)
     perp_sq = d_tau[..., 0] * d_tau[..., 0] + d_tau[..., 2] * d_tau[..., 2]
     pos_g, quat_g = s("tool_pos_grasp"), s("tool_quat_grasp")
-    ref_p, ref_q = pos_g[:, p.n_settle - 1], quat_g[:, p.n_settle - 1]
-    slip_t = _peak_norm(pos_g[:, motion] - ref_p[:, None])
-    slip_r = _quat_angle(quat_g[:, motion], ref_q[:, None]).max(1)
+    # slip and rotation in the pads over the motion, from the grip as it stands at the end of the settle
+    ref = p.n_settle - 1
+    slip_t = grasp_point_slip(pos_g[:, ref:], quat_g[:, ref:], 0)[:, 1:].max(1)
+    slip_r = _quat_angle(quat_g[:, motion], quat_g[:, ref, None]).max(1)
     # alignment drift: the tool's z axis against the trajectory's, while in contact
     # (the task's arrays are JAX arrays: converted once, host indexing of a JAX array dispatches an op)
     impact, drag = np.asarray(task.impact), np.asarray(task.drag)

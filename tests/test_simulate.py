@@ -262,3 +262,73 @@ def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_nat
     for f in LABEL_FIELDS:
         np.testing.assert_array_equal(getattr(out.labels, f), getattr(res.labels, f), err_msg=f)
     assert np.isnan(out.traces["gripper/wrist_torque"][out.labels.infeasible]).all()
+
+
+def _axis_angle_matrix(axis, angle):
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * K @ K
+
+
+def test_slip_is_measured_at_the_grasp_centre_in_closed_form(rng):
+    """`grasp_point_slip`: a tool turning about the grasp centre slides 0 there however far its frame's
+    origin swings; turning by theta about a pivot at distance r (perpendicular to the axis) slides
+    2 r sin(theta / 2); a translation d slides |d|."""
+    from itup_jax.simulate import _quat_from_matrix, grasp_point_slip
+
+    p0, R0 = np.array([0.02, -0.01, -0.25]), _axis_angle_matrix(rng.normal(size=3), 0.7)  # tool origin 25 cm off
+    axis, angles = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.05, 0.2, 0.4])
+    pivot = np.array([0.03, 0.5, 0.04])  # in the grasp frame; r = 5 cm from the axis through it
+    d = np.array([0.004, -0.003, 0.012])
+
+    def traces(pivot, shift):
+        Rs = [_axis_angle_matrix(axis, a) for a in angles]
+        pos = np.stack([pivot + R @ (p0 - pivot) + s * shift for R, s in zip(Rs, angles / angles[-1])])
+        quat = np.stack([_quat_from_matrix(R @ R0) for R in Rs])
+        return pos[None], quat[None]
+
+    pos, quat = traces(np.zeros(3), np.zeros(3))
+    np.testing.assert_allclose(grasp_point_slip(pos, quat, 0), 0.0, atol=1e-12)
+    assert np.linalg.norm(pos[0, -1] - pos[0, 0]) > 0.09  # the origin swung 10 cm
+    pos, quat = traces(pivot, np.zeros(3))
+    np.testing.assert_allclose(grasp_point_slip(pos, quat, 0)[0], 2 * 0.05 * np.sin(angles / 2), rtol=1e-9)
+    # measured from a later step: the distance from where the point was then
+    np.testing.assert_allclose(grasp_point_slip(pos, quat, 1)[0, -1], 2 * 0.05 * np.sin((angles[-1] - angles[1]) / 2), rtol=1e-9)
+    quat = np.broadcast_to(_quat_from_matrix(R0), (1, 4, 4))
+    pos = (p0 + np.outer(angles / angles[-1], d))[None]
+    np.testing.assert_allclose(grasp_point_slip(pos, quat, 0)[0], angles / angles[-1] * np.linalg.norm(d), rtol=1e-12)
+
+
+def test_slip_labels_do_not_depend_on_where_the_tools_mesh_has_its_origin(tasks):
+    """The same rollouts with the L-stick's mesh frame moved 20 cm along its shaft: the physics is the
+    same (up to rounding in the contacts), so slip and rotation in the pads must be too. The tool turns
+    up to ~20 degrees in the pads here, so the frame origin's displacement (the label before code 0.5.0)
+    differed by tens of millimetres between the two frames."""
+    import dataclasses
+
+    from transforms import move_tool_frame
+
+    from itup_jax.tool import Box
+
+    tool, task = tasks["reach"]
+    shift = np.array([0.0, 0.0, -0.2])
+    g = itup.sample_grasps(tool, 8, seed=0)
+    params, task2, g2 = move_tool_frame(tool.params, task, g, np.eye(3), shift)
+    mesh = tool.mesh.copy()
+    mesh.apply_translation(shift)
+    tool2 = dataclasses.replace(
+        tool, mesh=mesh, params=params, contact_point=tool.contact_point + shift,
+        contact_points=tool.contact_points + shift, grasp_region=Box(tool.grasp_region.lo + shift, tool.grasp_region.hi + shift),
+        # ("capsule", p0, p1, radius) and ("box", lo, hi): two points each
+        primitives=tuple((kind, np.asarray(x0) + shift, np.asarray(x1) + shift, *rest) for kind, x0, x1, *rest in tool.primitives))
+    a = simulate(tool, task, g, randomize=None, backend="native").labels
+    b = simulate(tool2, task2, g2, randomize=None, backend="native").labels
+    np.testing.assert_array_equal(a.valid, b.valid)
+    assert a.valid.sum() >= 3
+    v = a.valid
+    assert a.slip_rotation[v].max() > 0.15  # turns enough that a 20 cm lever would move the origin 3 cm
+    np.testing.assert_allclose(b.slip_translation[v], a.slip_translation[v], atol=3e-4)
+    np.testing.assert_allclose(b.slip_rotation[v], a.slip_rotation[v], atol=0.01)
+    np.testing.assert_array_equal(b.failed[v], a.failed[v])
+    # contacts round differently in the other frame; the torques agree to a few per cent
+    np.testing.assert_allclose(b.peak_torque_projected[v], a.peak_torque_projected[v], rtol=0.05)
