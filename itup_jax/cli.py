@@ -295,12 +295,26 @@ def _cmd_adapt(args) -> int:
         raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
                     f"(--finetune-epochs, --finetune-lr, --patience and --seed set the adaptation)")
     model = load_model(args.init)  # checked before any data is read
+    keep = None
+    if args.keep is not None:
+        from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, COST_NAMES, teacher_targets
+
+        keep = tuple(k for k in args.keep.split(",") if k.strip())
+        heads = COST_NAMES + tuple(CLASS_NAMES[CLASS_TARGETS.index(h)] for h in model.class_heads)
+        if not keep or set(keep) - set(heads):
+            raise_input(f"--keep {args.keep!r}: comma-separated outputs of {args.init!r}, some of {', '.join(heads)}")
     epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)
     data, manifests = load_datasets(args.data)
     fs = manifests[0]["config"]["feature_spec"]
+    if keep is not None:
+        if model.spec["feature_spec"] != fs:
+            raise_input(f"--init {args.init!r}: its features were made with {model.spec['feature_spec']}, the datasets' with {fs}")
+        data = teacher_targets(data, model, outputs=keep)  # these outputs are held at the checkpoint's predictions
     out = adapt(model, data, epochs=epochs, lr=args.finetune_lr, seed=args.seed, patience=args.patience,
                 feature_spec=fs, progress=not args.quiet)
     out.spec["adapted_from"]["file"] = os.path.abspath(args.init)
+    if keep is not None:
+        out.spec["adapted_from"]["kept"] = list(keep)
     out.spec["datasets"] = _datasets_spec(args.data, manifests)
     out.spec["command"] = _command_line()
     save_model(args.out, out)
@@ -317,6 +331,8 @@ def cmd_train(args) -> int:
 
     if args.init:
         return _cmd_adapt(args)
+    if args.keep is not None:
+        raise_input("--keep holds outputs of the checkpoint being adapted: it needs --init M.npz")
     try:
         hidden = None if args.hidden is None else tuple(int(h) for h in args.hidden.split(",") if h.strip())
     except ValueError:
@@ -718,6 +734,11 @@ def build_parser() -> argparse.ArgumentParser:
                          "continues from its weights and normalisation for --finetune-epochs epochs (default: its "
                          "recipe's) at --finetune-lr, kept unless an epoch beats it on the data's held-out tools; "
                          "--epochs, --lr and --batch (training from scratch) do not apply")
+    tr.add_argument("--keep", default=None, metavar="OUT,OUT",
+                    help="with --init: train these outputs (tau, slip, align, p_success, p_failed) towards the "
+                         "checkpoint's own predictions of the rows instead of their labels, so that the others "
+                         "adapt to a changed label while these stay where they were (e.g. tau,align,p_success "
+                         "after the slip label changed)")
     tr.add_argument("--quiet", action="store_true")
     tr.set_defaults(fn=cmd_train)
 

@@ -588,14 +588,21 @@ def ensemble(models) -> Model:
     return Model(params=params, spec=spec)
 
 
-def teacher_targets(data: dict, teacher: Model) -> dict:
+def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None = None) -> dict:
     """A copy of `data` (as from `dataset.load_datasets`) whose cost targets (`TARGETS`, SI units) and
     binary labels (`CLASS_TARGETS` the teacher has a head for) are `teacher`'s predictions for each row,
     by task: the targets to distil a model (typically an `ensemble`, M times slower to score) into one
     network that scores at one network's cost (`itup train --teacher E.npz`). The probabilities are
     soft labels of the cross-entropy (`training_loss`); the features and every other column are `data`'s
     own (not copied). The rows' features must be of the teacher's `FeatureSpec` (the caller checks the
-    datasets' manifests)."""
+    datasets' manifests).
+
+    outputs: only these of `COST_NAMES` + `CLASS_NAMES` (e.g. ("tau", "align")) are the teacher's, the
+    rest stay the labels: adapting a checkpoint to a changed label while holding its other outputs
+    where they were (`itup train --init M.npz --keep tau,align,p_success`). None: all of them."""
+    known = COST_NAMES + CLASS_NAMES
+    if outputs is not None and (not outputs or set(outputs) - set(known)):
+        raise InputError(f"teacher_targets: outputs must be some of {', '.join(known)}, got {list(outputs)}")
     tasks = np.asarray(data["task"])
     X = np.asarray(data["features"])
     n_in = np.shape(teacher.params[0][0])[-2]  # every network of a model takes the same features
@@ -603,11 +610,16 @@ def teacher_targets(data: dict, teacher: Model) -> dict:
         raise InputError(f"teacher_targets: the rows have {X.shape[-1]} features, the teacher's networks take {n_in}")
     out = dict(data)
     heads = [(CLASS_NAMES[CLASS_TARGETS.index(h)], h) for h in teacher.class_heads]
-    cols = {key: np.full(len(tasks), np.nan) for key in list(TARGETS) + [h for _, h in heads]}
+    pairs = [(name, key) for name, key in list(zip(COST_NAMES, TARGETS)) + heads if outputs is None or name in outputs]
+    missing = [] if outputs is None else sorted(set(outputs) - {name for name, _ in pairs})
+    if missing:
+        raise InputError(f"teacher_targets: the teacher has no {', '.join(missing)} head (its heads: "
+                         f"{', '.join(COST_NAMES + tuple(n for n, _ in heads))})")
+    cols = {key: np.full(len(tasks), np.nan) for _, key in pairs}
     for kind in np.unique(tasks):
         rows = tasks == kind
         p = predict_costs(teacher, X[rows], str(kind))  # InputError when a per-task teacher lacks the task
-        for name, key in list(zip(COST_NAMES, TARGETS)) + heads:
+        for name, key in pairs:
             cols[key][rows] = np.asarray(p[name], np.float64)
     out.update(cols)
     return out

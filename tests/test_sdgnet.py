@@ -504,3 +504,37 @@ def test_train_init_refuses_to_change_the_recipe(tmp_path, capsys):
     assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "m.npz"), "--init", "x.npz",
                  "--hidden", "8"]) == 2
     assert "the recipe is the checkpoint's own; --hidden" in capsys.readouterr().err
+
+
+def test_adapting_with_held_outputs_learns_the_changed_label_and_holds_the_rest(tmp_path, capsys):
+    """`teacher_targets(outputs=...)` swaps only the named outputs for the checkpoint's own predictions.
+    Adapting on them (`itup train --init M --keep tau,align`) learns a changed slip label while the
+    torque output stays where it was, closer than an adaptation to the labels leaves it."""
+    from itup_jax.cli import main
+    from itup_jax.sdgnet import adapt, predict_costs, teacher_targets
+
+    quiet = dict(progress=False, log=lambda *_: None)
+    model = train(_synthetic(seed=1), TrainConfig(hidden=(16,), epochs=40, patience=40, lr=3e-3), **quiet)
+    new = _synthetic(seed=2)
+    X = new["features"]
+    new[TARGETS[1]] = 1e-3 * np.exp(X[:, 2] - X[:, 1])  # the slip label changed its meaning
+    held = teacher_targets(new, model, outputs=("tau", "align"))
+    p0 = predict_costs(model, X, "hammer")
+    np.testing.assert_array_equal(held[TARGETS[0]], np.asarray(p0["tau"], np.float64))
+    np.testing.assert_array_equal(held[TARGETS[2]], np.asarray(p0["align"], np.float64))
+    assert held[TARGETS[1]] is new[TARGETS[1]] and held[CLASS_TARGETS[1]] is new[CLASS_TARGETS[1]]  # labels kept
+    kept = adapt(model, held, epochs=60, lr=3e-3, **quiet)
+    free = adapt(model, new, epochs=60, lr=3e-3, **quiet)
+    p_kept, p_free = predict_costs(kept, X, "hammer"), predict_costs(free, X, "hammer")
+    drift = lambda p: float(np.median(np.abs(np.log(np.asarray(p["tau"]) / np.asarray(p0["tau"])))))  # noqa: E731
+    slip_err = lambda p: float(np.median(np.abs(np.asarray(p["slip"]) - new[TARGETS[1]])))  # noqa: E731
+    assert drift(p_kept) < 0.5 * drift(p_free) and drift(p_kept) < 0.05
+    assert slip_err(p_kept) < 0.5 * slip_err(p0)  # it learnt the new slip
+    with pytest.raises(itup.InputError, match="outputs must be some of"):
+        teacher_targets(new, model, outputs=("torque",))
+    path = str(tmp_path / "m.npz")
+    save_model(path, model)
+    assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "o.npz"), "--keep", "tau"]) == 2
+    assert "it needs --init" in capsys.readouterr().err
+    assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "o.npz"), "--init", path, "--keep", "torque"]) == 2
+    assert "--keep 'torque'" in capsys.readouterr().err and not (tmp_path / "o.npz").exists()
