@@ -44,16 +44,13 @@ from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import GenerateConfig, load_shard, unit_tool  # noqa: E402
 from itup_jax.grasp import Grasps  # noqa: E402
 from itup_jax.scene import build_scene  # noqa: E402
-from itup_jax.simulate import INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, plan, rollout_native  # noqa: E402
+from itup_jax.simulate import (INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, plan, quat_angle,  # noqa: E402
+                               rollout_native)
 from itup_jax.task import TASK_KINDS  # noqa: E402
 
 EARLY = 0.05  # s: the first part of the settle, where the contacts push the tool out
 BINS_MM = (0.0, 0.5, 1.0, 2.0, np.inf)  # overlap bins for the turn
 PERCENTILES = (10, 50, 90)
-
-
-def _angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
-    return 2.0 * np.arccos(np.clip(np.abs(np.einsum("...i,...i->...", q, q_ref)), 0.0, 1.0))
 
 
 def initial_overlap(scene, qpos0: np.ndarray) -> np.ndarray:
@@ -90,8 +87,8 @@ def shard_rows(data: str, config: GenerateConfig, entry: dict, timestep: float) 
     q, x = scene.sensor(sd, "tool_quat_grasp"), scene.sensor(sd, "tool_pos_grasp")
     k = int(round(EARLY / timestep)) - 1
     return {"overlap": initial_overlap(scene, p.qpos0),
-            "turn_50ms": _angle(q[:, k], q[:, 0]),
-            "turn_settle": _angle(q[:, k:], q[:, k:k + 1]).max(1),
+            "turn_50ms": quat_angle(q[:, k], q[:, 0]),
+            "turn_settle": quat_angle(q[:, k:], q[:, k:k + 1]).max(1),
             "slide_settle": grasp_point_slip(x, q, 0).max(1)}
 
 

@@ -297,10 +297,10 @@ def _cmd_adapt(args) -> int:
     model = load_model(args.init)  # checked before any data is read
     keep = None
     if args.keep is not None:
-        from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, COST_NAMES, teacher_targets
+        from itup_jax.sdgnet import COST_NAMES, teacher_targets
 
         keep = tuple(k for k in args.keep.split(",") if k.strip())
-        heads = COST_NAMES + tuple(CLASS_NAMES[CLASS_TARGETS.index(h)] for h in model.class_heads)
+        heads = COST_NAMES + tuple(model.head_names)
         if not keep or set(keep) - set(heads):
             raise_input(f"--keep {args.keep!r}: comma-separated outputs of {args.init!r}, some of {', '.join(heads)}")
     epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)

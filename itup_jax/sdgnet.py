@@ -614,7 +614,7 @@ def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None 
     missing = [] if outputs is None else sorted(set(outputs) - {name for name, _ in pairs})
     if missing:
         raise InputError(f"teacher_targets: the teacher has no {', '.join(missing)} head (its heads: "
-                         f"{', '.join(COST_NAMES + tuple(n for n, _ in heads))})")
+                         f"{', '.join(COST_NAMES + tuple(teacher.head_names))})")
     cols = {key: np.full(len(tasks), np.nan) for _, key in pairs}
     for kind in np.unique(tasks):
         rows = tasks == kind

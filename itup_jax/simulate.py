@@ -610,8 +610,8 @@ def _peak_norm(x: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("...i,...i->...", x, x).max(1))
 
 
-def _quat_angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
-    """Rotation angle (rad) between unit quaternions [..., 4] (either sign)."""
+def quat_angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+    """Rotation angle (rad) between unit quaternions [..., 4] (either sign): the measure of `slip_rotation`."""
     return 2.0 * np.arccos(np.clip(np.abs(np.einsum("...i,...i->...", q, q_ref)), 0.0, 1.0))
 
 
@@ -660,7 +660,7 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     # slip and rotation in the pads over the motion, from the grip as it stands at the end of the settle
     ref = p.n_settle - 1
     slip_t = grasp_point_slip(pos_g[:, ref:], quat_g[:, ref:], 0)[:, 1:].max(1)
-    slip_r = _quat_angle(quat_g[:, motion], quat_g[:, ref, None]).max(1)
+    slip_r = quat_angle(quat_g[:, motion], quat_g[:, ref, None]).max(1)
     # alignment drift: the tool's z axis against the trajectory's, while in contact
     # (the task's arrays are JAX arrays: converted once, host indexing of a JAX array dispatches an op)
     impact, drag = np.asarray(task.impact), np.asarray(task.drag)
