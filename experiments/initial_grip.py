@@ -33,7 +33,6 @@ import os
 import sys
 import time
 
-import mujoco
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -46,31 +45,12 @@ from itup_jax.grasp import Grasps  # noqa: E402
 from itup_jax.scene import build_scene  # noqa: E402
 from itup_jax.simulate import (INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, plan, quat_angle,  # noqa: E402
                                rollout_native)
+from itup_jax.simulate import initial_pad_overlap as initial_overlap  # noqa: E402  (tests read it from here)
 from itup_jax.task import TASK_KINDS  # noqa: E402
 
 EARLY = 0.05  # s: the first part of the settle, where the contacts push the tool out
 BINS_MM = (0.0, 0.5, 1.0, 2.0, np.inf)  # overlap bins for the turn
 PERCENTILES = (10, 50, 90)
-
-
-def initial_overlap(scene, qpos0: np.ndarray) -> np.ndarray:
-    """[N] m: the deeper pad's penetration into the tool at each initial state (NaN: a pad touches nothing)."""
-    m = scene.model
-    d = mujoco.MjData(m)
-    pads = (m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id)
-    out = np.full(len(qpos0), np.nan)
-    for i, q in enumerate(qpos0):
-        mujoco.mj_resetData(m, d)
-        d.qpos[:] = q
-        mujoco.mj_forward(m, d)
-        depth = {pad: -np.inf for pad in pads}
-        for c in d.contact[:d.ncon]:
-            for pad in pads:
-                if pad in (c.geom1, c.geom2):
-                    depth[pad] = max(depth[pad], -c.dist)
-        if all(np.isfinite(v) for v in depth.values()):
-            out[i] = max(depth.values())
-    return out
 
 
 def shard_rows(data: str, config: GenerateConfig, entry: dict, timestep: float) -> dict[str, np.ndarray]:

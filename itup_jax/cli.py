@@ -257,7 +257,7 @@ def cmd_generate(args) -> int:
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal, timestep=args.timestep,
-                         variants=args.variants)
+                         variants=args.variants, contact=args.contact)
     m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard,
                  process_index=args.process_index, process_count=args.process_count, nthread=args.threads)
     t = m["totals"]
@@ -680,6 +680,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--variants", default="stretch", choices=["stretch", "parts"],
                      help="procedural tools: 'stretch' scales the whole built-in tool (every dataset before session "
                      "16), 'parts' varies the handle and the head independently (dataset.part_variant)")
+    gen.add_argument("--contact", default="flat", choices=["flat", "point"],
+                     help="grasp sampler: 'flat' (the pads lie flat on the tool; grasp_sampler.py) or 'point' (antipodal "
+                     "point contacts in the friction cone, every dataset up to code 0.5.0)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")

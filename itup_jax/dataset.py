@@ -41,7 +41,7 @@ from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, is_integer
 from itup_jax.features import FeatureSpec, batched_features, tool_field
-from itup_jax.grasp_sampler import sample_grasps
+from itup_jax.grasp_sampler import CONTACT_MODELS, SamplerConfig, sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.simulate import (DETERMINISTIC_GPU_FLAG, LABEL_FIELDS, Randomization, default_backend,
                                gpu_determinism, simulate)
@@ -181,6 +181,9 @@ class GenerateConfig:
     # the procedural family of variants >= 1: "stretch" (`vary_tool`, every dataset before session 16)
     # or "parts" (`part_variant`: handle and head varied independently)
     variants: str = "stretch"
+    # the grasp sampler's contact model (`SamplerConfig.contact`): "flat" (the pads lie flat on the tool;
+    # since code 0.6.0) or "point" (every dataset up to code 0.5.0; a manifest without the key)
+    contact: str = "flat"
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
@@ -188,6 +191,8 @@ class GenerateConfig:
             raise InputError(f"generate: tasks must be among {TASK_KINDS}, got {list(self.tasks)}")
         if self.variants not in VARIANT_FAMILIES:
             raise InputError(f"generate: variants must be one of {VARIANT_FAMILIES}, got {self.variants!r}")
+        if self.contact not in CONTACT_MODELS:
+            raise InputError(f"generate: contact must be one of {CONTACT_MODELS}, got {self.contact!r}")
         if self.tools_per_task < 1 or self.grasps < 1:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
         if self.timestep is not None:
@@ -198,21 +203,26 @@ class GenerateConfig:
         return task_timestep(kind) if self.timestep is None else float(self.timestep)
 
     def to_json(self) -> dict:
-        """The config as the manifest records it. The default family, "stretch", is left out, so that a
-        config made before `variants` existed reads the same and its datasets resume."""
+        """The config as the manifest records it. The default family, "stretch", and the point-contact
+        sampler are left out, so that a config made before `variants` or `contact` existed reads the same
+        and its datasets resume."""
         d = dict(dataclasses.asdict(self), tasks=list(self.tasks))
         if d["variants"] == "stretch":
             del d["variants"]
+        if d["contact"] == "point":
+            del d["contact"]
         return d
 
     @classmethod
     def from_json(cls, d: dict) -> "GenerateConfig":
         """The config a manifest records (`to_json`'s inverse); unknown keys are refused. A config
-        recording no timestep (made before steps were recorded) was simulated at 2 ms."""
+        recording no timestep (made before steps were recorded) was simulated at 2 ms; one recording no
+        contact model (made before code 0.6.0) sampled point-contact grasps."""
         names = {f.name for f in dataclasses.fields(cls)}
         if set(d) - names:
             raise InputError(f"generate config: unknown keys {sorted(set(d) - names)}")
-        return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS)), timestep=d.get("timestep", TIMESTEP)))
+        return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS)), timestep=d.get("timestep", TIMESTEP),
+                          contact=d.get("contact", "point")))
 
 
 def shard_units(config: GenerateConfig) -> list[tuple[str, int]]:
@@ -259,7 +269,7 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
     """
     seed = _unit_seed(config, task_kind, variant)
     tool, task = unit_tool(config, task_kind, variant)
-    grasps = sample_grasps(tool, config.grasps, seed=seed)
+    grasps = sample_grasps(tool, config.grasps, seed=seed, config=SamplerConfig(contact=config.contact))
     scene = build_scene(tool, task, timestep=config.task_timestep(task_kind))
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
                    randomize=Randomization() if config.randomize else None, nthread=nthread)

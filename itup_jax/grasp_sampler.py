@@ -12,6 +12,21 @@ for a given PRNG key or integer seed. For each candidate:
    region, and the gripper (two fingers opened to width + 2 clearance, and the palm; see
    `grasp.gripper_boxes`) holds no point of the tool's dense surface sample;
 5. the approach axis is drawn uniformly around the closure axis.
+
+That is the sampler for point contacts (`SamplerConfig(contact="point")`, every dataset up to code 0.5.0
+and the default until then).
+The simulated gripper has flat pads (22 x 37.5 mm), and flat pads on a handle whose closure axis is
+tilted off its cross-section touch it at their ends: at step 0 they start a median 2.3-2.7 mm inside
+the tool, and the tool turns 4-9 degrees in the first 50 ms until it lies flat between them
+(`experiments/initial_grip.py`, session 25). With `contact="flat"` (the default since code 0.6.0) the
+grasp is the one the pads settle into:
+
+2'. the closure direction is the inward normal, u = -n1 (no cone);
+3'. p2 is accepted when its normal is antiparallel to u within `flat_angle`;
+4'. the tool's surface points inside the pads' footprint (|x| <= PAD_WIDTH/2, |z| <= PAD_LENGTH/2 in the
+   grasp frame) may stand at most `flat_excess` proud of the contact planes through p1 and p2 (so no
+   other part of the tool props a pad open), the jaw opening is the tool's extent along y across that
+   footprint, and the grasp origin sits midway in it.
 """
 
 from __future__ import annotations
@@ -43,6 +58,11 @@ class SamplerConfig:
     collision_margin: m, the gripper boxes grow by this much in the check, so that a shallow cut of the
       tool surface between two surface samples is still caught.
     batch: candidates drawn per round.  max_rounds: rounds before giving up.
+    contact: "flat" (the pads lie flat on the tool; module docstring) or "point" (antipodal point
+      contacts within the friction cone, the jaw opening the chord; the default up to code 0.5.0).
+    flat_angle: rad, contact="flat": largest angle between the exit normal and the closure axis.
+    flat_excess: m, contact="flat": how far any tool point in the pads' footprint may stand proud of the
+      contact planes.
     """
 
     cone_half_angle: float | None = None
@@ -52,6 +72,13 @@ class SamplerConfig:
     collision_margin: float = 0.001
     batch: int = 4096
     max_rounds: int = 100
+    contact: str = "flat"
+    flat_angle: float = math.radians(2.0)
+    flat_excess: float = 0.0005
+
+
+#: The sampler's contact models (`SamplerConfig.contact`).
+CONTACT_MODELS = ("point", "flat")
 
 
 class SamplingError(RuntimeError):
@@ -149,6 +176,35 @@ _gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, No
 _CHUNK = 256
 
 
+def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array,
+              to_grasp_frame=_to_grasp_frame) -> jax.Array:
+    """[2] m for ONE grasp: the least and the greatest grasp-frame y of the tool points [S, 3] that lie in
+    the pads' footprint (|x| <= PAD_WIDTH/2, |z| <= PAD_LENGTH/2) within the gripper's stroke
+    (|y| <= GRIPPER_MAX_OPENING/2); (+inf, -inf) when none does."""
+    local = to_grasp_frame(points_tool - p_tool_grasp, R_tool_grasp)
+    inside = ((jnp.abs(local[:, 0]) <= units.PAD_WIDTH / 2) & (jnp.abs(local[:, 2]) <= units.PAD_LENGTH / 2)
+              & (jnp.abs(local[:, 1]) <= units.GRIPPER_MAX_OPENING / 2))
+    y = local[:, 1]
+    return jnp.stack([jnp.min(jnp.where(inside, y, jnp.inf)), jnp.max(jnp.where(inside, y, -jnp.inf))])
+
+
+#: contact="flat": the pads' span over a chunk of candidates (the sampler's second jit).
+_pad_span_batch = jax.jit(jax.vmap(_pad_span, in_axes=(None, 0, 0)))
+
+
+def pad_span(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray) -> np.ndarray:
+    """[M, 2] m: per grasp (R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3]), the least and greatest y in the
+    grasp frame of the tool points [S, 3] inside the pads' footprint (`_pad_span`). Float64 on the host
+    side of the jitted float32 kernel, chunks of 256 as `gripper_collides`."""
+    m = len(p_tool_grasp)
+    pad = (-m) % _CHUNK
+    R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
+    p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)
+    pts = jnp.asarray(points_tool, dtype=jnp.float32)
+    out = [np.asarray(_pad_span_batch(pts, R[s:s + _CHUNK], p[s:s + _CHUNK])) for s in range(0, m + pad, _CHUNK)]
+    return np.concatenate(out)[:m].astype(float)
+
+
 def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray,
                      opening: np.ndarray, margin: float = 0.0) -> np.ndarray:
     """[M] bool: does any tool point [S, 3] lie inside the gripper's boxes (grown by margin) of each grasp?
@@ -182,9 +238,16 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
     """
     if not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"sample_grasps: n must be a positive integer, got {n!r}")
+    if config.contact not in CONTACT_MODELS:
+        raise InputError(f"sample_grasps: config.contact must be one of {CONTACT_MODELS}, got {config.contact!r}")
+    if not (0.0 <= config.flat_angle < math.pi / 2 and config.flat_excess >= 0.0):
+        raise InputError(f"sample_grasps: config.flat_angle must lie in [0, pi/2) rad and config.flat_excess be "
+                         f">= 0 m, got {config.flat_angle!r}, {config.flat_excess!r}")
     rng = _rng_from(seed)
+    flat = config.contact == "flat"
     mu = float(tool.params.mu)
     cone = config.cone_half_angle if config.cone_half_angle is not None else math.atan(mu)
+    cos_exit = math.cos(config.flat_angle) - 1e-9 if flat else math.cos(cone) - 1e-9
     max_width = units.GRIPPER_MAX_OPENING - 2 * config.clearance
     pts = collision_points(tool, config.surface_spacing)
     region = tool.grasp_region
@@ -202,13 +265,13 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
         p1, n1 = p1[inside], n1[inside]
         if len(p1) == 0:
             continue
-        u = _cone_directions(rng, -n1, cone)
+        u = -n1 if flat else _cone_directions(rng, -n1, cone)
         hit, p2, n2 = _exit_points(mesh, p1, u)
         width = np.linalg.norm(p2 - p1, axis=1)
         ok = (
             hit
             & (width >= config.min_width) & (width <= max_width)
-            & (np.einsum("ij,ij->i", u, n2) >= cos_cone)
+            & (np.einsum("ij,ij->i", u, n2) >= cos_exit)
             & (np.einsum("ij,ij->i", -u, n1) >= cos_cone)
             & region.contains(p2) & region.contains(0.5 * (p1 + p2))
         )
@@ -222,10 +285,21 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
         x = np.cross(y, z)
         R = np.stack([x, y, z], axis=-1)  # columns: grasp axes in the tool frame
         centre = 0.5 * (p1[idx] + p2[idx])
-        free = ~gripper_collides(pts, R, centre, width[idx] + 2 * config.clearance, config.collision_margin)
+        w = width[idx]
+        if flat:  # the pads' planes: the tool's extent across their footprint (module docstring, 4')
+            lo, hi = pad_span(pts, R, centre).T
+            lo, hi = np.minimum(lo, -w / 2), np.maximum(hi, w / 2)  # p1 and p2 themselves lie on the planes
+            keep = (hi - w / 2 <= config.flat_excess) & (-w / 2 - lo <= config.flat_excess)
+            centre = centre + (0.5 * (lo + hi))[:, None] * y
+            w = hi - lo
+            keep &= w <= max_width
+            R, centre, w = R[keep], centre[keep], w[keep]
+            if len(w) == 0:
+                continue
+        free = ~gripper_collides(pts, R, centre, w + 2 * config.clearance, config.collision_margin)
         out_p.append(centre[free])
         out_R.append(R[free])
-        out_w.append(width[idx][free])
+        out_w.append(w[free])
         if sum(len(a) for a in out_p) >= n:
             return make_grasps(np.concatenate(out_p)[:n], np.concatenate(out_R)[:n], np.concatenate(out_w)[:n])
     found = sum(len(a) for a in out_p)

@@ -615,6 +615,29 @@ def quat_angle(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(np.abs(np.einsum("...i,...i->...", q, q_ref)), 0.0, 1.0))
 
 
+def initial_pad_overlap(scene: Scene, qpos0: np.ndarray) -> np.ndarray:
+    """[N] m: how deep the deeper pad sits in the tool at each initial state qpos0 [N, nq] (MuJoCo's
+    contact distance, positive = overlap; NaN where a pad touches nothing). A rollout starts with the pads
+    `INITIAL_SQUEEZE` inside the jaw opening; grasps whose pads lie flat on the tool start that deep
+    (`SamplerConfig(contact="flat")`), point-contact grasps deeper (experiments/initial_grip.py)."""
+    m = scene.model
+    d = mujoco.MjData(m)
+    pads = (m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id)
+    out = np.full(len(qpos0), np.nan)
+    for i, q in enumerate(qpos0):
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        depth = {pad: -np.inf for pad in pads}
+        for c in d.contact[:d.ncon]:
+            for pad in pads:
+                if pad in (c.geom1, c.geom2):
+                    depth[pad] = max(depth[pad], -c.dist)
+        if all(np.isfinite(v) for v in depth.values()):
+            out[i] = max(depth.values())
+    return out
+
+
 def grasp_point_slip(pos_g: np.ndarray, quat_g: np.ndarray, ref: int) -> np.ndarray:
     """How far the tool's material point at the grasp centre slid, [N, S, 3] x [N, S, 4] -> [N, S] (m).
 

@@ -15,7 +15,7 @@ from itup_jax.dataset import (MANIFEST, GenerateConfig, generate, load_dataset, 
                               vary_tool)
 from itup_jax.cli import main
 
-SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1)
+SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1, contact="point")  # a fixture with 8+ valid rows
 
 
 class Interrupt(Exception):
@@ -77,7 +77,7 @@ def test_another_config_in_the_same_folder_is_refused(full_run, tmp_path):
     copy = str(tmp_path / "copy2")
     shutil.copytree(out, copy)
     with pytest.raises(itup.InputError, match="another config"):
-        generate(copy, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=7, seed=1), progress=False)
+        generate(copy, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=7, seed=1, contact="point"), progress=False)
 
 
 def test_resuming_a_dataset_of_another_code_version_is_refused(full_run, tmp_path):
@@ -186,6 +186,33 @@ def test_the_variant_family_is_recorded_and_the_default_reads_as_before(tmp_path
     assert json.load(open(os.path.join(out, MANIFEST)))["config"]["variants"] == "parts"
 
 
+def test_the_contact_model_is_recorded_and_reaches_the_grasps(tmp_path, capsys):
+    """`--contact flat` (the default) samples the shard's grasps with the flat-pad sampler (the same grasps
+    as `sample_grasps(..., SamplerConfig(contact="flat"))` with the shard's seed) and the manifest records
+    it; the point-contact model is left out of the config, so every manifest made before code 0.6.0 reads
+    as before."""
+    from itup_jax.dataset import _unit_seed, read_manifest
+    from itup_jax.grasp_sampler import SamplerConfig
+
+    point = GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=4, seed=1, contact="point")
+    assert "contact" not in point.to_json() and GenerateConfig.from_json(point.to_json()) == point
+    flat = GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=4, seed=1)  # the default since 0.6.0
+    assert flat.to_json()["contact"] == "flat" and GenerateConfig.from_json(flat.to_json()) == flat
+    with pytest.raises(itup.InputError, match="contact must be one of"):
+        generate(str(tmp_path / "bad"), GenerateConfig(contact="soft"), progress=False)
+    assert not os.path.exists(tmp_path / "bad" / MANIFEST)
+    out = str(tmp_path / "flat")
+    assert main(["generate", "--out", out, "--tasks", "reach", "--tools-per-task", "1", "--grasps", "4",
+                 "--seed", "1", "--contact", "flat", "--quiet"]) == 0
+    m = read_manifest(out)
+    assert m["config"]["contact"] == "flat"
+    a = load_shard(out, m["shards"][0])
+    want = itup.sample_grasps(unit_tool(flat, "reach", 0)[0], 4, seed=_unit_seed(flat, "reach", 0),
+                              config=SamplerConfig(contact="flat"))
+    np.testing.assert_array_equal(a["grasp_width"], np.asarray(want.width))
+    np.testing.assert_array_equal(a["grasp_p"], np.asarray(want.p_tool_grasp))
+
+
 def test_generate_cli(tmp_path, capsys):
     out = str(tmp_path / "cli")
     assert main(["generate", "--out", out, "--tasks", "reach", "--tools-per-task", "1", "--grasps", "4", "--quiet"]) == 0
@@ -201,7 +228,7 @@ def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys)
 
     out = str(tmp_path / "fine")
     assert main(["generate", "--out", out, "--tasks", "knock", "--tools-per-task", "1", "--grasps", "6",
-                 "--timestep", "0.001", "--nominal", "--quiet"]) == 0
+                 "--timestep", "0.001", "--nominal", "--contact", "point", "--quiet"]) == 0  # 2+ reachable of 6
     capsys.readouterr()
     manifest = json.load(open(os.path.join(out, MANIFEST)))
     config = GenerateConfig.from_json(manifest["config"])
@@ -271,7 +298,7 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
 
     out, manifest = full_run
     other = str(tmp_path / "seed2")
-    generate(other, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=2), progress=False)
+    generate(other, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=2, contact="point"), progress=False)
     a, b = load_dataset(out), load_dataset(other)
     both, manifests = load_datasets([out, other])
     assert [m["seed"] for m in manifests] == [1, 2]
@@ -372,7 +399,7 @@ def test_concurrent_processes_make_the_single_process_dataset(full_run, tmp_path
     single process's."""
     out, manifest = full_run
     both = str(tmp_path / "both")
-    args = ["--out", both, "--tasks", "reach", "--tools-per-task", "3", "--grasps", "6", "--seed", "1", "--quiet",
+    args = ["--out", both, "--tasks", "reach", "--tools-per-task", "3", "--grasps", "6", "--seed", "1", "--contact", "point", "--quiet",
             "--threads", "1", "--process-count", "2"]
     code = "import sys; from itup_jax.cli import main; sys.exit(main(sys.argv[1:]))"
     env = dict(os.environ, JAX_ENABLE_X64="1")  # as the tests run (conftest.py), so the bytes compare

@@ -1,4 +1,5 @@
-"""The antipodal sampler: every grasp antipodal, within the stroke, in the region, not penetrating."""
+"""The grasp sampler (flat pads and point contacts): every grasp antipodal, within the stroke, in the region,
+not penetrating; flat-pad grasps square across the handle and still in the pads."""
 
 import dataclasses
 import math
@@ -26,6 +27,10 @@ PENETRATION_TOL = 2e-4
 
 
 def _check_grasps(tool, grasps, config=SamplerConfig()):
+    """Every grasp within the stroke and the region, its pads on the surface (flat pads: within
+    `flat_excess`) with outward normals antipodal within the cone (flat pads: within `flat_angle`), and
+    the open gripper cutting nothing."""
+    flat = config.contact == "flat"
     mu = float(tool.params.mu)
     p = np.asarray(grasps.p_tool_grasp)
     R = np.asarray(grasps.rotation)
@@ -35,10 +40,10 @@ def _check_grasps(tool, grasps, config=SamplerConfig()):
     pads = np.asarray(grasps.pad_centres())  # [N, 2, 3]: -y pad, +y pad
     assert np.all(tool.grasp_region.contains(pads, tol=1e-9))
     closest, dist, tri = trimesh.proximity.closest_point(tool.mesh, pads.reshape(-1, 3))
-    assert dist.max() < SURFACE_TOL
+    assert dist.max() < (config.flat_excess + SURFACE_TOL if flat else SURFACE_TOL)
     normals = tool.mesh.face_normals[tri].reshape(-1, 2, 3)
     y = R[:, :, 1]
-    cone = math.atan(mu) + FACET_ANGLE
+    cone = (config.flat_angle if flat else math.atan(mu)) + FACET_ANGLE
     # Outward normal at the -y pad points along -y, at the +y pad along +y: antipodal within the cone.
     assert np.all(np.einsum("ij,ij->i", normals[:, 0], -y) >= math.cos(cone))
     assert np.all(np.einsum("ij,ij->i", normals[:, 1], y) >= math.cos(cone))
@@ -57,12 +62,13 @@ def _check_grasps(tool, grasps, config=SamplerConfig()):
     assert depth.max() <= PENETRATION_TOL
 
 
+@pytest.mark.parametrize("contact", ["flat", "point"])
 @pytest.mark.parametrize("name", ["hammer", "l_stick", "broom", "mallet"])
-def test_sampled_grasps_are_valid(tools, name):
-    tool = tools[name]
-    grasps = itup.sample_grasps(tool, 60, seed=3)
+def test_sampled_grasps_are_valid(tools, name, contact):
+    tool, config = tools[name], SamplerConfig(contact=contact)
+    grasps = itup.sample_grasps(tool, 60, seed=3, config=config)
     assert len(grasps) == 60
-    _check_grasps(tool, grasps)
+    _check_grasps(tool, grasps, config)
 
 
 def test_same_key_same_grasps_other_key_other_grasps(tools):
@@ -129,3 +135,72 @@ def test_collision_kernel_matches_a_float64_box_test(tools):
                 clear[i] &= not np.any(on_plane & in_face)
     assert 0.2 < want.mean() < 0.9 and clear.mean() > 0.9  # both outcomes occur; few grasps left out
     np.testing.assert_array_equal(got[clear], want[clear])
+
+
+#: The built-in tools' handles: a cylinder of radius r along the tool's z axis (tool.py).
+HANDLE_RADIUS = {"hammer": 0.0145, "l_stick": 0.006, "broom": 0.011, "mallet": 0.012}
+
+
+@pytest.mark.parametrize("name", ["hammer", "l_stick", "broom", "mallet"])
+def test_flat_pad_grasps_lie_square_across_the_handle(tools, name):
+    """contact="flat": the closure axis lies in the handle's cross-section, the grasp centre midway across it,
+    and the jaw opening is the distance between two opposite facets of the 48-facet mesh, 2 r cos(pi/48),
+    not the chord of a tilted axis (2 r / cos(phi)). No tool point in the pads' footprint stands proud of
+    the pads' planes (float64, independent of the sampler's float32 kernel), and the open gripper cuts
+    nothing."""
+    tool, r = tools[name], HANDLE_RADIUS[name]
+    config = SamplerConfig(contact="flat")
+    g = itup.sample_grasps(tool, 40, seed=3, config=config)
+    p, R, w = np.asarray(g.p_tool_grasp), np.asarray(g.rotation), np.asarray(g.width)
+    assert np.abs(R[:, 2, 1]).max() <= math.sin(config.flat_angle) + 1e-6  # closure axis . handle axis
+    # the centre: on the axis across the pads (y), within half a facet (r sin(pi/48)) along it
+    assert np.abs(np.einsum("ij,ij->i", p[:, :2], R[:, :2, 1])).max() < 1e-5
+    assert np.hypot(p[:, 0], p[:, 1]).max() <= r * math.sin(math.pi / 48) + 1e-6
+    np.testing.assert_allclose(w, 2 * r * math.cos(math.pi / 48), atol=2e-6)
+    from itup_jax.grasp_sampler import collision_points
+
+    pts = collision_points(tool, config.surface_spacing)
+    for i in range(len(g)):
+        local = (pts - p[i]) @ R[i]
+        foot = (np.abs(local[:, 0]) <= units.PAD_WIDTH / 2) & (np.abs(local[:, 2]) <= units.PAD_LENGTH / 2)
+        assert foot.sum() > 10 and np.abs(local[foot, 1]).max() <= w[i] / 2 + 1e-6
+    _check_grasps(tool, g, config)
+    assert np.abs(R[:, 0, 2]).max() > 0.5 and np.abs(R[:, 2, 2]).max() > 0.5  # approach axes still vary
+
+
+def test_flat_pad_grasps_start_at_the_squeeze_and_do_not_turn(tasks):
+    """In MuJoCo (nominal physics, the hammer): flat-pad grasps start with the pads the squeeze s inside
+    the handle's capsule (r - r cos(pi/48) more, the mesh facets' sag), and the tool turns less than a
+    degree in the pads over the settle. Point-contact grasps of the same tool start deeper and turn
+    several degrees (session 25: a median 4-9 degrees in the first 50 ms)."""
+    import dataclasses as dc
+    import importlib
+
+    S = importlib.import_module("itup_jax.simulate")
+    tool, task = tasks["hammer"]
+    scene = itup.build_scene(tool, task)
+    r = HANDLE_RADIUS["hammer"]
+    turned = {}
+    for contact in ("flat", "point"):
+        g = itup.sample_grasps(tool, 24, seed=0, config=SamplerConfig(contact=contact))
+        g = g[np.flatnonzero(S.reachable(task, g))[:6]]
+        phys = S.sample_physics(tool, len(g), spread=None)
+        p = S.plan(scene, task, g, phys)
+        overlap = S.initial_pad_overlap(scene, p.qpos0)
+        settle = dc.replace(p, ctrl=p.ctrl[:, :p.n_settle], nstep=p.n_settle)
+        _, sd = S.rollout_native(scene, settle, phys)
+        q = scene.sensor(sd, "tool_quat_grasp")
+        turned[contact] = np.degrees(S.quat_angle(q, q[:, :1]).max(1))
+        if contact == "flat":
+            assert len(g) == 6
+            np.testing.assert_allclose(overlap, S.INITIAL_SQUEEZE + r * (1 - math.cos(math.pi / 48)), atol=2e-6)
+        else:
+            assert np.nanmedian(overlap) > 3 * S.INITIAL_SQUEEZE  # (NaN: a pad misses the capsule)
+    assert turned["flat"].max() < 1.0 < np.median(turned["point"])
+
+
+def test_bad_contact_model_is_refused(tools):
+    with pytest.raises(itup.InputError, match="config.contact must be one of"):
+        itup.sample_grasps(tools["hammer"], 5, config=SamplerConfig(contact="soft"))
+    with pytest.raises(itup.InputError, match="flat_angle"):
+        itup.sample_grasps(tools["hammer"], 5, config=SamplerConfig(contact="flat", flat_angle=-0.1))
