@@ -176,12 +176,11 @@ _gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, No
 _CHUNK = 256
 
 
-def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array,
-              to_grasp_frame=_to_grasp_frame) -> jax.Array:
+def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array) -> jax.Array:
     """[2] m for ONE grasp: the least and the greatest grasp-frame y of the tool points [S, 3] that lie in
     the pads' footprint (|x| <= PAD_WIDTH/2, |z| <= PAD_LENGTH/2) within the gripper's stroke
     (|y| <= GRIPPER_MAX_OPENING/2); (+inf, -inf) when none does."""
-    local = to_grasp_frame(points_tool - p_tool_grasp, R_tool_grasp)
+    local = _to_grasp_frame(points_tool - p_tool_grasp, R_tool_grasp)
     inside = ((jnp.abs(local[:, 0]) <= units.PAD_WIDTH / 2) & (jnp.abs(local[:, 2]) <= units.PAD_LENGTH / 2)
               & (jnp.abs(local[:, 1]) <= units.GRIPPER_MAX_OPENING / 2))
     y = local[:, 1]
@@ -194,15 +193,25 @@ _pad_span_batch = jax.jit(jax.vmap(_pad_span, in_axes=(None, 0, 0)))
 
 def pad_span(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray) -> np.ndarray:
     """[M, 2] m: per grasp (R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3]), the least and greatest y in the
-    grasp frame of the tool points [S, 3] inside the pads' footprint (`_pad_span`). Float64 on the host
-    side of the jitted float32 kernel, chunks of 256 as `gripper_collides`."""
+    grasp frame of the tool points [S, 3] inside the pads' footprint (`_pad_span`), as float64 from the
+    jitted float32 kernel (`_over_chunks`)."""
+    return _over_chunks(_pad_span_batch, points_tool, R_tool_grasp, p_tool_grasp).astype(float)
+
+
+def _over_chunks(kernel, points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray,
+                 *per_grasp: np.ndarray, shared: tuple = ()) -> np.ndarray:
+    """kernel(points [S, 3], R [C, 3, 3], p [C, 3], *per_grasp [C], *shared) over chunks of C = 256 grasps
+    in float32, the last chunk padded with grasps far from the tool (identity rotation, p = 1e3 m, zeros
+    for the per-grasp arrays), so the kernel compiles once per point count S; its [M, ...] rows back."""
     m = len(p_tool_grasp)
     pad = (-m) % _CHUNK
     R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
-    p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)
+    p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)  # far away: no hit
+    extra = [np.concatenate([a, np.zeros(pad)]).astype(np.float32) for a in per_grasp]
     pts = jnp.asarray(points_tool, dtype=jnp.float32)
-    out = [np.asarray(_pad_span_batch(pts, R[s:s + _CHUNK], p[s:s + _CHUNK])) for s in range(0, m + pad, _CHUNK)]
-    return np.concatenate(out)[:m].astype(float)
+    out = [np.asarray(kernel(pts, R[s:s + _CHUNK], p[s:s + _CHUNK], *(a[s:s + _CHUNK] for a in extra), *shared))
+           for s in range(0, m + pad, _CHUNK)]
+    return np.concatenate(out)[:m]
 
 
 def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray,
@@ -212,15 +221,8 @@ def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_g
     Grasps given as R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3] and jaw opening [M] (m). Runs the
     jitted kernel on chunks of 256 (the last one padded), so it compiles once per point count S.
     """
-    m = len(p_tool_grasp)
-    pad = (-m) % _CHUNK
-    R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
-    p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)  # far away: no hit
-    o = np.concatenate([opening, np.zeros(pad)]).astype(np.float32)
-    pts = jnp.asarray(points_tool, dtype=jnp.float32)
-    hits = [np.asarray(_gripper_hits_batch(pts, R[s:s + _CHUNK], p[s:s + _CHUNK], o[s:s + _CHUNK], np.float32(margin)))
-            for s in range(0, m + pad, _CHUNK)]
-    return np.concatenate(hits)[:m]
+    return _over_chunks(_gripper_hits_batch, points_tool, R_tool_grasp, p_tool_grasp, opening,
+                        shared=(np.float32(margin),))
 
 
 def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = SamplerConfig()) -> Grasps:
