@@ -33,6 +33,7 @@ import trimesh
 
 from itup_jax.grasp import Grasps, rotation_matrix
 from itup_jax.precision import full_precision
+from itup_jax.shapes import pad_zeros_high
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads
 
@@ -76,6 +77,10 @@ class DensityField:
     spacing: float = dataclasses.field(metadata=dict(static=True))
 
 
+#: the density field's voxel counts are padded to buckets of 3 significant bits (shapes.py)
+FIELD_BUCKET_BITS = 3
+
+
 def _cell(spec: FeatureSpec) -> float:
     return 2 * spec.grid_half_width / spec.grid
 
@@ -88,7 +93,8 @@ def _cell_centres(spec: FeatureSpec) -> np.ndarray:
 
 def density_field(points_tool: np.ndarray | jax.Array, spec: FeatureSpec) -> DensityField:
     """Tabulate D(x) = (1/P) sum_p exp(-|x - x_p|^2 / (2 sigma^2)), sigma = the cell size (host side,
-    float64, separable: three 1-D Gaussians per point and one matrix product)."""
+    float64, separable: three 1-D Gaussians per point and one matrix product). Each axis is zero-padded
+    at its high end to a size bucket (`shapes.bucket`, 3 significant bits: <= 25 % more voxels)."""
     pts = np.asarray(points_tool, np.float64)
     sigma, h = _cell(spec), spec.field_spacing
     margin = spec.grid_half_width * math.sqrt(3) + 2 * sigma
@@ -98,6 +104,9 @@ def density_field(points_tool: np.ndarray | jax.Array, spec: FeatureSpec) -> Den
          for a in range(3)]  # [P, n_a]
     xy = (g[0][:, :, None] * g[1][:, None, :]).reshape(len(pts), -1)  # [P, I*J]
     values = (xy.T @ g[2]).reshape(*shape) / len(pts)
+    # zeros beyond the grid's high ends up to a size bucket: the same reads (map_coordinates' cval is 0),
+    # one compile of the features for every tool in the bucket instead of one per tool (shapes.py)
+    values = pad_zeros_high(values, FIELD_BUCKET_BITS)
     return DensityField(values=jnp.asarray(values), origin=jnp.asarray(lo), spacing=float(h))
 
 

@@ -44,6 +44,7 @@ import trimesh
 from itup_jax import units
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
+from itup_jax.shapes import pad_rows_repeating
 from itup_jax.tool import Tool
 
 
@@ -174,6 +175,7 @@ def _gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp:
 #: The sampler's one jit: the collision check over a fixed-size chunk of candidates.
 _gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))  # no matrix products
 _CHUNK = 256
+POINT_BUCKET_BITS = 4  # the tool points' count is padded to a bucket of 4 significant bits (shapes.py)
 
 
 def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array) -> jax.Array:
@@ -202,13 +204,15 @@ def _over_chunks(kernel, points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_to
                  *per_grasp: np.ndarray, shared: tuple = ()) -> np.ndarray:
     """kernel(points [S, 3], R [C, 3, 3], p [C, 3], *per_grasp [C], *shared) over chunks of C = 256 grasps
     in float32, the last chunk padded with grasps far from the tool (identity rotation, p = 1e3 m, zeros
-    for the per-grasp arrays), so the kernel compiles once per point count S; its [M, ...] rows back."""
+    for the per-grasp arrays), and the points padded to a size bucket (`shapes.bucket`, <= 12.5 % more)
+    with copies of the first point, which no kernel here can tell apart (any / min / max over points):
+    the kernel compiles once per bucket, not once per tool. Its [M, ...] rows back."""
     m = len(p_tool_grasp)
     pad = (-m) % _CHUNK
     R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
     p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)  # far away: no hit
     extra = [np.concatenate([a, np.zeros(pad)]).astype(np.float32) for a in per_grasp]
-    pts = jnp.asarray(points_tool, dtype=jnp.float32)
+    pts = jnp.asarray(pad_rows_repeating(np.asarray(points_tool, np.float32), POINT_BUCKET_BITS))
     out = [np.asarray(kernel(pts, R[s:s + _CHUNK], p[s:s + _CHUNK], *(a[s:s + _CHUNK] for a in extra), *shared))
            for s in range(0, m + pad, _CHUNK)]
     return np.concatenate(out)[:m]
@@ -219,7 +223,8 @@ def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_g
     """[M] bool: does any tool point [S, 3] lie inside the gripper's boxes (grown by margin) of each grasp?
 
     Grasps given as R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3] and jaw opening [M] (m). Runs the
-    jitted kernel on chunks of 256 (the last one padded), so it compiles once per point count S.
+    jitted kernel on chunks of 256 (the last one padded), so it compiles once per bucket of the point
+    count S (`_over_chunks`).
     """
     return _over_chunks(_gripper_hits_batch, points_tool, R_tool_grasp, p_tool_grasp, opening,
                         shared=(np.float32(margin),))

@@ -1,0 +1,43 @@
+"""Shape buckets: array sizes rounded up so that a jitted kernel compiles once per bucket, not per tool.
+
+Every procedural tool has its own mesh, so its surface sample and its tabulated density field have
+their own sizes. A jitted kernel traced on those sizes compiles again for every tool, and XLA keeps
+each executable: `itup generate` grew by ~20 MB per shard and compiled three kernels for every shard
+(measured in session 27; BENCHMARKS.md, "Generation"). Padding a size up to a bucket with values that cannot change the
+kernel's result (a repeated point under any / min / max, zeros under `map_coordinates`' zero `cval`)
+bounds the compiles to a few per octave of size, and leaves every result bit for bit as it was.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from itup_jax.errors import InputError, is_integer
+
+
+def bucket(n: int, bits: int) -> int:
+    """The least size >= n with at most `bits` significant binary digits: n itself for n < 2**bits,
+    else ceil(n / 2**s) * 2**s with s = bit_length(n) - bits. At most 2**(1 - bits) larger than n, and
+    2**(bits - 1) buckets per octave (bits = 3: <= 25 % larger, 4 per octave)."""
+    if not (is_integer(n) and n >= 0):
+        raise InputError(f"bucket: n must be an integer >= 0, got {n!r}")
+    if not (is_integer(bits) and bits >= 1):
+        raise InputError(f"bucket: bits must be an integer >= 1, got {bits!r}")
+    shift = max(int(n).bit_length() - bits, 0)
+    return ((int(n) + (1 << shift) - 1) >> shift) << shift
+
+
+def pad_rows_repeating(a: np.ndarray, bits: int) -> np.ndarray:
+    """[bucket(S), ...]: the rows of a [S, ...] (S >= 1) followed by copies of its first row. Neutral
+    for reductions over the rows that a repeated row cannot change (any, all, min, max)."""
+    a = np.asarray(a)
+    if a.ndim < 1 or len(a) == 0:
+        raise InputError(f"pad_rows_repeating: need at least one row, got shape {a.shape}")
+    extra = bucket(len(a), bits) - len(a)
+    return np.concatenate([a, np.repeat(a[:1], extra, axis=0)]) if extra else a
+
+
+def pad_zeros_high(a: np.ndarray, bits: int) -> np.ndarray:
+    """a [n_0, n_1, ...] zero-padded at the high end of every axis to [bucket(n_0), bucket(n_1), ...]."""
+    a = np.asarray(a)
+    return np.pad(a, [(0, bucket(n, bits) - n) for n in a.shape])

@@ -1,0 +1,96 @@
+"""Shape buckets (shapes.py): the padding bounds the compiles and changes no result, bit for bit."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import itup_jax
+from itup_jax import features, grasp_sampler
+from itup_jax.errors import InputError
+from itup_jax.shapes import bucket, pad_rows_repeating, pad_zeros_high
+from itup_jax.wrench import task_loads
+
+NO_BUCKETS = 64  # bits: bucket(n) == n for every n < 2**64, i.e. the unpadded sizes
+
+
+@pytest.mark.parametrize("bits", [1, 3, 4])
+def test_bucket_bounds_and_counts(bits):
+    ns = np.arange(1, 20000)
+    b = np.array([bucket(int(n), bits) for n in ns])
+    assert (b >= ns).all() and (b <= ns * (1 + 2.0 ** (1 - bits))).all()
+    assert (np.diff(b) >= 0).all()  # monotone
+    assert all(bucket(int(v), bits) == v for v in np.unique(b))  # a bucket is its own bucket
+    assert all(bin(int(v)).rstrip("0").count("1") <= bits for v in b)  # at most `bits` significant digits
+    for lo in (1024, 2048, 4096):  # 2**(bits - 1) buckets per octave
+        assert len(np.unique(b[(ns > lo) & (ns <= 2 * lo)])) == 2 ** (bits - 1)
+    assert bucket(0, bits) == 0
+
+
+@pytest.mark.parametrize("n, bits", [(-1, 3), (2.5, 3), (True, 3), (10, 0)])
+def test_bucket_refuses_bad_input(n, bits):
+    with pytest.raises(InputError, match="bucket"):
+        bucket(n, bits)
+
+
+def test_padding_helpers():
+    a = np.arange(30.0).reshape(10, 3)
+    p = pad_rows_repeating(a, 2)  # 10 -> 12
+    assert p.shape == (12, 3) and (p[:10] == a).all() and (p[10:] == a[0]).all()
+    assert pad_rows_repeating(a[:8], 2).shape == (8, 3)  # 8 is a bucket of 2 bits already
+    with pytest.raises(InputError, match="at least one row"):
+        pad_rows_repeating(np.zeros((0, 3)), 2)
+    z = pad_zeros_high(np.ones((5, 9, 3)), 2)  # 5 -> 6, 9 -> 12, 3 -> 3
+    assert z.shape == (6, 12, 3) and z[:5, :9].sum() == 5 * 9 * 3 and z.sum() == 5 * 9 * 3
+
+
+def test_sampler_padding_changes_no_grasp(tools, monkeypatch):
+    """Flat- and point-contact grasps from padded points equal those from the unpadded ones, bit for bit."""
+    tool = tools["hammer"]
+    s = len(grasp_sampler.collision_points(tool, grasp_sampler.SamplerConfig().surface_spacing))
+    assert bucket(s, grasp_sampler.POINT_BUCKET_BITS) > s  # the test pads something
+    cfgs = [grasp_sampler.SamplerConfig(contact=c) for c in grasp_sampler.CONTACT_MODELS]
+    padded = [itup_jax.sample_grasps(tool, 48, seed=5, config=c) for c in cfgs]
+    monkeypatch.setattr(grasp_sampler, "POINT_BUCKET_BITS", NO_BUCKETS)
+    plain = [itup_jax.sample_grasps(tool, 48, seed=5, config=c) for c in cfgs]
+    for a, b in zip(padded, plain):
+        for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+def test_sampler_kernels_compile_once_per_bucket(rng):
+    """Two point counts in one bucket (4549 and 4600 -> 4608) share one executable of each kernel."""
+    R = np.broadcast_to(np.eye(3), (5, 3, 3))
+    p = rng.normal(scale=0.01, size=(5, 3))
+    before = (grasp_sampler._pad_span_batch._cache_size(), grasp_sampler._gripper_hits_batch._cache_size())
+    for s in (4549, 4600):
+        pts = rng.normal(scale=0.02, size=(s, 3))
+        grasp_sampler.pad_span(pts, R, p)
+        grasp_sampler.gripper_collides(pts, R, p, np.full(5, 0.03))
+    after = (grasp_sampler._pad_span_batch._cache_size(), grasp_sampler._gripper_hits_batch._cache_size())
+    assert after[0] - before[0] <= 1 and after[1] - before[1] <= 1
+
+
+def test_field_padding_changes_no_feature(tasks, monkeypatch):
+    """The features from the zero-padded density field equal those from the unpadded one, bit for bit,
+    and two fields in one size bucket share one compile of the batched features."""
+    tool, task = tasks["hammer"]
+    spec = features.FeatureSpec(num_points=256)
+    grasps = itup_jax.sample_grasps(tool, 16, seed=2)
+    loads = task_loads(tool.params, task)
+    padded = features.tool_field(tool, spec)
+    monkeypatch.setattr(features, "FIELD_BUCKET_BITS", NO_BUCKETS)
+    plain = features.tool_field(tool, spec)
+    assert padded.values.shape != plain.values.shape  # the test pads something
+    assert (np.asarray(padded.values)[tuple(slice(0, n) for n in plain.values.shape)] == np.asarray(plain.values)).all()
+    f_pad = np.asarray(features.batched_features(padded, loads, tool.params, grasps, spec=spec))
+    f_plain = np.asarray(features.batched_features(plain, loads, tool.params, grasps, spec=spec))
+    np.testing.assert_array_equal(f_pad, f_plain)
+    # a second field in padded's bucket (the same values, cut by one voxel per axis, padded again)
+    monkeypatch.setattr(features, "FIELD_BUCKET_BITS", 3)
+    before = features.batched_features._cache_size()
+    cut = features.DensityField(values=jnp.asarray(pad_zeros_high(np.asarray(plain.values)[:-1, :-1, :-1], 3)),
+                                origin=plain.origin, spacing=plain.spacing)
+    assert cut.values.shape == padded.values.shape
+    features.batched_features(cut, loads, tool.params, grasps, spec=spec)
+    assert features.batched_features._cache_size() == before
