@@ -17,7 +17,10 @@ BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", 
 
 def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     out = tmp_path / "best.json"
-    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--json", str(out)]) == 0
+    # the seeded random scorer: its ranking has no ties and does not move when the shipped checkpoint is
+    # retrained, so the premise below (the scorer's first grasp is unreachable) holds whatever the checkpoint
+    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random",
+                 "--json", str(out)]) == 0
     res = json.loads(out.read_text())
     assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/3"
     assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
@@ -33,7 +36,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     tool = itup.load_tool(DEFAULT_TOOL["reach"])
     task = itup.make_task("reach", tool)
     g = itup.sample_grasps(tool, 40, seed=0)
-    order = np.argsort(np.asarray(itup.score(tool, task, g).total), kind="stable")
+    order = np.argsort(np.asarray(itup.score(tool, task, g, "random").total), kind="stable")
     ok = reachable(task, g[order])
     best = res["best"]
     assert best["reachable"] and best["rank"] == int(np.argmax(ok)) + 1 > 1 and best["index"] == order[best["rank"] - 1]
