@@ -1,32 +1,30 @@
 """Dataset generation: the shape buckets' effect on compiles, time per shard and memory.
 
-    python experiments/bench_generate.py --tools 12 --grasps 16 --task hammer [--json]
+    python experiments/bench_generate.py --tools 20 --grasps 16 --task hammer [--json]
 
-Makes the shards of `--tools` procedural tools (`dataset.make_shard`, the same units as `itup
-generate --seed 3`) twice in one process: with the size buckets (`shapes.py`, the code's default) and
-without them (the bucket widths set so high that every size is its own bucket, as before session 27).
-The order alternates per tool so that neither mode runs on a warmer process. Prints, per mode, the
-first shard's time (after a warm-up shard, not counted, made with the buckets), the median time of the later shards, the executables its
-shards added to the three tool-shaped kernels' caches, and the growth of the process's resident
-memory over its shards. Small `--grasps` makes the compiles a larger share of a shard; at 256 grasps
-a shard's rollouts dominate.
+Makes the shards of procedural tools (`dataset.make_shard`, the units of `itup generate --seed 3`) in
+two fresh processes, one after the other: one with the size buckets (`shapes.py`, the code's default)
+and one without them (the bucket widths set so high that every size is its own bucket, as before
+session 27). Each process first makes `--warmup` shards (tools 1..W, not counted: the one-time compiles
+of the rollouts, costs and the first buckets), then the shards of `--tools` further tools, each new to
+it, and reports the median time per shard, the executables those shards added to the three
+tool-shaped kernels' caches, and the growth of its resident memory over them. Small `--grasps` makes the
+compiles a larger share of a shard; at 256 grasps a shard's rollouts dominate.
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
+import subprocess
+import sys
 import time
 
 import numpy as np
 
-from itup_jax import features, grasp_sampler
 from itup_jax.bench import machine_info
-from itup_jax.dataset import GenerateConfig, make_shard
 from itup_jax.task import TASK_KINDS
-
-KERNELS = {"features": features.batched_features, "pad_span": grasp_sampler._pad_span_batch,
-           "gripper_hits": grasp_sampler._gripper_hits_batch}
 
 
 def rss_mb() -> float:
@@ -35,55 +33,67 @@ def rss_mb() -> float:
     return int(line.split()[1]) / 1024
 
 
-def set_buckets(on: bool) -> None:
-    features.FIELD_BUCKET_BITS = 3 if on else 64
-    grasp_sampler.POINT_BUCKET_BITS = 4 if on else 64
+def run_mode(buckets: bool, task: str, warmup: int, tools: int, grasps: int) -> dict:
+    """One mode in this process: the warm-up shards, then `tools` new tools' shards, measured."""
+    from itup_jax import features, grasp_sampler
+    from itup_jax.dataset import GenerateConfig, make_shard
+
+    if not buckets:
+        features.FIELD_BUCKET_BITS = grasp_sampler.POINT_BUCKET_BITS = 64
+    kernels = (features.batched_features, grasp_sampler._pad_span_batch, grasp_sampler._gripper_hits_batch)
+    cfg = GenerateConfig(tools_per_task=warmup + tools + 1, grasps=grasps, seed=3, tasks=(task,))
+    for v in range(1, warmup + 1):
+        make_shard(cfg, task, v, nthread=1)
+    gc.collect()
+    cached, rss = sum(k._cache_size() for k in kernels), rss_mb()
+    times = []
+    for v in range(warmup + 1, warmup + tools + 1):
+        t = time.perf_counter()
+        make_shard(cfg, task, v, nthread=1)
+        times.append(time.perf_counter() - t)
+    gc.collect()
+    return {"median_shard_s": round(float(np.median(times)), 3), "max_shard_s": round(max(times), 3),
+            "executables_added": sum(k._cache_size() for k in kernels) - cached,
+            "rss_growth_mb": round(rss_mb() - rss, 1), "rss_end_mb": round(rss_mb(), 1)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tools", type=int, default=12, help="procedural tools (variants 1..N) per mode")
+    ap.add_argument("--tools", type=int, default=20, help="new procedural tools measured per mode")
+    ap.add_argument("--warmup", type=int, default=4, help="shards made first in each process, not counted")
     ap.add_argument("--grasps", type=int, default=16)
     ap.add_argument("--task", default="hammer", choices=TASK_KINDS)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--mode", choices=("buckets", "no_buckets"), help=argparse.SUPPRESS)  # the child processes
     args = ap.parse_args()
-    if args.tools < 2 or args.grasps < 1:
-        ap.error("--tools must be >= 2 and --grasps >= 1")
-    cfg = GenerateConfig(tools_per_task=2 * args.tools + 2, grasps=args.grasps, seed=3, tasks=(args.task,))
-    stats = {on: {"times": [], "executables": 0, "rss_mb": 0.0} for on in (True, False)}
-    make_shard(cfg, args.task, 2 * args.tools + 1, nthread=1)  # warm-up (not counted): the one-time compiles
-    # tools 1..N with buckets, N+1..2N without, interleaved: each mode sees tools it never saw
-    for k in range(args.tools):
-        for on in ((True, False) if k % 2 == 0 else (False, True)):
-            set_buckets(on)
-            variant = 1 + k + (0 if on else args.tools)
-            cached, rss = sum(f._cache_size() for f in KERNELS.values()), rss_mb()
-            t = time.perf_counter()
-            make_shard(cfg, args.task, variant, nthread=1)
-            st = stats[on]
-            st["times"].append(time.perf_counter() - t)
-            st["executables"] += sum(f._cache_size() for f in KERNELS.values()) - cached
-            st["rss_mb"] += rss_mb() - rss
-    set_buckets(True)
-    out = {"machine": machine_info(), "task": args.task, "tools_per_mode": args.tools, "grasps": args.grasps}
-    for on in (True, False):
-        st = stats[on]
-        out["buckets" if on else "no_buckets"] = {
-            "first_shard_s": round(st["times"][0], 3), "median_later_shard_s": round(float(np.median(st["times"][1:])), 3),
-            "executables_added": st["executables"], "rss_growth_mb": round(st["rss_mb"], 1)}
-    out["ratio_median_shard"] = round(out["no_buckets"]["median_later_shard_s"] / out["buckets"]["median_later_shard_s"], 2)
+    if args.tools < 1 or args.warmup < 1 or args.grasps < 1:
+        ap.error("--tools, --warmup and --grasps must be >= 1")
+    if args.mode:
+        print(json.dumps(run_mode(args.mode == "buckets", args.task, args.warmup, args.tools, args.grasps)))
+        return
+    out = {"machine": machine_info(), "task": args.task, "warmup": args.warmup, "tools_per_mode": args.tools,
+           "grasps": args.grasps}
+    for mode in ("buckets", "no_buckets"):
+        cmd = [sys.executable, __file__, "--mode", mode, "--task", args.task, "--warmup", str(args.warmup),
+               "--tools", str(args.tools), "--grasps", str(args.grasps)]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            sys.exit(f"bench_generate: the {mode} process failed:\n{res.stderr[-2000:]}")
+        out[mode] = json.loads(res.stdout.strip().splitlines()[-1])
+    out["ratio_median_shard"] = round(out["no_buckets"]["median_shard_s"] / out["buckets"]["median_shard_s"], 2)
     if args.json:
         print(json.dumps(out, indent=2))
         return
-    m = out["machine"]
-    print(f"machine: {m}")
-    print(f"{args.task}: {args.tools} tools per mode, {args.grasps} grasps per shard, native MuJoCo, one thread")
-    for name in ("buckets", "no_buckets"):
-        r = out[name]
-        print(f"  {name:>10}: first shard {r['first_shard_s']:.2f} s (after the warm-up), later shards median "
-              f"{r['median_later_shard_s']:.2f} s; {r['executables_added']} executables compiled, resident memory "
-              f"+{r['rss_growth_mb']:.0f} MB")
-    print(f"  without / with buckets, median later shard: {out['ratio_median_shard']:.2f}x")
+    print(f"machine: {out['machine']}")
+    print(f"{args.task}: {args.tools} new tools per mode after {args.warmup} warm-up shards, {args.grasps} grasps "
+          f"per shard, native MuJoCo, one thread, a fresh process per mode")
+    for mode in ("buckets", "no_buckets"):
+        r = out[mode]
+        print(f"  {mode:>10}: median shard {r['median_shard_s']:.2f} s (max {r['max_shard_s']:.2f}); "
+              f"{r['executables_added']} executables compiled; resident memory +{r['rss_growth_mb']:.0f} MB "
+              f"(to {r['rss_end_mb']:.0f} MB)")
+    print(f"  without / with buckets, median shard: {out['ratio_median_shard']:.2f}x")
+
 
 if __name__ == "__main__":
     main()
