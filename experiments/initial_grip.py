@@ -43,9 +43,8 @@ from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import GenerateConfig, load_shard, unit_tool  # noqa: E402
 from itup_jax.grasp import Grasps  # noqa: E402
 from itup_jax.scene import build_scene  # noqa: E402
-from itup_jax.simulate import (INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, plan, quat_angle,  # noqa: E402
-                               rollout_native)
-from itup_jax.simulate import initial_pad_overlap as initial_overlap  # noqa: E402  (tests read it from here)
+from itup_jax.simulate import (INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, initial_pad_overlap,  # noqa: E402
+                               plan, quat_angle, rollout_native)
 from itup_jax.task import TASK_KINDS  # noqa: E402
 
 EARLY = 0.05  # s: the first part of the settle, where the contacts push the tool out
@@ -66,7 +65,7 @@ def shard_rows(data: str, config: GenerateConfig, entry: dict, timestep: float) 
     _, sd = rollout_native(scene, settle, physics)
     q, x = scene.sensor(sd, "tool_quat_grasp"), scene.sensor(sd, "tool_pos_grasp")
     k = int(round(EARLY / timestep)) - 1
-    return {"overlap": initial_overlap(scene, p.qpos0),
+    return {"overlap": initial_pad_overlap(scene, p.qpos0),
             "turn_50ms": quat_angle(q[:, k], q[:, 0]),
             "turn_settle": quat_angle(q[:, k:], q[:, k:k + 1]).max(1),
             "slide_settle": grasp_point_slip(x, q, 0).max(1)}

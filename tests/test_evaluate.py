@@ -554,14 +554,13 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
     doc = json.loads((tmp_path / "initial_grip.json").read_text())
     jsonschema.validate(doc, load_schema("initial_grip"))
     from itup_jax.dataset import load_shard, read_manifest
-    from itup_jax.simulate import INITIAL_SQUEEZE, plan, sample_physics
+    from itup_jax.simulate import INITIAL_SQUEEZE, initial_pad_overlap, plan, sample_physics
 
     data = str(tmp_path / "data")
     valid = sum(int(load_shard(data, e)["label_valid"].sum()) for e in read_manifest(data)["shards"])
     assert doc["per_task"]["hammer"]["rows"] == valid >= 3
     assert sum(b["rows"] for b in doc["per_task"]["hammer"]["turn_50ms_by_overlap"]) == doc["per_task"]["hammer"]["rows"] - doc["per_task"]["hammer"]["no_pad_contact"]
 
-    initial_overlap = runpy.run_path(os.path.join(ROOT, "experiments", "initial_grip.py"))["initial_overlap"]
     tool, task = tasks["hammer"]
     scene = itup.build_scene(tool, task)
     r, a = 0.0145, 0.011  # the hammer's handle radius; the pad's half-length along grasp x (mjcf)
@@ -570,7 +569,7 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
     Rz = [np.array([[np.cos(f), -np.sin(f), 0.0], [np.sin(f), np.cos(f), 0.0], [0.0, 0.0, 1.0]]) for f in phis]
     g = make_grasps(np.tile([0.0, 0.0, 0.15], (3, 1)), np.stack([above @ R for R in Rz]), 2 * r / np.cos(phis))
     p = plan(scene, task, g, sample_physics(tool, 3, spread=None))
-    np.testing.assert_allclose(initial_overlap(scene, p.qpos0), a * np.sin(phis) + INITIAL_SQUEEZE * np.cos(phis), atol=2e-6)
+    np.testing.assert_allclose(initial_pad_overlap(scene, p.qpos0), a * np.sin(phis) + INITIAL_SQUEEZE * np.cos(phis), atol=2e-6)
     with pytest.raises(SystemExit) as e:
         _run_experiment("initial_grip.py", ["--data", str(tmp_path / "nothing"), "--out", str(tmp_path / "x")], monkeypatch)
     assert e.value.code == 2 and not (tmp_path / "x").exists()

@@ -8,6 +8,7 @@ import pytest
 import itup_jax
 from itup_jax import features, grasp_sampler
 from itup_jax.errors import InputError
+from itup_jax.grasp import rotation_matrix
 from itup_jax.shapes import bucket, pad_rows_repeating, pad_zeros_high
 from itup_jax.wrench import task_loads
 
@@ -58,6 +59,23 @@ def test_sampler_padding_changes_no_grasp(tools, monkeypatch):
             np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
 
 
+def test_point_padding_is_invisible_to_the_kernels(rng, monkeypatch):
+    """The kernels see the padded points as the unpadded ones, also where a wrong pad point would show: a
+    grasp at the origin whose footprint holds no tool point (a zero pad point would lie inside it)."""
+    pts = rng.normal(size=(1001, 3)) * 0.003 + 0.1  # 1001 points -> a bucket of 1024; all far from the origin
+    assert bucket(len(pts), grasp_sampler.POINT_BUCKET_BITS) > len(pts)
+    R = np.broadcast_to(np.eye(3), (40, 3, 3))
+    p = np.concatenate([np.zeros((1, 3)), 0.1 + rng.normal(size=(39, 3)) * 0.01])
+    opening = np.full(40, 0.02)
+    padded = grasp_sampler.pad_span(pts, R, p), grasp_sampler.gripper_collides(pts, R, p, opening)
+    monkeypatch.setattr(grasp_sampler, "POINT_BUCKET_BITS", NO_BUCKETS)
+    plain = grasp_sampler.pad_span(pts, R, p), grasp_sampler.gripper_collides(pts, R, p, opening)
+    assert np.isposinf(plain[0][0, 0]) and np.isneginf(plain[0][0, 1])  # the premise: nothing in its footprint
+    assert np.isfinite(plain[0][1:]).any() and plain[1].any() and not plain[1].all()  # and the rest is not trivial
+    for a, b in zip(padded, plain):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_sampler_kernels_compile_once_per_bucket(rng):
     """Two point counts in one bucket (4549 and 4600 -> 4608) share one executable of each kernel."""
     R = np.broadcast_to(np.eye(3), (5, 3, 3))
@@ -78,6 +96,7 @@ def test_field_padding_changes_no_feature(tasks, monkeypatch):
     spec = features.FeatureSpec(num_points=256)
     grasps = itup_jax.sample_grasps(tool, 16, seed=2)
     loads = task_loads(tool.params, task)
+    bits = features.FIELD_BUCKET_BITS
     padded = features.tool_field(tool, spec)
     monkeypatch.setattr(features, "FIELD_BUCKET_BITS", NO_BUCKETS)
     plain = features.tool_field(tool, spec)
@@ -86,10 +105,15 @@ def test_field_padding_changes_no_feature(tasks, monkeypatch):
     f_pad = np.asarray(features.batched_features(padded, loads, tool.params, grasps, spec=spec))
     f_plain = np.asarray(features.batched_features(plain, loads, tool.params, grasps, spec=spec))
     np.testing.assert_array_equal(f_pad, f_plain)
+    # reads that straddle the unpadded grid's high corner, where the padding lies: zeros as map_coordinates'
+    # cval gives beyond the grid (the grasps above read the tool's middle, far from any edge)
+    corner = plain.origin + plain.spacing * (np.array(plain.values.shape) - 1)
+    for R in (np.eye(3), rotation_matrix(jnp.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))):
+        occ = [np.asarray(features.occupancy(f, corner, jnp.asarray(R), spec)) for f in (padded, plain)]
+        np.testing.assert_array_equal(occ[0], occ[1])
     # a second field in padded's bucket (the same values, cut by one voxel per axis, padded again)
-    monkeypatch.setattr(features, "FIELD_BUCKET_BITS", 3)
     before = features.batched_features._cache_size()
-    cut = features.DensityField(values=jnp.asarray(pad_zeros_high(np.asarray(plain.values)[:-1, :-1, :-1], 3)),
+    cut = features.DensityField(values=jnp.asarray(pad_zeros_high(np.asarray(plain.values)[:-1, :-1, :-1], bits)),
                                 origin=plain.origin, spacing=plain.spacing)
     assert cut.values.shape == padded.values.shape
     features.batched_features(cut, loads, tool.params, grasps, spec=spec)
