@@ -290,11 +290,14 @@ def _cmd_adapt(args) -> int:
                             ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
                             ("--failure-weight", args.failure_weight), ("--rank-weight", args.rank_weight),
                             ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None),
-                            ("--teacher", args.teacher)) if v is not None]
+                            ) if v is not None]
     if fixed:
         raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
-                    f"(--finetune-epochs, --finetune-lr, --patience and --seed set the adaptation)")
+                    f"(--finetune-epochs, --finetune-lr, --patience, --ema and --seed set the adaptation)")
     model = load_model(args.init)  # checked before any data is read
+    if args.teacher is not None and args.keep is not None:
+        raise_input("--teacher and --keep both replace the rows' labels with a checkpoint's predictions; give one")
+    teacher = load_model(args.teacher) if args.teacher is not None else None
     keep = None
     if args.keep is not None:
         from itup_jax.sdgnet import COST_NAMES, teacher_targets
@@ -310,11 +313,21 @@ def _cmd_adapt(args) -> int:
         if model.spec["feature_spec"] != fs:
             raise_input(f"--init {args.init!r}: its features were made with {model.spec['feature_spec']}, the datasets' with {fs}")
         data = teacher_targets(data, model, outputs=keep)  # these outputs are held at the checkpoint's predictions
+    if teacher is not None:  # distil while adapting: every output towards the teacher's predictions of the rows
+        from itup_jax.sdgnet import teacher_targets
+
+        if teacher.spec["feature_spec"] != fs:
+            raise_input(f"--teacher {args.teacher!r}: its features were made with {teacher.spec['feature_spec']}, "
+                        f"the datasets' with {fs}")
+        data = teacher_targets(data, teacher)
     out = adapt(model, data, epochs=epochs, lr=args.finetune_lr, seed=args.seed, patience=args.patience,
-                feature_spec=fs, progress=not args.quiet)
+                ema=args.ema, feature_spec=fs, progress=not args.quiet)
     out.spec["adapted_from"]["file"] = os.path.abspath(args.init)
     if keep is not None:
         out.spec["adapted_from"]["kept"] = list(keep)
+    if teacher is not None:
+        out.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
+                               "command": teacher.spec.get("command")}
     out.spec["datasets"] = _datasets_spec(args.data, manifests)
     out.spec["command"] = _command_line()
     save_model(args.out, out)
@@ -342,7 +355,7 @@ def cmd_train(args) -> int:
                                     success_weight=args.success_weight,
                                     failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
                                     finetune_lr=args.finetune_lr, rank_weight=args.rank_weight,
-                                    rank_temperature=args.rank_temperature).items() if v is not None}
+                                    rank_temperature=args.rank_temperature, ema=args.ema).items() if v is not None}
     if args.per_task:  # from scratch per task: nothing shared to fine-tune
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
@@ -726,12 +739,17 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--rank-temperature", type=float, default=None,
                     help="temperature of that loss on the normalised log-torque scale; smaller weighs a tool's "
                          "lowest grasps more (default: TrainConfig's)")
+    tr.add_argument("--ema", type=float, default=None,
+                    help="decay per step of an exponential moving average of the weights, validated and kept "
+                         "instead of the last step's (e.g. 0.999); 0: off (default: TrainConfig's, 0; with --init "
+                         "the checkpoint's recipe's)")
     tr.add_argument("--per-task", action="store_true",
                     help="one MLP per task trained from scratch (own normalisation, split and early stopping), "
                          "one checkpoint; no fine-tuning")
     tr.add_argument("--teacher", default=None, metavar="E.npz",
                     help="distil: train on this checkpoint's predictions (costs and probabilities) of the rows "
-                         "instead of their labels, e.g. an `itup ensemble` that scores M times slower")
+                         "instead of their labels, e.g. an `itup ensemble` that scores M times slower; with --init, "
+                         "adapt that checkpoint towards them (how the shipped checkpoint was made)")
     tr.add_argument("--init", default=None, metavar="M.npz",
                     help="adapt this checkpoint to --data instead of training from scratch: each of its networks "
                          "continues from its weights and normalisation for --finetune-epochs epochs (default: its "

@@ -88,6 +88,11 @@ class TrainConfig:
     rank_temperature: float = 0.3  # on the normalised log-torque scale (1 = the training rows' spread)
     rank_tools: int = 8
     rank_group: int = 32
+    # in [0, 1): > 0 keeps an exponential moving average of the weights, updated after every Adam step
+    # (w_avg <- ema w_avg + (1 - ema) w, starting from the first weights), and validates, early-stops and
+    # stores the average instead of the last step's weights: Polyak averaging, a cheap ensemble over the
+    # end of training at one network's scoring cost. 0 (default): the last step's weights
+    ema: float = 0.0
 
     def __post_init__(self):
         def integer(v):
@@ -123,6 +128,8 @@ class TrainConfig:
         for name, least in (("rank_tools", 1), ("rank_group", 2)):  # a group of one grasp ranks nothing
             if not (integer(getattr(self, name)) and getattr(self, name) >= least):
                 raise InputError(f"train: {name} must be an integer >= {least}, got {getattr(self, name)!r}")
+        if not (isinstance(self.ema, (float, int)) and not isinstance(self.ema, bool) and 0 <= self.ema < 1):
+            raise InputError(f"train: ema (the weight average's decay per step) must be in [0, 1), got {self.ema!r}")
         if self.per_task and self.finetune_epochs:
             raise InputError("train: per_task trains each task's network from scratch and finetune_epochs "
                              "fine-tunes a shared one per task; set finetune_epochs=0 with per_task")
@@ -299,10 +306,12 @@ def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict
 
 
 def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, seed: int = 0,
-          patience: int | None = None, feature_spec: dict | None = None, progress: bool = True, log=print) -> Model:
+          patience: int | None = None, ema: float | None = None, feature_spec: dict | None = None,
+          progress: bool = True, log=print) -> Model:
     """Continue training a trained model on new data (a new tool family, say): each of its networks (the
     shared one, or each task's) starts from its weights and keeps its normalisation and targets, trains
-    `epochs` epochs at peak rate `lr` (default: its recipe's fine-tuning rate) on the data's rows of its
+    `epochs` epochs at peak rate `lr` (default: its recipe's fine-tuning rate; `ema`: the weight average's
+    decay, default its recipe's, `TrainConfig.ema`) on the data's rows of its
     task, and is kept as it was unless an epoch beats it on the data's held-out tools (drawn by `seed`,
     as in `train`). A per-task model's networks for tasks the data lacks are carried over unchanged.
     The recipe is the model's own (`Model.train_config`); `spec["adapted_from"]` records the start.
@@ -324,7 +333,8 @@ def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, see
     recipe = model.train_config
     config = dataclasses.replace(recipe, seed=seed, per_task=False, rank_weight=0.0, finetune_epochs=epochs,
                                  finetune_lr=recipe.finetune_lr if lr is None else lr,
-                                 patience=recipe.patience if patience is None else patience)
+                                 patience=recipe.patience if patience is None else patience,
+                                 ema=recipe.ema if ema is None else ema)
     fs = model.spec.get("feature_spec") if feature_spec is None else feature_spec
     if model.tasks is None:
         one = dataclasses.replace(config, epochs=epochs, lr=config.finetune_lr, finetune_epochs=0)
@@ -341,7 +351,7 @@ def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, see
         out = Model(params=params, spec={**out.spec, "by_task": dict(sorted(by_task.items()))})
     out.spec["adapted_from"] = {"command": model.spec.get("command"), "datasets": model.spec.get("datasets"),
                                 "best_val_loss": model.spec.get("best_val_loss"), "epochs": epochs,
-                                "lr": config.finetune_lr, "seed": seed}
+                                "lr": config.finetune_lr, "seed": seed, "ema": config.ema}
     return out
 
 
@@ -449,26 +459,30 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
             out = out + config.rank_weight * listwise_loss(pred[..., 0], group[1][..., 0], config.rank_temperature, mask)
         return out
 
+    ema = float(config.ema)
+
     @jax.jit  # the outer call: one jitted epoch (shuffle, then scan over minibatches)
     @full_precision
-    def epoch(p, s, k):
+    def epoch(p, s, pa, k):
         if rank:
             k, kr = jax.random.split(k)
         perm = jax.random.permutation(k, n_tr)[: steps_per_epoch * batch].reshape(steps_per_epoch, batch)
         group_keys = jax.random.split(kr, steps_per_epoch) if rank else jnp.zeros((steps_per_epoch,))
 
         def step(carry, xs):
-            (p, s), (idx, kg) = carry, xs
+            (p, s, pa), (idx, kg) = carry, xs
             group = None
             if rank:
                 gi = _draw_groups(kg, g_order, g_start, g_count, config.rank_tools, config.rank_group)
                 group = (Xtr[gi], Ytr[gi])
             l, g = jax.value_and_grad(loss_fn)(p, Xtr[idx], Ytr[idx], Str[idx], group)
             p, s = adam_update(g, s, p, adam)
-            return (p, s), l
+            if ema > 0:  # the weight average (TrainConfig.ema); pa is p itself when it is off
+                pa = jax.tree_util.tree_map(lambda a, w: ema * a + (1.0 - ema) * w, pa, p)
+            return (p, s, pa), l
 
-        (p, s), losses = jax.lax.scan(step, (p, s), (perm, group_keys))
-        return p, s, losses.mean()
+        (p, s, pa), losses = jax.lax.scan(step, (p, s, pa), (perm, group_keys))
+        return p, s, (pa if ema > 0 else p), losses.mean()
 
     val_loss = jax.jit(full_precision(loss_fn))
     val_args = (Xva, Yva, Sva) + ((Gva, Gva_mask) if rank else ())
@@ -482,13 +496,14 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
 
         bar = tqdm(total=config.epochs, desc="train", unit="epoch", dynamic_ncols=True)
     t0 = time.perf_counter()
+    averaged = params  # the weights validated and kept: the last step's, or their average (config.ema)
     for e in range(config.epochs):
         key, k = jax.random.split(key)
-        params, opt, tl = epoch(params, opt, k)
-        vl = float(val_loss(params, *val_args)) if len(Xva) else float(tl)
+        params, opt, averaged, tl = epoch(params, opt, averaged, k)
+        vl = float(val_loss(averaged, *val_args)) if len(Xva) else float(tl)
         history.append((float(tl), vl))
         if vl < best[0]:
-            best = (vl, params, e)
+            best = (vl, averaged, e)
         if bar is not None:
             bar.set_postfix(train=f"{float(tl):.3f}", val=f"{vl:.3f}")
             bar.update(1)

@@ -368,6 +368,28 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     save(str(tmp_path / "odd_teacher.npz"), layers, tspec)
     assert main(["train", "--data", out, "--out", student, "--teacher", str(tmp_path / "odd_teacher.npz"), "--quiet"]) == 2
     assert "its features were made with" in capsys.readouterr().err
+    # distilled while adapting (`--init M --teacher E`): every output trained towards the teacher's predictions,
+    # so the adapted network predicts closer to the teacher than the checkpoint it started from and than the
+    # same adaptation to the labels
+    from itup_jax.sdgnet import load_model, predict_costs
+
+    adapted, to_labels = str(tmp_path / "adapted.npz"), str(tmp_path / "to_labels.npz")
+    for path, extra in ((adapted, ["--teacher", student]), (to_labels, [])):
+        assert main(["train", "--data", out, "--out", path, "--init", ckpt, *extra, "--finetune-epochs", "40",
+                     "--finetune-lr", "1e-2", "--ema", "0.5", "--patience", "40", "--quiet"]) == 0
+    aspec = load(adapted)[1]
+    assert aspec["teacher"]["file"] == os.path.abspath(student) and aspec["adapted_from"]["ema"] == 0.5
+    feats = load_datasets([out])[0]["features"]
+    feats = feats[np.isfinite(feats).all(1)]  # the rows with features (not the infeasible ones)
+    tau = lambda m: np.asarray(predict_costs(load_model(m), feats, "reach")["tau"])  # noqa: E731
+    gap = lambda m: float(np.mean(np.abs(tau(m) - tau(student))))  # noqa: E731
+    assert gap(adapted) < 0.8 * gap(ckpt) and gap(adapted) < 0.5 * gap(to_labels)  # measured: 0.38, 0.58, 2.0
+    assert main(["train", "--data", out, "--out", adapted + ".x", "--init", ckpt, "--teacher", student, "--keep", "tau",
+                 "--quiet"]) == 2
+    assert "give one" in capsys.readouterr().err and not os.path.exists(adapted + ".x")
+    assert main(["train", "--data", out, "--out", adapted + ".x", "--init", ckpt, "--teacher",
+                 str(tmp_path / "odd_teacher.npz"), "--quiet"]) == 2
+    assert "its features were made with" in capsys.readouterr().err
 
 
 def test_processes_run_one_after_another_make_the_single_process_dataset(full_run, tmp_path):

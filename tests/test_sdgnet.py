@@ -31,6 +31,33 @@ def test_training_lowers_the_loss_tenfold_and_holds_out_tools():
     assert model.spec["n_val"] % 50 == 0  # whole tools (50 examples each) went to validation
 
 
+def test_weight_average_is_the_moving_average_of_the_steps():
+    """`TrainConfig.ema`: the weights validated and kept are the exponential moving average of the steps'
+    weights, started at the initial ones. One epoch of one full-batch step from scratch keeps
+    d w0 + (1 - d) w1, where w0 is the initialisation (`mlp.init` with the training key) and w1 the weights
+    after the step (the same run with ema 0)."""
+    import jax
+
+    from itup_jax import mlp
+
+    data = _synthetic(n=200)
+    quiet = dict(progress=False, log=lambda *_: None)
+    cfg = TrainConfig(hidden=(8,), epochs=1, batch=10_000, lr=1e-2, seed=3)
+    last = train(data, cfg, **quiet)
+    d = 0.75
+    avg = train(data, dataclasses.replace(cfg, ema=d), **quiet)
+    k_init = jax.random.split(jax.random.key(cfg.seed))[1]
+    w0 = mlp.init(k_init, [data["features"].shape[1], 8, len(TARGETS) + len(CLASS_TARGETS)])
+    for (W0, b0), (W1, b1), (Wa, ba) in zip(w0, last.params, avg.params):
+        assert not np.allclose(W1, W0)  # the step moved the weights
+        np.testing.assert_allclose(Wa, d * np.asarray(W0, np.float32) + (1 - d) * W1, rtol=1e-5, atol=1e-7)
+        np.testing.assert_allclose(ba, d * np.asarray(b0, np.float32) + (1 - d) * b1, rtol=1e-5, atol=1e-7)
+    assert avg.train_config.ema == d and last.train_config.ema == 0.0
+    for bad in (1.0, -0.1, float("nan"), True):
+        with pytest.raises(itup.InputError, match="ema"):
+            TrainConfig(ema=bad)
+
+
 def test_checkpoint_carries_the_spec_and_predicts_the_same(tmp_path):
     model = train(_synthetic(), TrainConfig(hidden=(16,), epochs=5), feature_spec={"num_points": 8},
                   progress=False, log=lambda *a: None)
