@@ -281,6 +281,23 @@ def _datasets_spec(folders, manifests) -> list[dict]:
             for (d, t), m in zip(split, manifests)]
 
 
+def _predicted_targets(flag: str, path: str, model, data: dict, feature_spec: dict, outputs=None) -> dict:
+    """`data` with `model`'s predictions of the rows as the targets (`sdgnet.teacher_targets`, all outputs
+    or `outputs`), after refusing a checkpoint whose features were made with another `FeatureSpec` than
+    the datasets' (named by `flag` and `path` in the message)."""
+    from itup_jax.sdgnet import teacher_targets
+
+    if model.spec["feature_spec"] != feature_spec:
+        raise_input(f"{flag} {path!r}: its features were made with {model.spec['feature_spec']}, "
+                    f"the datasets' with {feature_spec}")
+    return teacher_targets(data, model, outputs=outputs)
+
+
+def _teacher_record(path: str, teacher) -> dict:
+    """What a distilled checkpoint's spec keeps of its teacher (`spec["teacher"]`)."""
+    return {"file": os.path.abspath(path), "ensemble_size": teacher.ensemble_size, "command": teacher.spec.get("command")}
+
+
 def _cmd_adapt(args) -> int:
     """`itup train --init M.npz`: continue training a checkpoint on new data (`sdgnet.adapt`)."""
     from itup_jax.dataset import load_datasets
@@ -289,8 +306,8 @@ def _cmd_adapt(args) -> int:
     fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
                             ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
                             ("--failure-weight", args.failure_weight), ("--rank-weight", args.rank_weight),
-                            ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None),
-                            ) if v is not None]
+                            ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None))
+             if v is not None]
     if fixed:
         raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
                     f"(--finetune-epochs, --finetune-lr, --patience, --ema and --seed set the adaptation)")
@@ -300,7 +317,7 @@ def _cmd_adapt(args) -> int:
     teacher = load_model(args.teacher) if args.teacher is not None else None
     keep = None
     if args.keep is not None:
-        from itup_jax.sdgnet import COST_NAMES, teacher_targets
+        from itup_jax.sdgnet import COST_NAMES
 
         keep = tuple(k for k in args.keep.split(",") if k.strip())
         heads = COST_NAMES + tuple(model.head_names)
@@ -309,25 +326,17 @@ def _cmd_adapt(args) -> int:
     epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)
     data, manifests = load_datasets(args.data)
     fs = manifests[0]["config"]["feature_spec"]
-    if keep is not None:
-        if model.spec["feature_spec"] != fs:
-            raise_input(f"--init {args.init!r}: its features were made with {model.spec['feature_spec']}, the datasets' with {fs}")
-        data = teacher_targets(data, model, outputs=keep)  # these outputs are held at the checkpoint's predictions
+    if keep is not None:  # these outputs are held at the checkpoint's own predictions
+        data = _predicted_targets("--init", args.init, model, data, fs, outputs=keep)
     if teacher is not None:  # distil while adapting: every output towards the teacher's predictions of the rows
-        from itup_jax.sdgnet import teacher_targets
-
-        if teacher.spec["feature_spec"] != fs:
-            raise_input(f"--teacher {args.teacher!r}: its features were made with {teacher.spec['feature_spec']}, "
-                        f"the datasets' with {fs}")
-        data = teacher_targets(data, teacher)
+        data = _predicted_targets("--teacher", args.teacher, teacher, data, fs)
     out = adapt(model, data, epochs=epochs, lr=args.finetune_lr, seed=args.seed, patience=args.patience,
                 ema=args.ema, feature_spec=fs, progress=not args.quiet)
     out.spec["adapted_from"]["file"] = os.path.abspath(args.init)
     if keep is not None:
         out.spec["adapted_from"]["kept"] = list(keep)
     if teacher is not None:
-        out.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
-                               "command": teacher.spec.get("command")}
+        out.spec["teacher"] = _teacher_record(args.teacher, teacher)
     out.spec["datasets"] = _datasets_spec(args.data, manifests)
     out.spec["command"] = _command_line()
     save_model(args.out, out)
@@ -362,20 +371,16 @@ def cmd_train(args) -> int:
                       per_task=args.per_task, **recipe)
     teacher = None
     if args.teacher:
-        from itup_jax.sdgnet import load_model, teacher_targets
+        from itup_jax.sdgnet import load_model
 
         teacher = load_model(args.teacher)  # checked before any data is read
     data, manifests = load_datasets(args.data)
     fs = manifests[0]["config"]["feature_spec"]  # load_datasets refuses datasets of different specs
-    if teacher is not None:
-        if teacher.spec["feature_spec"] != fs:
-            raise_input(f"--teacher {args.teacher!r}: its features were made with {teacher.spec['feature_spec']}, "
-                        f"the datasets' with {fs}")
-        data = teacher_targets(data, teacher)  # the teacher's predictions are the targets
+    if teacher is not None:  # the teacher's predictions are the targets
+        data = _predicted_targets("--teacher", args.teacher, teacher, data, fs)
     model = train(data, cfg, feature_spec=fs, progress=not args.quiet)
     if teacher is not None:
-        model.spec["teacher"] = {"file": os.path.abspath(args.teacher), "ensemble_size": teacher.ensemble_size,
-                                 "command": teacher.spec.get("command")}
+        model.spec["teacher"] = _teacher_record(args.teacher, teacher)
     model.spec["datasets"] = _datasets_spec(args.data, manifests)
     model.spec["command"] = _command_line()
     save_model(args.out, model)

@@ -477,12 +477,12 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
                 group = (Xtr[gi], Ytr[gi])
             l, g = jax.value_and_grad(loss_fn)(p, Xtr[idx], Ytr[idx], Str[idx], group)
             p, s = adam_update(g, s, p, adam)
-            if ema > 0:  # the weight average (TrainConfig.ema); pa is p itself when it is off
-                pa = jax.tree_util.tree_map(lambda a, w: ema * a + (1.0 - ema) * w, pa, p)
+            # the weights validated and kept: their moving average (TrainConfig.ema), or the step's own
+            pa = jax.tree_util.tree_map(lambda a, w: ema * a + (1.0 - ema) * w, pa, p) if ema > 0 else p
             return (p, s, pa), l
 
         (p, s, pa), losses = jax.lax.scan(step, (p, s, pa), (perm, group_keys))
-        return p, s, (pa if ema > 0 else p), losses.mean()
+        return p, s, pa, losses.mean()
 
     val_loss = jax.jit(full_precision(loss_fn))
     val_args = (Xva, Yva, Sva) + ((Gva, Gva_mask) if rank else ())
