@@ -298,9 +298,23 @@ def _teacher_record(path: str, teacher) -> dict:
     return {"file": os.path.abspath(path), "ensemble_size": teacher.ensemble_size, "command": teacher.spec.get("command")}
 
 
+def _load_training_data(paths: list[str]) -> tuple[dict, list[dict]]:
+    """`dataset.load_datasets` for `itup train`, its warnings (a shard found in two folders, read once)
+    printed as one line each on stderr instead of Python's warning format."""
+    import warnings
+
+    from itup_jax.dataset import load_datasets
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = load_datasets(paths)
+    for w in caught:
+        print(f"itup train: note: {w.message}", file=sys.stderr)
+    return out
+
+
 def _cmd_adapt(args) -> int:
     """`itup train --init M.npz`: continue training a checkpoint on new data (`sdgnet.adapt`)."""
-    from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import adapt, load_model, save_model
 
     fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
@@ -324,7 +338,7 @@ def _cmd_adapt(args) -> int:
         if not keep or set(keep) - set(heads):
             raise_input(f"--keep {args.keep!r}: comma-separated outputs of {args.init!r}, some of {', '.join(heads)}")
     epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)
-    data, manifests = load_datasets(args.data)
+    data, manifests = _load_training_data(args.data)
     fs = manifests[0]["config"]["feature_spec"]
     if keep is not None:  # these outputs are held at the checkpoint's own predictions
         data = _predicted_targets("--init", args.init, model, data, fs, outputs=keep)
@@ -348,7 +362,6 @@ def _cmd_adapt(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from itup_jax.dataset import load_datasets
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
     if args.init:
@@ -374,7 +387,7 @@ def cmd_train(args) -> int:
         from itup_jax.sdgnet import load_model
 
         teacher = load_model(args.teacher)  # checked before any data is read
-    data, manifests = load_datasets(args.data)
+    data, manifests = _load_training_data(args.data)
     fs = manifests[0]["config"]["feature_spec"]  # load_datasets refuses datasets of different specs
     if teacher is not None:  # the teacher's predictions are the targets
         data = _predicted_targets("--teacher", args.teacher, teacher, data, fs)

@@ -30,7 +30,7 @@ import json
 import os
 import warnings
 import zipfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from types import MappingProxyType
 from typing import Any
 
@@ -516,14 +516,15 @@ def dataset_timesteps(manifest: dict[str, Any]) -> dict[str, float]:
 
 
 def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None,
-                 manifest: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
+                 manifest: dict[str, Any] | None = None, skip: Collection[str] = ()) -> dict[str, np.ndarray]:
     """All shards of a dataset (verified), concatenated; adds `task` [N] (str) and `tool` [N] (str, the
     tool's name: unique per procedural variant, the same for a built-in tool in every dataset) per row.
-    `manifest`: the folder's manifest if already read (`read_manifest`)."""
+    `manifest`: the folder's manifest if already read (`read_manifest`); `skip`: shard file names not to
+    read (`load_datasets`: shards already read from another folder)."""
     manifest = read_manifest(out_dir) if manifest is None else manifest
     parts = []
     for entry in manifest["shards"]:
-        if tasks is not None and entry["task"] not in tasks:
+        if (tasks is not None and entry["task"] not in tasks) or entry["file"] in skip:
             continue
         a = load_shard(out_dir, entry, valid_only=valid_only)
         meta = json.loads(bytes(a.pop("meta_json")))
@@ -556,8 +557,11 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     shards from DIR (`split_dataset_arg`), e.g. one task's rows from a newer dataset and the other
     tasks' from an older one; `tasks` filters every folder. Refused: a folder given twice (its rows would count
     twice), datasets whose features were made with different `FeatureSpec`s (their columns would
-    mean different things) and datasets whose rows of one task were simulated at different timesteps
-    (their labels measure different integrations; `dataset_timesteps`). Tasks at different steps mix.
+    mean different things), datasets whose rows of one task were simulated at different timesteps
+    (their labels measure different integrations; `dataset_timesteps`; tasks at different steps mix) and
+    a shard found in two folders by its checksum (e.g. a task regenerated alone with a seed already used).
+    Such a shard is read once, from the first folder, with a warning: its rows would otherwise count twice
+    and fall on both sides of a split by tool.
     `tool_id` is renumbered so that it names one tool across the datasets (the first keeps its ids; a
     tool name seen before, such as a built-in tool, keeps its id; every other tool gets a new one), so a
     split by tool stays a split by tool."""
@@ -583,7 +587,22 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
             if step != step0:
                 raise InputError(f"dataset {d!r}: its {t} rows simulated at a {step} s timestep, but those of "
                                  f"{d0!r} at {step0} s; their labels cannot be mixed")
-    parts = [load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m) for d, m, pick in zip(out_dirs, manifests, picks)]
+    seen: dict[str, tuple[str, str]] = {}  # shard checksum -> (folder, file) where it is read
+    skips: list[set[str]] = []  # per folder: its shards already read from an earlier folder
+    for d, m, pick in zip(out_dirs, manifests, picks):
+        skips.append(set())
+        for entry in m["shards"]:
+            if pick is not None and entry["task"] not in pick:
+                continue
+            d0, f0 = seen.setdefault(entry["sha256"], (d, entry["file"]))
+            if d0 != d:
+                skips[-1].add(entry["file"])
+                warnings.warn(f"dataset {d!r}: shard {entry['file']} is byte for byte {f0} of {d0!r} (the same seed, "
+                              f"task and tool, e.g. the built-in tool in two families of one seed); read once",
+                              stacklevel=2)
+    parts = [load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m, skip=skip)
+             for d, m, pick, skip in zip(out_dirs, manifests, picks, skips)
+             if not skip or any((pick is None or e["task"] in pick) and e["file"] not in skip for e in m["shards"])]
     ids: dict[tuple[str, str], int] = {}
     for p in parts:
         new_ids = p["tool_id"].copy()

@@ -5,6 +5,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -317,6 +318,23 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
         load_datasets([out, out + "/"])
     with pytest.raises(itup.InputError, match="no manifest.json there"):
         load_datasets([out, str(tmp_path / "missing")])
+    again = str(tmp_path / "again")  # the same seed's reach regenerated with one tool more: three shards again
+    generate(again, GenerateConfig(tasks=("reach",), tools_per_task=4, grasps=6, seed=2, contact="point"), progress=False)
+    with pytest.warns(UserWarning) as caught:
+        twice, _ = load_datasets([other, again])  # the three read once, the new one read
+    assert [str(w.message).split(": ", 1)[1].split(" (")[0] for w in caught] == [
+        f"shard shard_reach_00{i}.npz is byte for byte shard_reach_00{i}.npz of {other!r}" for i in (0, 1, 2)]
+    new = load_dataset(again)
+    new = {k: v[new["tool"] == new["tool"][-1]] for k, v in new.items()}  # the fourth tool's rows
+    np.testing.assert_array_equal(twice["features"], np.concatenate([b["features"], new["features"]]))
+    with pytest.warns(UserWarning, match="read once"):
+        assert len(load_datasets([out, other, again], tasks=["reach"])[0]["features"]) == len(twice["features"]) + sum(
+            a["task"] == "reach")
+    with pytest.warns(UserWarning, match="read once"):  # nothing left of `other`: not read
+        assert len(load_datasets([again, other])[0]["features"]) == len(twice["features"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_datasets([out, again])  # another seed: other shards
     with pytest.raises(itup.InputError, match="no manifest.json there"):
         load_dataset(str(tmp_path / "missing"))
     odd = str(tmp_path / "odd")
@@ -345,10 +363,13 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     load_datasets([out, fine])  # the oldest manifests: 2 ms
 
     ckpt = str(tmp_path / "m.npz")
-    assert main(["train", "--data", out, other, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["train", "--data", out, other, again, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--quiet"]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("itup train: note: dataset")]
+    assert len(notes) == 3 and all(line.endswith("read once") for line in notes)  # one line per shard, no traceback
     spec = load(ckpt)[1]
-    assert [d["config"]["seed"] for d in spec["datasets"]] == [1, 2]
-    assert spec["n_train"] + spec["n_val"] == len(both["features"])
+    assert [d["config"]["seed"] for d in spec["datasets"]] == [1, 2, 2]
+    assert spec["n_train"] + spec["n_val"] == len(both["features"]) + len(new["features"])
     # fine-tuned per task from the CLI: one network per task, the shared network's figures kept beside them
     assert main(["train", "--data", out, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--finetune-epochs", "2",
                  "--rank-weight", "0.5", "--rank-temperature", "0.4", "--quiet"]) == 0
