@@ -557,11 +557,11 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
     shards from DIR (`split_dataset_arg`), e.g. one task's rows from a newer dataset and the other
     tasks' from an older one; `tasks` filters every folder. Refused: a folder given twice (its rows would count
     twice), datasets whose features were made with different `FeatureSpec`s (their columns would
-    mean different things), datasets whose rows of one task were simulated at different timesteps
-    (their labels measure different integrations; `dataset_timesteps`; tasks at different steps mix) and
-    a shard found in two folders by its checksum (e.g. a task regenerated alone with a seed already used).
-    Such a shard is read once, from the first folder, with a warning: its rows would otherwise count twice
-    and fall on both sides of a split by tool.
+    mean different things) and datasets whose rows of one task were simulated at different timesteps
+    (their labels measure different integrations; `dataset_timesteps`). Tasks at different steps mix. A
+    shard found in two folders by its checksum (the built-in tool's shard of one seed in both tool
+    families, or a task regenerated with a seed already used) is read once, from the first folder, with
+    a warning: its rows would otherwise count twice and fall on both sides of a split by tool.
     `tool_id` is renumbered so that it names one tool across the datasets (the first keeps its ids; a
     tool name seen before, such as a built-in tool, keeps its id; every other tool gets a new one), so a
     split by tool stays a split by tool."""
