@@ -299,17 +299,21 @@ def _teacher_record(path: str, teacher) -> dict:
 
 
 def _load_training_data(paths: list[str]) -> tuple[dict, list[dict]]:
-    """`dataset.load_datasets` for `itup train`, its warnings (a shard found in two folders, read once)
-    printed as one line each on stderr instead of Python's warning format."""
+    """`dataset.load_datasets` for `itup train`, its own warnings (UserWarning: a shard found in two
+    folders, read once) printed as one line each on stderr instead of Python's warning format; any other
+    warning shown as Python would show it."""
     import warnings
 
     from itup_jax.dataset import load_datasets
 
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+        warnings.simplefilter("always", UserWarning)
         out = load_datasets(paths)
     for w in caught:
-        print(f"itup train: note: {w.message}", file=sys.stderr)
+        if w.category is UserWarning:
+            print(f"itup train: note: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     return out
 
 

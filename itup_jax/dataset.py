@@ -588,21 +588,22 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
                 raise InputError(f"dataset {d!r}: its {t} rows simulated at a {step} s timestep, but those of "
                                  f"{d0!r} at {step0} s; their labels cannot be mixed")
     seen: dict[str, tuple[str, str]] = {}  # shard checksum -> (folder, file) where it is read
-    skips: list[set[str]] = []  # per folder: its shards already read from an earlier folder
+    parts = []
     for d, m, pick in zip(out_dirs, manifests, picks):
-        skips.append(set())
+        skip, read = set(), 0  # this folder's shards already read from an earlier folder; those left to read
         for entry in m["shards"]:
             if pick is not None and entry["task"] not in pick:
                 continue
             d0, f0 = seen.setdefault(entry["sha256"], (d, entry["file"]))
-            if d0 != d:
-                skips[-1].add(entry["file"])
-                warnings.warn(f"dataset {d!r}: shard {entry['file']} is byte for byte {f0} of {d0!r} (the same seed, "
-                              f"task and tool, e.g. the built-in tool in two families of one seed); read once",
-                              stacklevel=2)
-    parts = [load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m, skip=skip)
-             for d, m, pick, skip in zip(out_dirs, manifests, picks, skips)
-             if not skip or any((pick is None or e["task"] in pick) and e["file"] not in skip for e in m["shards"])]
+            if d0 == d:
+                read += 1
+                continue
+            skip.add(entry["file"])
+            warnings.warn(f"dataset {d!r}: shard {entry['file']} is byte for byte {f0} of {d0!r} (the same seed, "
+                          f"task and tool, e.g. the built-in tool in two families of one seed); read once",
+                          stacklevel=2)
+        if read or not skip:  # a folder with no shards at all still gets load_dataset's refusal
+            parts.append(load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m, skip=skip))
     ids: dict[tuple[str, str], int] = {}
     for p in parts:
         new_ids = p["tool_id"].copy()
