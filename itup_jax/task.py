@@ -160,7 +160,13 @@ class ReachParams:
     """Reach: slow extension past a block, lowering behind it, then a pull (or push) that slides it.
 
     The stick lies horizontal along world +x with the hook pointing down; it extends `lift` above
-    its working height (the hook clears the block), lowers during `t_pause`, then moves.
+    its working height (the hook clears the block), lowers during `t_pause`, then moves. At the
+    working height the tool's lowest point (the hook's tip) is `clearance` above the table top, so the
+    height follows from the tool's mesh: a longer hook works higher. (Until 0.7.0 the tool-frame origin
+    sat at a fixed 0.10 m, which put the built-in stick's tip on the table and drove a procedural
+    variant's longer hook up to 21 mm into it: those labels measured the arm pressing the stick into the
+    table, not the reach.) A grasp that lets the stick sag in the pads by more than `clearance` at the
+    tip still presses it on the table, and the labels measure that.
     """
 
     steps: int = 64
@@ -171,11 +177,15 @@ class ReachParams:
     lift: float = 0.12  # m, clearance above the working height while extending (the hook sags in the grasp)
     move: float = 0.15  # m, pull (or push) distance
     t_move: float = 1.0  # s
-    start: tuple = (0.30, 0.0, 0.10)  # m, tool-frame origin at the start
+    start: tuple = (0.30, 0.0)  # m, x and y of the tool-frame origin at the start (its height: `clearance`)
+    clearance: float = 0.010  # m, the hook's tip above the table top at the working height (before any sag)
     block_mass: float = 0.5  # kg
     block_friction: float = 0.4  # -, block on the table
     slip_velocity: float = 0.01  # m/s
 
+
+#: m, the reach's block (mjcf/scenes/reach.xml: 80 x 80 x 60 mm on the table)
+REACH_BLOCK_HEIGHT = 0.06
 
 _PARAMS = {"hammer": HammerParams, "knock": KnockParams, "sweep": SweepParams, "reach": ReachParams}
 
@@ -220,6 +230,11 @@ def _validate_params(kind: str, params: Any) -> None:
         elif f.name == "mode":
             if value not in ("pull", "push"):
                 raise InputError(f"{what}: must be 'pull' or 'push', got {value!r}")
+        elif f.name == "start" and kind == "reach":
+            a = np.asarray(value, dtype=float)
+            if a.shape != (2,) or not np.all(np.isfinite(a)):
+                raise InputError(f"{what}: expected two finite numbers, the x and y (m) of the tool-frame origin "
+                                 f"(its height follows from the tool and `clearance`), got {value!r}")
         elif f.name in ("target", "start"):
             a = np.asarray(value, dtype=float)
             if a.shape != (3,) or not np.all(np.isfinite(a)):
@@ -228,7 +243,7 @@ def _validate_params(kind: str, params: Any) -> None:
             a = np.asarray(value, dtype=float)
             if a.ndim != 1 or a.size == 0 or np.any(~np.isfinite(a)) or np.any(a <= 0):
                 raise InputError(f"{what}: expected positive distances (m), got {value!r}")
-        elif f.name in ("tilt", "t_hold"):
+        elif f.name in ("tilt", "t_hold", "clearance"):
             if not math.isfinite(value) or value < 0:
                 raise InputError(f"{what}: must be finite and >= 0, got {value!r}")
         elif f.name == "target_mass":
@@ -356,8 +371,10 @@ def _reach(tool: Tool, prm: ReachParams) -> Task:
         (k3, prm.extension + sign * prm.move, 0.0, 0.0),
     ])
     h = Profile.through([(k0, prm.lift, 0.0, 0.0), (k1, prm.lift, 0.0, 0.0), (k2, 0.0, 0.0, 0.0), (k3, 0.0, 0.0, 0.0)])
-    p0 = np.asarray(prm.start, float)
     z = np.array([0.0, 0.0, 1.0])
+    # the working height: the tool's lowest point (R0 applied to its mesh) `clearance` above the table
+    lowest = float(np.min(np.asarray(tool.mesh.vertices, float) @ R0[2]))
+    p0 = np.array([prm.start[0], prm.start[1], prm.clearance - lowest])
 
     def pose(tt):
         return jnp.asarray(p0) + s(tt) * jnp.asarray(x) + h(tt) * jnp.asarray(z), jnp.asarray(R0)
@@ -371,6 +388,10 @@ def _reach(tool: Tool, prm: ReachParams) -> Task:
     drag = np.zeros((prm.steps, 1))
     drag[i_move:, 0] = 1.0
     c_obj = np.asarray(traj.point_position(jnp.asarray(tool.contact_point)))[i_move]
+    if not 0.0 < c_obj[2] < REACH_BLOCK_HEIGHT:
+        raise InputError(f"make_task('reach'): the hook's contact point would meet the block at z = {c_obj[2]:.3f} m, "
+                         f"off its face (0 to {REACH_BLOCK_HEIGHT} m); with clearance {prm.clearance} m the contact "
+                         f"point lies {c_obj[2] - prm.clearance:.3f} m above the hook's tip")
     return _assemble("reach", traj, tool.contact_point[None], c_obj=c_obj[None], n=n[None], d=sign * x,
                      inv_mass_obj=[1.0 / prm.block_mass],
                      drag_force=[prm.block_friction * prm.block_mass * units.STANDARD_GRAVITY],

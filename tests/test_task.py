@@ -98,6 +98,30 @@ def test_reach_moves_the_block_towards_or_away_from_the_robot(tools, mode, sign)
     assert float(task.n_world[0] @ task.d_world) == pytest.approx(-1.0)
 
 
+@pytest.mark.parametrize("variant", [0, 3])  # the built-in stick (hook tip 0.100 m), and a stretched one (0.121 m)
+@pytest.mark.parametrize("clearance", [0.010, 0.020])
+def test_reach_works_with_the_hook_tip_clearance_above_the_table(tools, variant, clearance):
+    """From the end of the lowering on, the stick's lowest point is `clearance` above the table top
+    (z = 0) whatever the hook's length, `lift` higher while it extends, and the hook's contact point
+    meets the block's face. (Up to 0.7.0 the tool-frame origin sat at a fixed height, which drove this
+    variant's hook 21 mm into the table.)"""
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.task import REACH_BLOCK_HEIGHT, ReachParams
+    tool = tools["l_stick"] if variant == 0 else unit_tool(GenerateConfig(seed=1), "reach", variant)[0]
+    task = itup.make_task("reach", tool, clearance=clearance)
+    v = np.asarray(tool.mesh.vertices)
+    R, p = np.asarray(task.traj.R_world_tool), np.asarray(task.traj.p_world_tool)
+    lowest = np.einsum("tj,nj->tn", R[:, 2], v).min(1) + p[:, 2]  # [T] m
+    t = np.asarray(task.traj.t)
+    prm = ReachParams()
+    at_work = t >= prm.t_extend + prm.t_pause - 1e-9
+    assert lowest[at_work] == pytest.approx(clearance, abs=1e-9)
+    assert lowest[t <= prm.t_extend + 1e-9] == pytest.approx(clearance + prm.lift, abs=1e-9)
+    assert 0.0 < float(task.c_obj_world[0, 2]) < REACH_BLOCK_HEIGHT
+    if variant:
+        assert v[:, 0].max() > tools["l_stick"].mesh.vertices[:, 0].max() + 0.015  # the longer hook
+
+
 def test_overrides_change_the_trajectory(tools):
     fast = itup.make_task("hammer", tools["hammer"], impact_speed=1.0, steps=80)
     assert fast.num_steps == 80
@@ -118,11 +142,14 @@ def test_absurd_speed_warns(tools):
     ("hammer", {"steps": 3}, r"steps.*>= 8"),
     ("hammer", {"target": (0.0, float("nan"), 0.0)}, r"target"),
     ("reach", {"mode": "throw"}, r"mode.*'pull' or 'push'"),
+    ("reach", {"start": (0.3, 0.0, 0.1)}, r"start: expected two finite numbers.*height follows from the tool"),
+    ("reach", {"clearance": -0.01}, r"clearance: must be finite and >= 0"),
+    ("reach", {"clearance": 0.08}, r"contact point would meet the block at z = 0\.11\d m, off its face"),
     ("sweep", {"debris_gaps": (0.1, 0.5)}, r"debris_gaps.*shorter than the stroke"),
 ])
 def test_bad_task_input(tools, kind, kwargs, match):
     with pytest.raises(itup.InputError, match=match):
-        itup.make_task(kind, tools["hammer" if kind != "sweep" else "broom"], **kwargs)
+        itup.make_task(kind, tools[{"sweep": "broom", "reach": "l_stick"}.get(kind, "hammer")], **kwargs)
 
 
 def test_task_is_a_pytree_with_static_kind(tasks):
