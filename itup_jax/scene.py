@@ -200,7 +200,8 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
             spec.body(f"block_{i}").pos = [centre[0], centre[1], 0.03 + 0.06 * i]
     elif task.kind == "reach":
         centre = c_obj[0] - 0.041 * n  # the block lies on the far side of the hook's contact face
-        spec.body("block").pos = [centre[0], centre[1], 0.03]
+        block = spec.body("block")
+        block.pos = [centre[0], centre[1], block.pos[2]]  # resting on the table, at the MJCF's height
 
 
 def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Scene:
