@@ -42,7 +42,7 @@ from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.trajectory import Trajectory
 from itup_jax.wrench import Loads, task_loads
 
-__version__ = "0.7.0"
+__version__ = "0.8.0"
 
 __all__ = [
     "CostParams", "Costs", "Grasps", "InputError", "Loads", "Regime", "SamplerConfig", "SamplingError",

@@ -95,8 +95,8 @@ def test_resuming_a_dataset_of_another_code_version_is_refused(full_run, tmp_pat
 
 def test_resuming_after_a_tasks_default_step_changed_is_refused(full_run, tmp_path):
     """A dataset made with the tasks' default steps records them; if a default has changed since, a
-    resumed run would add shards of another step, so it is refused (and an old manifest, with one step
-    for every task, resumes as before)."""
+    resumed run would add shards of another step, so it is refused (and a manifest without the per-task
+    record falls back to its config's step, and resumes when that matches)."""
     out, _ = full_run
     copy = str(tmp_path / "copy4")
     shutil.copytree(out, copy)
@@ -104,9 +104,9 @@ def test_resuming_after_a_tasks_default_step_changed_is_refused(full_run, tmp_pa
     m = json.load(open(path))
     m["timesteps"] = {"reach": 0.001}
     json.dump(m, open(path, "w"))
-    with pytest.raises(itup.InputError, match=r"simulated at \{'reach': 0.001\} s, this run would use \{'reach': 0.002\} s"):
+    with pytest.raises(itup.InputError, match=r"simulated at \{'reach': 0.001\} s, this run would use \{'reach': 0.0005\} s"):
         generate(copy, SMALL, progress=False)
-    del m["timesteps"]  # before per-task steps: the 2 ms of every task
+    del m["timesteps"]  # no per-task record: the config's step (None here: each task's own), which matches
     json.dump(m, open(path, "w"))
     assert len(generate(copy, SMALL, progress=False)["shards"]) == 3
 
@@ -347,20 +347,24 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     fine = str(tmp_path / "fine")
     shutil.copytree(other, fine)
     m = json.load(open(os.path.join(fine, MANIFEST)))
-    assert m["config"]["timestep"] is None and m["timesteps"] == {"reach": 0.002}  # each task's step, recorded
+    assert m["config"]["timestep"] is None and m["timesteps"] == {"reach": 0.0005}  # each task's step, recorded
     m["timesteps"] = {"reach": 0.001}
     json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
-    with pytest.raises(itup.InputError, match="reach rows simulated at a 0.001 s timestep, but those of .* at 0.002 s; "
+    with pytest.raises(itup.InputError, match="reach rows simulated at a 0.001 s timestep, but those of .* at 0.0005 s; "
                                               "their labels cannot be mixed"):
         load_datasets([out, fine])
     del m["timesteps"]  # the manifests before per-task steps: one config.timestep, or none (2 ms)
     m["config"]["timestep"] = 0.001
     json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
-    with pytest.raises(itup.InputError, match="0.001 s timestep, but those of .* at 0.002 s"):
+    with pytest.raises(itup.InputError, match="0.001 s timestep, but those of .* at 0.0005 s"):
         load_datasets([out, fine])
     del m["config"]["timestep"]
     json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
-    load_datasets([out, fine])  # the oldest manifests: 2 ms
+    with pytest.raises(itup.InputError, match="0.002 s timestep, but those of .* at 0.0005 s"):
+        load_datasets([out, fine])  # the oldest manifests: 2 ms, the reach's default step until 0.8.0
+    m["config"]["timestep"] = 0.0005
+    json.dump(m, open(os.path.join(fine, MANIFEST), "w"))
+    load_datasets([out, fine])  # one config step for every task, equal to the reach's default: they mix
 
     ckpt = str(tmp_path / "m.npz")
     capsys.readouterr()
