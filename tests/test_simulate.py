@@ -329,7 +329,8 @@ def test_slip_labels_do_not_depend_on_where_the_tools_mesh_has_its_origin(tasks)
     v = a.valid
     assert a.slip_rotation[v].max() > 0.15  # turns enough that a 20 cm lever would move the origin 3 cm
     np.testing.assert_allclose(b.slip_translation[v], a.slip_translation[v], atol=3e-4)
-    np.testing.assert_allclose(b.slip_rotation[v], a.slip_rotation[v], atol=0.01)
+    # contacts round differently in the other frame, and over the 0.5 ms step's 4x more steps (code 0.8.0)
+    # a 17-degree turn in the pads ends up to ~4 % apart; torques agree to a few per cent likewise
+    np.testing.assert_allclose(b.slip_rotation[v], a.slip_rotation[v], atol=0.01, rtol=0.05)
     np.testing.assert_array_equal(b.failed[v], a.failed[v])
-    # contacts round differently in the other frame; the torques agree to a few per cent
     np.testing.assert_allclose(b.peak_torque_projected[v], a.peak_torque_projected[v], rtol=0.05)
