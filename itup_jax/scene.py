@@ -19,9 +19,9 @@ Physics of the tool's contacts, from the tool's priors:
 
 Integration step, per task (`TASK_TIMESTEP`): the coarsest of 2, 1 and 0.5 ms whose labels rank like
 those integrated at 0.25 ms (Spearman >= 0.98 over held-out tools, experiments/timestep_convergence.py):
-0.5 ms for every task. The strikes (hammer, knock) and the sweep need it; so does the reach since its
-hook works just clear of the table (code 0.7.0: 1 ms ranks at 0.979 over 11 tools), which ran at 2 ms
-until code 0.8.0.
+0.5 ms for every task. The strikes (hammer, knock) and the sweep need it, and so does the reach since
+its hook works just clear of the table (code 0.7.0; at 1 ms its labels rank at 0.979 over 11 tools).
+The reach ran at 2 ms until code 0.8.0.
 """
 
 from __future__ import annotations
