@@ -324,7 +324,8 @@ def _cmd_adapt(args) -> int:
     fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
                             ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
                             ("--failure-weight", args.failure_weight), ("--rank-weight", args.rank_weight),
-                            ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None))
+                            ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None),
+                            ("--val-fraction", args.val_fraction))
              if v is not None]
     if fixed:
         raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
@@ -381,7 +382,8 @@ def cmd_train(args) -> int:
                                     success_weight=args.success_weight,
                                     failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
                                     finetune_lr=args.finetune_lr, rank_weight=args.rank_weight,
-                                    rank_temperature=args.rank_temperature, ema=args.ema).items() if v is not None}
+                                    rank_temperature=args.rank_temperature, ema=args.ema,
+                                    val_fraction=args.val_fraction).items() if v is not None}
     if args.per_task:  # from scratch per task: nothing shared to fine-tune
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
@@ -750,6 +752,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--batch", type=int, default=128)
     tr.add_argument("--lr", type=float, default=2e-3)
     tr.add_argument("--patience", type=int, default=25)
+    tr.add_argument("--val-fraction", type=float, default=None,
+                    help="share of the data's tools held out for validation and early stopping, in (0, 1) "
+                         "(default: TrainConfig's, 0.25); the rest are trained on")
     tr.add_argument("--seed", type=int, default=0)
     tr.add_argument("--finetune-epochs", type=int, default=None,
                     help="epochs of fine-tuning a copy of the shared network on each task's rows, one network per "

@@ -182,6 +182,8 @@ def test_bad_input_exits_non_zero_with_a_message(argv, match, capsys, tmp_path):
     (["--seed", "-1"], "seed must be an integer >= 0"),
     (["--rank-weight", "-1"], "rank_weight must be a finite number >= 0"),
     (["--rank-temperature", "0"], "rank_temperature must be a finite number > 0"),
+    (["--val-fraction", "1"], "val_fraction (the share of tools held out) must be in (0, 1), got 1.0"),
+    (["--val-fraction", "0"], "val_fraction (the share of tools held out) must be in (0, 1), got 0.0"),
 ])
 def test_bad_training_recipe_is_refused_before_anything_is_read_or_written(flags, match, capsys, tmp_path):
     out = tmp_path / "m.npz"

@@ -381,6 +381,12 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     assert list(spec["by_task"]) == ["reach"] and spec["config"]["finetune_epochs"] == 2
     assert spec["config"]["rank_weight"] == 0.5 and spec["config"]["rank_temperature"] == 0.4
     assert spec["shared"]["n_val"] == spec["n_val"]
+    # a larger share of the tools held out: recorded, and more rows validate
+    halves = str(tmp_path / "halves.npz")
+    assert main(["train", "--data", out, "--out", halves, "--epochs", "1", "--hidden", "4", "--val-fraction", "0.5",
+                 "--quiet"]) == 0
+    hspec = load(halves)[1]
+    assert hspec["config"]["val_fraction"] == 0.5 and hspec["n_val"] > spec["n_val"]
     # distilled: trained on a teacher checkpoint's predictions, which the spec names
     student = str(tmp_path / "student.npz")
     assert main(["train", "--data", out, "--out", student, "--epochs", "2", "--hidden", "8", "--teacher", ckpt,

@@ -535,6 +535,9 @@ def test_train_init_refuses_to_change_the_recipe(tmp_path, capsys):
     assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "m.npz"), "--init", "x.npz",
                  "--hidden", "8"]) == 2
     assert "the recipe is the checkpoint's own; --hidden" in capsys.readouterr().err
+    assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "m.npz"), "--init", "x.npz",
+                 "--val-fraction", "0.1"]) == 2
+    assert "the recipe is the checkpoint's own; --val-fraction" in capsys.readouterr().err
 
 
 def test_adapting_with_held_outputs_learns_the_changed_label_and_holds_the_rest(tmp_path, capsys):
