@@ -57,6 +57,14 @@ TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed
 #: s, the largest timestep a scene accepts (five times the reach's; the strikes need 0.5 ms to converge)
 MAX_TIMESTEP = 0.01
 
+#: The knock's tower (mjcf/scenes/knock.xml): its number of blocks; the distance (m) from the struck point
+#: to the top block's centre along the interaction normal: the block's half depth 0.025 m plus 0.5 mm, so
+#: the face sits 0.5 mm past the task's struck point (tested against the MJCF's block size); and how far
+#: (m) the struck point may sit above or below the top block's centre (the block's half height is 0.03 m).
+KNOCK_BLOCKS = 4
+KNOCK_FACE_TO_CENTRE = 0.0255
+KNOCK_FACE_HEIGHT_TOL = 0.02
+
 
 def task_timestep(kind: str) -> float:
     """The default integration step (s) of task kind `kind` (`TASK_TIMESTEP`)."""
@@ -195,11 +203,14 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
             centre = c_obj[i, :2] + 0.021 * push
             spec.body(f"debris_{i}").pos = [centre[0], centre[1], 0.02]
     elif task.kind == "knock":
-        centre = c_obj[0] - 0.0255 * n  # the top block's centre, half a block behind the struck face
-        if abs(c_obj[0, 2] - 0.21) > 0.02:
-            raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be at the top block's height 0.21 m")
-        for i in range(4):
-            spec.body(f"block_{i}").pos = [centre[0], centre[1], 0.03 + 0.06 * i]
+        blocks = [spec.body(f"block_{i}") for i in range(KNOCK_BLOCKS)]
+        top_z = float(blocks[-1].pos[2])  # the MJCF tower's top block centre height
+        if abs(c_obj[0, 2] - top_z) > KNOCK_FACE_HEIGHT_TOL:
+            raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be within "
+                             f"{KNOCK_FACE_HEIGHT_TOL} m of the top block's height {top_z} m")
+        centre = c_obj[0] - KNOCK_FACE_TO_CENTRE * n  # the top block's centre, behind the struck face
+        for block in blocks:  # the tower moves as one; each block keeps the MJCF's own height
+            block.pos = [centre[0], centre[1], block.pos[2]]
     elif task.kind == "reach":
         centre = c_obj[0] - 0.041 * n  # the block lies on the far side of the hook's contact face
         block = spec.body("block")
