@@ -57,11 +57,11 @@ TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed
 #: s, the largest timestep a scene accepts (five times the reach's; the strikes need 0.5 ms to converge)
 MAX_TIMESTEP = 0.01
 
-#: The knock's tower (mjcf/scenes/knock.xml): its number of blocks; the distance (m) from the struck point
-#: to the top block's centre along the interaction normal: the block's half depth 0.025 m plus 0.5 mm, so
-#: the face sits 0.5 mm past the task's struck point (tested against the MJCF's block size); and how far
-#: (m) the struck point may sit above or below the top block's centre (the block's half height is 0.03 m).
-KNOCK_BLOCKS = 4
+#: The knock's tower (mjcf/scenes/knock.xml; its blocks are `TARGET_BODIES["knock"]`, bottom to top): the
+#: distance (m) from the struck point to the top block's centre along the interaction normal, the block's
+#: half depth 0.025 m plus 0.5 mm, so the face sits 0.5 mm past the task's struck point (tested against
+#: the MJCF's block size); and how far (m) the struck point may sit above or below the top block's centre
+#: (the block's half height is 0.03 m).
 KNOCK_FACE_TO_CENTRE = 0.0255
 KNOCK_FACE_HEIGHT_TOL = 0.02
 
@@ -203,7 +203,7 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
             centre = c_obj[i, :2] + 0.021 * push
             spec.body(f"debris_{i}").pos = [centre[0], centre[1], 0.02]
     elif task.kind == "knock":
-        blocks = [spec.body(f"block_{i}") for i in range(KNOCK_BLOCKS)]
+        blocks = [spec.body(name) for name in TARGET_BODIES["knock"]]
         top_z = float(blocks[-1].pos[2])  # the MJCF tower's top block centre height
         if abs(c_obj[0, 2] - top_z) > KNOCK_FACE_HEIGHT_TOL:
             raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be within "

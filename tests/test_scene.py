@@ -78,17 +78,19 @@ def test_knock_tower_is_the_mjcf_tower_moved_so_its_face_meets_the_strike(scenes
     stand in one column, and the top block's struck face lies 0.5 mm past the task's struck point along
     the interaction normal, at the struck point's height. `KNOCK_FACE_TO_CENTRE` is the MJCF block's half
     depth plus that 0.5 mm."""
-    from itup_jax.scene import KNOCK_BLOCKS, KNOCK_FACE_TO_CENTRE, scene_xml
+    from itup_jax.scene import KNOCK_FACE_TO_CENTRE, scene_xml
+    blocks = TARGET_BODIES["knock"]  # bottom to top
     spec = mujoco.MjSpec.from_file(str(scene_xml("knock")))
-    xml_z = [float(spec.body(f"block_{i}").pos[2]) for i in range(KNOCK_BLOCKS)]
+    xml_z = [float(spec.body(b).pos[2]) for b in blocks]
+    assert xml_z == sorted(xml_z)
     half = np.asarray(spec.geom("block_0").size, float)  # [3] m, the blocks' half extents
     assert KNOCK_FACE_TO_CENTRE == pytest.approx(half[0] + 0.0005, abs=1e-12)
     _, task = tasks["knock"]
     c_obj, n = np.asarray(task.c_obj_world[0], float), np.asarray(task.n_world[0], float)
     m = scenes["knock"].model
-    pos = np.array([m.body(f"block_{i}").pos for i in range(KNOCK_BLOCKS)])  # [4, 3] m, world (children of world)
+    pos = np.array([m.body(b).pos for b in blocks])  # [4, 3] m, world (children of world)
     np.testing.assert_array_equal(pos[:, 2], xml_z)
-    np.testing.assert_array_equal(pos[:, :2], np.broadcast_to(pos[0, :2], (KNOCK_BLOCKS, 2)))
+    np.testing.assert_array_equal(pos[:, :2], np.broadcast_to(pos[0, :2], (len(blocks), 2)))
     face = pos[-1] + half[0] * n  # the top block's face towards the tool (n: from the target into the tool)
     np.testing.assert_allclose(c_obj - face, 0.0005 * n, atol=1e-9)
     assert pos[-1, 2] == pytest.approx(c_obj[2], abs=1e-12)
