@@ -357,7 +357,8 @@ def summarise(rows: list[dict]) -> dict:
                            "within_goal_mean", "task_within_goal_total", "task_within_goal_verified_total",
                            "pick_slip_mm_total", "pick_drift_total", "pick_slip_mm_verified_total",
                            "pick_drift_verified_total") if any(k in r for r in tr)}
-            for k in ("task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total",
+            for k in ("regret_sdgnet_projected", "regret_analytic_projected", "regret_random_projected",
+                      "task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total",
                       "regret_verified_total_projected", "total_regret_total", "total_regret_verified_total"):
                 by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
         s["by_task"] = by_task
@@ -511,10 +512,11 @@ def main(argv=None) -> dict:
           + " ".join(f"{name} {100 * h[f'regret_{key}_projected']['median']:.0f}% / {100 * h[f'regret_{key}_projected']['mean']:.0f}%"
                      for name, key in (("SDG-Net", "sdgnet"), ("analytic", "analytic"), ("random", "random")))
           + (f"; training {train_s:.1f} s" if train_s is not None else ""))
+    print("  per task, means over its tools (the regret: median / mean):")
     for t, v in h["by_task"].items():
+        reg = lambda key: f"{100 * v[f'regret_{key}_projected_median']:.0f}% / {100 * v[f'regret_{key}_projected']:.0f}%"  # noqa: E731
         print(f"  {t:7s} rho sdgnet {v['rho_sdgnet_projected']:+.2f} analytic {v['rho_analytic_projected']:+.2f} | regret "
-              f"sdgnet {100 * v['regret_sdgnet_projected']:.0f}% analytic {100 * v['regret_analytic_projected']:.0f}% "
-              f"random {100 * v['regret_random_projected']:.0f}% | pick percentile sdgnet "
+              f"sdgnet {reg('sdgnet')} analytic {reg('analytic')} random {reg('random')} | pick percentile sdgnet "
               f"{100 * v['percentile_sdgnet_projected']:.0f} analytic {100 * v['percentile_analytic_projected']:.0f}")
     draws = "success_draws_total" in h
     print(f"the task ({'draws 0-' + str(args.redraws) if draws else 'draw 0'}): the pick achieves it by predicted C_tau "
