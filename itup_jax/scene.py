@@ -57,12 +57,13 @@ TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed
 #: s, the largest timestep a scene accepts (five times the reach's; the strikes need 0.5 ms to converge)
 MAX_TIMESTEP = 0.01
 
-#: The knock's tower (mjcf/scenes/knock.xml; its blocks are `TARGET_BODIES["knock"]`, bottom to top): the
-#: distance (m) from the struck point to the top block's centre along the interaction normal, the block's
-#: half depth 0.025 m plus 0.5 mm, so the face sits 0.5 mm past the task's struck point (tested against
-#: the MJCF's block size); and how far (m) the struck point may sit above or below the top block's centre
-#: (the block's half height is 0.03 m).
-KNOCK_FACE_TO_CENTRE = 0.0255
+#: m, from a task's contact point on a target to the target's centre along the interaction normal: the
+#: target's half depth in its MJCF (`TARGET_BODIES`: the sweep's 40 mm cubes, the knock's 50 mm top block,
+#: the reach's 80 mm block) plus a gap, so the face sits that far past the contact point: 1 mm, the
+#: knock's 0.5 mm (tested against the MJCF sizes). Every target keeps its MJCF height.
+TARGET_FACE_TO_CENTRE = {"sweep": 0.021, "knock": 0.0255, "reach": 0.041}
+#: m, how far the knock's struck point may sit above or below the top block's centre (its half height
+#: is 0.03 m).
 KNOCK_FACE_HEIGHT_TOL = 0.02
 
 
@@ -199,20 +200,21 @@ def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
         spec.joint("nail_depth").range = [-(head_top[2] - 0.041), 0.0]  # stops 1 mm above the board
     elif task.kind == "sweep":
         push = -n[:2] / np.linalg.norm(n[:2])  # horizontal direction the bristles push the debris
-        for i in range(3):
-            centre = c_obj[i, :2] + 0.021 * push
-            spec.body(f"debris_{i}").pos = [centre[0], centre[1], 0.02]
+        for i, name in enumerate(TARGET_BODIES["sweep"]):
+            centre = c_obj[i, :2] + TARGET_FACE_TO_CENTRE["sweep"] * push
+            cube = spec.body(name)
+            cube.pos = [centre[0], centre[1], cube.pos[2]]  # resting on the table, at the MJCF's height
     elif task.kind == "knock":
         blocks = [spec.body(name) for name in TARGET_BODIES["knock"]]
         top_z = float(blocks[-1].pos[2])  # the MJCF tower's top block centre height
         if abs(c_obj[0, 2] - top_z) > KNOCK_FACE_HEIGHT_TOL:
             raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be within "
                              f"{KNOCK_FACE_HEIGHT_TOL} m of the top block's height {top_z} m")
-        centre = c_obj[0] - KNOCK_FACE_TO_CENTRE * n  # the top block's centre, behind the struck face
+        centre = c_obj[0] - TARGET_FACE_TO_CENTRE["knock"] * n  # the top block's centre, behind the struck face
         for block in blocks:  # the tower moves as one; each block keeps the MJCF's own height
             block.pos = [centre[0], centre[1], block.pos[2]]
     elif task.kind == "reach":
-        centre = c_obj[0] - 0.041 * n  # the block lies on the far side of the hook's contact face
+        centre = c_obj[0] - TARGET_FACE_TO_CENTRE["reach"] * n  # beyond the hook's contact face
         block = spec.body("block")
         block.pos = [centre[0], centre[1], block.pos[2]]  # resting on the table, at the MJCF's height
 

@@ -73,18 +73,45 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
     assert max(moved.values()) < _AT_REST[kind], moved
 
 
+@pytest.mark.parametrize("kind, gap", [("sweep", 0.001), ("knock", 0.0005), ("reach", 0.001)])
+def test_targets_keep_their_mjcf_height_and_face_the_contact_point(scenes, tasks, kind, gap):
+    """Every target of the sweep, the knock and the reach keeps its MJCF height, and the face the tool
+    meets lies `gap` past the task's contact point, horizontally along the interaction normal (the
+    sweep's normal is tilted: its cubes are pushed along its horizontal part): `TARGET_FACE_TO_CENTRE`
+    is the MJCF target's half depth plus that gap."""
+    from itup_jax.scene import TARGET_FACE_TO_CENTRE, scene_xml
+    spec = mujoco.MjSpec.from_file(str(scene_xml(kind)))
+    bodies = TARGET_BODIES[kind]
+    half = {b: np.asarray(spec.geom(b).size, float) for b in bodies}  # [3] m, each target's half extents
+    _, task = tasks[kind]
+    n = np.asarray(task.n_world[0], float)
+    if kind != "sweep":
+        assert abs(n[2]) < 1e-12
+    h = n[:2] / np.linalg.norm(n[:2])  # [2] the horizontal direction from the target into the tool
+    struck = [bodies[-1]] if kind == "knock" else bodies  # the tool meets the knock's top block only
+    for b in struck:
+        assert half[b][0] == half[b][1]  # square in plan, so the face's distance does not turn with n
+        assert TARGET_FACE_TO_CENTRE[kind] == pytest.approx(half[b][0] + gap, abs=1e-12)
+    m = scenes[kind].model
+    for b in bodies:
+        assert m.body(b).pos[2] == spec.body(b).pos[2]
+    c_obj = np.asarray(task.c_obj_world, float)
+    for i, b in enumerate(struck):
+        c = c_obj[0 if kind == "knock" else i]  # the knock has one contact, on its top block
+        face = np.asarray(m.body(b).pos)[:2] + half[b][0] * h  # [2] the face towards the tool, in plan
+        np.testing.assert_allclose(c[:2] - face, gap * h, atol=1e-9)
+
+
 def test_knock_tower_is_the_mjcf_tower_moved_so_its_face_meets_the_strike(scenes, tasks):
     """The knock scene moves the MJCF tower sideways only: each block keeps its own height, the blocks
     stand in one column, and the top block's struck face lies 0.5 mm past the task's struck point along
-    the interaction normal, at the struck point's height. `KNOCK_FACE_TO_CENTRE` is the MJCF block's half
-    depth plus that 0.5 mm."""
-    from itup_jax.scene import KNOCK_FACE_TO_CENTRE, scene_xml
+    the interaction normal, at the struck point's height."""
+    from itup_jax.scene import scene_xml
     blocks = TARGET_BODIES["knock"]  # bottom to top
     spec = mujoco.MjSpec.from_file(str(scene_xml("knock")))
     xml_z = [float(spec.body(b).pos[2]) for b in blocks]
     assert xml_z == sorted(xml_z)
     half = np.asarray(spec.geom("block_0").size, float)  # [3] m, the blocks' half extents
-    assert KNOCK_FACE_TO_CENTRE == pytest.approx(half[0] + 0.0005, abs=1e-12)
     _, task = tasks["knock"]
     c_obj, n = np.asarray(task.c_obj_world[0], float), np.asarray(task.n_world[0], float)
     m = scenes["knock"].model
