@@ -130,8 +130,10 @@ def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *,
 
 def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = None, title: str | None = None) -> str:
     """The tool with each method's picked grasp (gripper wireframe), and (with `traces`) each pick's
-    measured wrist-torque norm over time. grasps: {method: Grasps of one}; traces: {method: (t [S],
-    torque [S, 3])}. Writes a PNG (atomically) and returns the path."""
+    measured wrist torque over the motion. grasps: {method: Grasps of one}; traces: {method: (t [S] s,
+    projected [S] N m, raw [S] N m)}: the projected induced torque (`simulate.induced`'s (x, z) norm, the
+    labels' and C_tau's quantity; solid) and the raw torque norm, holding torque included (dotted).
+    Writes a PNG (atomically) and returns the path."""
     colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
     ncol = 2 if traces else 1
     fig = plt.figure(figsize=(6.5 * ncol, 5.0))
@@ -147,10 +149,11 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     ax.set_title(title or f"{tool.name}: picked grasps", fontsize=9)
     if traces:
         ax2 = fig.add_subplot(1, 2, 2)
-        for (name, (t, tau)), c in zip(traces.items(), colours):
-            ax2.plot(t, np.linalg.norm(tau, axis=-1), color=c, lw=1, label=name)
+        for (name, (t, projected, raw)), c in zip(traces.items(), colours):
+            ax2.plot(t, projected, color=c, lw=1.2, label=f"{name}: projected induced")
+            ax2.plot(t, raw, color=c, lw=0.8, ls=":", label=f"{name}: raw |τ|, holding torque included")
         ax2.set_xlabel("time from the start of the motion (s)")
-        ax2.set_ylabel("|wrist torque| (N m)")
+        ax2.set_ylabel("wrist torque (N m)")
         ax2.legend(fontsize=8)
         ax2.set_title("measured in MuJoCo", fontsize=9)
     fig.tight_layout()

@@ -662,6 +662,17 @@ def _quat_z_axis(q: np.ndarray) -> np.ndarray:
     return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=-1)
 
 
+def induced(scene: Scene, p: Plan, x: np.ndarray, config: SimConfig = SimConfig()) -> tuple[np.ndarray, np.ndarray]:
+    """What the motion induces at a wrist sensor: (x over the motion minus its static value
+    [N, nstep - n_settle, 3], the static value [N, 3]). x: [N, nstep, 3], the trace of the wrist torque
+    (N m) or force (N) sensor over the whole rollout, in the sensor (gripper base) frame, whose y is the
+    jaw-closure axis; the static value is its mean over the settle's last `config.static_window` s. The
+    labels' projected torque (the measured C_tau) is the norm of the induced torque's (x, z) part."""
+    n_static = max(1, int(round(config.static_window / scene.model.opt.timestep)))
+    static = x[:, p.n_settle - n_static:p.n_settle].mean(1)
+    return x[:, p.n_settle:p.nstep] - static[:, None], static
+
+
 def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sensordata: np.ndarray,
                    config: SimConfig = SimConfig()) -> Labels:
     """Labels from recorded sensors (the same code for both backends). qvel_peak: peak |qvel| per
@@ -669,12 +680,9 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     s = lambda name: scene.sensor(sensordata, name)  # noqa: E731
     dt = scene.model.opt.timestep
     tau, force = s("gripper/wrist_torque"), s("gripper/wrist_force")
-    n_static = max(1, int(round(config.static_window / dt)))
-    settle = slice(p.n_settle - n_static, p.n_settle)
     motion = slice(p.n_settle, p.nstep)
-    tau_static = tau[:, settle].mean(1)
-    F_static = force[:, settle].mean(1)
-    d_tau = tau[:, motion] - tau_static[:, None]
+    d_tau, tau_static = induced(scene, p, tau, config)
+    d_force, _ = induced(scene, p, force, config)
     # closure axis: y of the sensor (gripper base) frame; the projected torque is the rest, (x, z)
     closure = d_tau[..., 1]
     d_tau_sq = np.einsum("...i,...i->...", d_tau, d_tau)
@@ -713,7 +721,7 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
         peak_torque_projected=nan0(np.sqrt(perp_sq.max(1))),
         peak_torque_closure=nan0(np.abs(closure).max(1)),
         static_torque=np.linalg.norm(tau_static, axis=-1),
-        peak_force_induced=nan0(_peak_norm(force[:, motion] - F_static[:, None])),
+        peak_force_induced=nan0(_peak_norm(d_force)),
         peak_pad_force=nan0(pad_peak),
         slip_translation=nan0(slip_t), slip_rotation=nan0(slip_r), alignment_drift=nan0(drift),
         failed=failed | diverged, success=success & ~diverged, task_metric=metric,

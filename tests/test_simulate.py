@@ -49,6 +49,31 @@ def test_labels_have_the_documented_schema(hammer, hammer_native):
         assert np.all(np.isfinite(getattr(L, f)[L.valid]))
 
 
+def test_induced_is_the_motion_minus_the_settles_last_window(hammer, hammer_native):
+    """`induced` on a synthetic trace: the static value is the mean over the settle's last
+    `static_window` s only (earlier settle steps do not count), and the motion's part is the trace minus
+    it. On a real rollout its (x, z) norm peaks at the label `peak_torque_projected`."""
+    from itup_jax.simulate import SimConfig, induced
+    tool, task, scene = hammer
+    g, res = hammer_native
+    p = res.plan
+    n_static = int(round(SimConfig().static_window / scene.model.opt.timestep))
+    x = np.zeros((2, p.nstep, 3))
+    x[:, :p.n_settle - n_static] = 100.0  # the settle's early transient: outside the window
+    x[:, p.n_settle - n_static:p.n_settle] = [1.0, -2.0, 0.5]
+    x[1, p.n_settle - 1, 0] += 3.0 * n_static  # one step of the window raises row 1's mean by 3 in x
+    ramp = np.linspace(0.0, 1.0, p.nstep - p.n_settle)[:, None] * np.array([0.0, 0.0, 4.0])
+    x[:, p.n_settle:] = ramp + [1.0, -2.0, 0.5]
+    d, static = induced(scene, p, x)
+    np.testing.assert_allclose(static, [[1.0, -2.0, 0.5], [4.0, -2.0, 0.5]], atol=1e-12)
+    np.testing.assert_allclose(d[0], ramp, atol=1e-12)
+    np.testing.assert_allclose(d[1], ramp + [-3.0, 0.0, 0.0], atol=1e-12)
+    tr = simulate(tool, task, g[:2], scene=scene, randomize=None, backend="native", traces=True)
+    d_tau, _ = induced(scene, tr.plan, tr.traces["gripper/wrist_torque"])
+    np.testing.assert_allclose(np.hypot(d_tau[..., 0], d_tau[..., 2]).max(1), tr.labels.peak_torque_projected[:2],
+                               rtol=1e-12)
+
+
 def test_reachability_in_order_checks_chunks_lazily_in_the_given_order(hammer, hammer_native, monkeypatch):
     """The walk yields (index, reachable) in the given order, equal to `reachable`, and checks no chunk
     beyond the one the caller stops in; a bad chunk size is refused at the call."""
