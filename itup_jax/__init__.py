@@ -33,10 +33,11 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
-from itup_jax.scene import TASK_TIMESTEP, Scene, build_scene, task_timestep
+from itup_jax import tasks
+from itup_jax.scene import Scene, build_scene, task_timestep
 from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
 from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
-from itup_jax.task import TASK_KINDS, Task, make_task
+from itup_jax.task import Task, make_task
 from itup_jax.tool import Tool, ToolParams, load_tool
 from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.trajectory import Trajectory
@@ -44,11 +45,21 @@ from itup_jax.wrench import Loads, task_loads
 
 __version__ = "0.8.0"
 
+
+def __getattr__(name: str):
+    """`TASK_KINDS` (registered task kinds) and `TASK_TIMESTEP` (kind -> s), live from `itup_jax.tasks`."""
+    if name == "TASK_KINDS":
+        return tasks.names()
+    if name == "TASK_TIMESTEP":
+        return tasks.timesteps()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
     "CostParams", "Costs", "Grasps", "InputError", "Loads", "Regime", "SamplerConfig", "SamplingError",
     "TASK_KINDS", "Task", "Tool", "ToolParams", "Trajectory", "batched_wrench_costs", "classify_regime",
     "from_graspnet", "grasp_cost_trace", "grasp_costs", "load_tool", "make_grasps", "make_task",
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
     "Scene", "TASK_TIMESTEP", "build_scene", "task_timestep", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
-    "Scores", "ScoreWeights", "best_grasp", "score", "Verified", "best_grasp_verified",
+    "Scores", "ScoreWeights", "best_grasp", "score", "Verified", "best_grasp_verified", "tasks",
 ]

@@ -37,6 +37,8 @@ def load(path: str) -> tuple[list, dict[str, Any]]:
     """(layers [(W, b), ...] as NumPy arrays, spec). Refuses pickles, truncated or foreign files."""
     if not os.path.exists(path):
         raise InputError(f"checkpoint {path!r}: file not found")
+    if not zipfile.is_zipfile(path):  # before np.load, which would try a pickle and blame that
+        raise InputError(f"checkpoint {path!r}: not a checkpoint (not an .npz archive: no zip header)")
     try:
         with np.load(path, allow_pickle=False) as z:
             if "meta_json" not in z.files:
@@ -51,4 +53,9 @@ def load(path: str) -> tuple[list, dict[str, Any]]:
         raise InputError(f"checkpoint {path!r}: refused ({exc}); checkpoints hold plain arrays only") from None
     except (zipfile.BadZipFile, EOFError, OSError, KeyError) as exc:
         raise InputError(f"checkpoint {path!r}: unreadable or truncated ({type(exc).__name__}: {exc})") from None
+    for i, (W, b) in enumerate(layers):
+        for name, a in ((f"W{i}", W), (f"b{i}", b)):
+            if not np.issubdtype(a.dtype, np.floating) or not np.all(np.isfinite(a)):
+                raise InputError(f"checkpoint {path!r}: layer array {name} holds NaN, infinity or non-float values; "
+                                 "the file is corrupt or came from a diverged training run")
     return layers, meta["spec"]

@@ -11,7 +11,9 @@
   itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
-Bad input exits with status 2 and a message that names the problem; nothing is half-written.
+Exit status: 0 done; 2 bad input (a message names the input and the problem, before any long work;
+nothing is half-written); 3 no acceptable grasp (`plan`: no candidate the arm can carry, or, with
+--verify, none of the verified grasps did the task and held; the message says what to try).
 """
 
 from __future__ import annotations
@@ -24,6 +26,9 @@ import sys
 from typing import Any
 
 import numpy as np
+
+#: Exit status when planning finds no grasp it can recommend (documented in `itup --help`).
+EXIT_NO_PICK = 3
 
 EXAMPLES = """examples:
   itup demo                                   # the main job: SDG-Net vs force closure, verified in MuJoCo
@@ -68,6 +73,15 @@ def _command_line() -> str | None:
     return "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
 
 
+def _check_model_arg(args) -> None:
+    """Load a given --model once before any work, so a missing, foreign or corrupt checkpoint is refused
+    before sampling and rollouts."""
+    if getattr(args, "model", None):
+        from itup_jax.sdgnet import load_model
+
+        load_model(args.model)
+
+
 def _load_tool_arg(args) -> Any:
     import itup_jax as itup
     from itup_jax.task import DEFAULT_TOOL
@@ -99,6 +113,10 @@ def cmd_plan(args) -> int:
         if clash or args.scorer != "sdgnet":
             raise_input("--torque-first sets SDG-Net's weights (torque alone, the task and grip penalties kept); "
                         + (f"it cannot be combined with {', '.join(clash)}" if clash else f"not the {args.scorer!r} scorer's"))
+    if args.json:
+        _check_out_folder("--json", args.json)
+    if args.scorer == "sdgnet":
+        _check_model_arg(args)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
@@ -157,7 +175,7 @@ def cmd_plan(args) -> int:
         }
 
     result = {
-        "schema": "itup.plan/3",
+        "schema": "itup.plan/4",
         "task": args.task,
         "tool": {"name": tool.name, "category": tool.category, "mass_kg": round(tool.mass, 6)},
         "regime": regime.name.lower(),
@@ -190,16 +208,22 @@ def cmd_plan(args) -> int:
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
               + f"{c['total']:>9.3f} {'yes' if reachable[i] else 'no':>5}  "
-              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}{' <- pick' if i == pick else ''}")
+              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}"
+              f"{' <- pick' if i == pick and reachable[pick] and not args.verify else ''}")
+    status = "ok"
     if not reachable[pick]:
-        print(f"warning: none of the {args.n} candidates is reachable for the arm along the task (closed-form IK); "
-              "the pick is the scorer's best, which the arm cannot carry: sample more (--n) or another --seed")
+        status = "no_reachable_candidate"
+        result["advice"] = [f"sample more candidates (--n, now {args.n}) or another --seed",
+                            "widen the spec's grasp_region, or check the tool's size and frame",
+                            "the task's placement may put the tool out of the arm's reach: another task parameter"]
+        print(f"no pick: none of the {args.n} candidates is reachable for the arm along the task (closed-form IK); "
+              + "; ".join(result["advice"]))
     elif pick_rank > 0:
         print(f"reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); the pick is "
               f"the best-scored reachable grasp (rank {pick_rank + 1}); --verify K rolls out the K best reachable ones")
     s = result["summary"]
     print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
-    if args.verify > 0:
+    if args.verify > 0 and status == "ok":
         from itup_jax.scoring import ScoreWeights
         from itup_jax.simulate import Randomization
         from itup_jax.verify import best_grasp_verified, measured_total
@@ -245,15 +269,31 @@ def cmd_plan(args) -> int:
                                              for i, m in zip(v.shortlist, v.measured_total)],
                               "chosen_by": v.chosen_by, "pick": {**row(v.index), "reachable": v.chosen_by == "measured" or None},
                               "labels": rows}
+        # a verified pick must have done the task and held in every one of its rollouts
+        ok = [r["valid"] and r["success"] and not r["failed"] for r in rows if r["index"] == v.index]
+        if not ok or not all(ok):
+            status = "no_verified_success"
+            result["verified"]["pick"] = None
+            result["advice"] = [f"verify more grasps (--verify, now {args.verify}) or sample more (--n, now {args.n})",
+                                "another grasp region in the tool's spec (grasp_region)",
+                                "a stronger grip, or another tool: none of the rolled-out grasps did the task and held"]
+            print(f"no pick: none of the {len(v.shortlist)} verified grasps did the task and held in MuJoCo; "
+                  + "; ".join(result["advice"]))
+    result["status"] = status
+    if status != "ok":
+        result["best"] = None
     if args.json:
         _atomic_write_json(args.json, result)
         print(f"wrote {args.json}")
-    return 0
+    return 0 if status == "ok" else EXIT_NO_PICK
 
 
 def cmd_generate(args) -> int:
     from itup_jax.dataset import GenerateConfig, generate
 
+    _check_out_dir("--out", args.out)
+    if args.mcap:
+        _check_out_dir("--mcap", args.mcap)
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal, timestep=args.timestep,
@@ -369,6 +409,7 @@ def _cmd_adapt(args) -> int:
 def cmd_train(args) -> int:
     from itup_jax.sdgnet import TrainConfig, save_model, train
 
+    _check_out_folder("--out", args.out)  # before training, not after
     if args.init:
         return _cmd_adapt(args)
     if args.keep is not None:
@@ -412,6 +453,7 @@ def cmd_train(args) -> int:
 def cmd_ensemble(args) -> int:
     from itup_jax.sdgnet import ensemble, load_model, save_model
 
+    _check_out_folder("--out", args.out)
     if os.path.abspath(args.out) in {os.path.abspath(m) for m in args.models}:
         raise_input(f"--out {args.out!r} is one of the --models; write the ensemble to a new file")
     model = ensemble([load_model(m) for m in args.models])
@@ -529,6 +571,7 @@ def cmd_evaluate(args) -> int:
         raise_input(f"--seeds and --n must be >= 1, got --seeds {args.seeds} --n {args.n}")
     if args.json:
         _check_out_folder("--json", args.json)
+    _check_model_arg(args)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=args.model)
@@ -544,9 +587,25 @@ def cmd_evaluate(args) -> int:
 
 
 def _check_out_folder(flag: str, path: str) -> None:
+    """An output file's path: its folder must exist, and the path must not be a folder (checked before work)."""
     folder = os.path.dirname(os.path.abspath(path)) or "."
     if not os.path.isdir(folder):
-        raise_input(f"{flag} {path!r}: folder {folder!r} does not exist")
+        what = "is a file, not a folder" if os.path.exists(folder) else "does not exist"
+        raise_input(f"{flag} {path!r}: folder {folder!r} {what}")
+    if os.path.isdir(path):
+        raise_input(f"{flag} {path!r} is a folder; give a file name")
+
+
+def _check_out_dir(flag: str, path: str) -> None:
+    """An output folder (made if missing): neither it nor any folder above it may be a file (checked before work)."""
+    p = os.path.abspath(path)
+    if os.path.exists(p) and not os.path.isdir(p):
+        raise_input(f"{flag} {path!r} exists and is not a folder")
+    parent = os.path.dirname(p)
+    while parent and not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if parent and not os.path.isdir(parent):
+        raise_input(f"{flag} {path!r}: {parent!r} above it is a file, not a folder")
 
 
 def cmd_demo(args) -> int:
@@ -563,8 +622,8 @@ def cmd_demo(args) -> int:
     t_start = time.perf_counter()
     if args.n < 2 or args.seeds < 1:
         raise_input(f"--n must be >= 2 and --seeds >= 1, got --n {args.n} --seeds {args.seeds}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise_input(f"--out {args.out!r} exists and is not a folder")
+    _check_out_dir("--out", args.out)
+    _check_model_arg(args)
     os.makedirs(args.out, exist_ok=True)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
@@ -648,8 +707,12 @@ def build_parser() -> argparse.ArgumentParser:
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
 
-    ap = argparse.ArgumentParser(prog="itup", description="inverse Tool-use Planning (iTuP) in JAX",
+    ap = argparse.ArgumentParser(prog="itup", description="inverse Tool-use Planning (iTuP) in JAX. Exit status: "
+                                 "0 done, 2 bad input, 3 no acceptable grasp (plan)",
                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--no-compile-cache", action="store_true",
+                    help="do not keep compiled kernels between runs (default: kept in ~/.cache/itup-jax/jax, "
+                    "or $ITUP_COMPILE_CACHE_DIR; ITUP_COMPILE_CACHE=0 also turns it off)")
     sub = ap.add_subparsers(dest="cmd", required=True)
 
     p = sub.add_parser("plan", help="best reachable grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
@@ -683,7 +746,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/3)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/4)")
     p.set_defaults(fn=cmd_plan)
 
     b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify, sample")
@@ -833,6 +896,10 @@ def main(argv: list[str] | None = None) -> int:
     from itup_jax.simulate import request_deterministic_gpu
 
     request_deterministic_gpu()
+    from itup_jax import compile_cache
+
+    if compile_cache.wanted(args.no_compile_cache):
+        compile_cache.enable()
     from itup_jax.errors import InputError
     from itup_jax.grasp_sampler import SamplingError
 

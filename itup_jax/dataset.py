@@ -362,8 +362,7 @@ def _existing_shards(mpath: str, header: dict[str, Any]) -> list[dict]:
     resuming would mix shards that mean different things)."""
     if not os.path.exists(mpath):
         return []
-    with open(mpath) as fh:
-        old = json.load(fh)
+    old = _parse_manifest(mpath)
     if old.get("config") != header["config"]:
         raise InputError(f"generate: {mpath} was made with another config; use a new folder")
     old_steps = dataset_timesteps(old)
@@ -486,6 +485,9 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
 def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: bool = True) -> dict[str, np.ndarray]:
     """Arrays of a manifest entry; checks its SHA-256 first (a corrupted shard raises InputError)."""
     path = os.path.join(out_dir, entry["file"])
+    if not os.path.isfile(path):
+        raise InputError(f"dataset shard {path!r}: listed in {MANIFEST} but missing; restore it, or run the same "
+                         "`itup generate` again to remake it")
     if verify and sha256_file(path) != entry["sha256"]:
         raise InputError(f"dataset shard {path!r}: checksum mismatch (corrupted or changed); regenerate it")
     with np.load(path, allow_pickle=False) as z:
@@ -496,13 +498,43 @@ def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: b
     return arrays
 
 
+#: What a manifest must hold: its keys, and each shard entry's.
+MANIFEST_KEYS = ("config", "code_version", "shards")
+SHARD_KEYS = ("file", "task", "sha256")
+
+
+def _parse_manifest(mpath: str) -> dict[str, Any]:
+    """The manifest at `mpath`, checked for the keys every reader needs; InputError naming the file and
+    what is wrong (not JSON, truncated, a key or a shard's key missing)."""
+    try:
+        with open(mpath) as fh:
+            m = json.load(fh)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"dataset manifest {mpath!r}: not valid JSON ({exc}); truncated or edited by hand? "
+                         "Make the dataset again with `itup generate`") from None
+    except UnicodeDecodeError:
+        raise InputError(f"dataset manifest {mpath!r}: not a text file") from None
+    if not isinstance(m, dict):
+        raise InputError(f"dataset manifest {mpath!r}: expected a JSON object, got {type(m).__name__}")
+    missing = [k for k in MANIFEST_KEYS if k not in m]
+    if missing:
+        raise InputError(f"dataset manifest {mpath!r}: missing {', '.join(missing)}; not a manifest written by "
+                         "`itup generate`")
+    if not isinstance(m["shards"], list) or any(not isinstance(e, dict) or any(k not in e for k in SHARD_KEYS)
+                                                  for e in m["shards"]):
+        raise InputError(f"dataset manifest {mpath!r}: 'shards' must be a list of entries with "
+                         f"{', '.join(SHARD_KEYS)}")
+    return m
+
+
 def read_manifest(out_dir: str) -> dict[str, Any]:
-    """The manifest of the dataset in `out_dir`; InputError if there is none."""
+    """The manifest of the dataset in `out_dir`, checked (`_parse_manifest`); InputError if there is none."""
     mpath = os.path.join(out_dir, MANIFEST)
+    if not os.path.isdir(out_dir):
+        raise InputError(f"dataset {out_dir!r}: no such folder")
     if not os.path.exists(mpath):
         raise InputError(f"dataset {out_dir!r}: no {MANIFEST} there (make one with `itup generate`)")
-    with open(mpath) as fh:
-        return json.load(fh)
+    return _parse_manifest(mpath)
 
 
 def dataset_timesteps(manifest: dict[str, Any]) -> dict[str, float]:

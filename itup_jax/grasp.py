@@ -33,13 +33,13 @@ import jax.numpy as jnp
 import jaxlie
 import numpy as np
 
-from itup_jax import units
+from itup_jax import robot
 from itup_jax.errors import InputError
 
 #: Column permutation from our grasp frame to graspnet's: graspnet (x, y, z) = ours (z, y, -x).
 GRASPNET_FROM_OURS = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 #: graspnet's `depth`: how far the fingertips reach past the grasp point along the approach axis, m.
-GRASPNET_DEPTH = units.PAD_LENGTH / 2
+GRASPNET_DEPTH = robot.PAD_LENGTH / 2
 
 
 @jax.tree_util.register_dataclass
@@ -125,9 +125,9 @@ def make_grasps(p_tool_grasp: Any, R_tool_grasp: Any = None, width: Any = None, 
     w = np.broadcast_to(np.asarray(0.0 if width is None else width, dtype=float), (n,))
     _check_finite(p, "grasps.p_tool_grasp")
     _check_finite(w, "grasps.width")
-    if np.any(w < 0) or np.any(w > units.GRIPPER_MAX_OPENING + 1e-9):
+    if np.any(w < 0) or np.any(w > robot.GRIPPER_MAX_OPENING + 1e-9):
         raise InputError(
-            f"grasps.width: must lie in [0, {units.GRIPPER_MAX_OPENING}] m (the gripper's stroke), "
+            f"grasps.width: must lie in [0, {robot.GRIPPER_MAX_OPENING}] m (the gripper's stroke), "
             f"got range [{w.min():.4f}, {w.max():.4f}]"
         )
     f = lambda a: jnp.asarray(a, dtype=float)  # noqa: E731
@@ -186,13 +186,13 @@ def gripper_boxes(opening: Any) -> list[tuple[str, np.ndarray, np.ndarray]]:
     hi then have shape [..., 3]. Used by the sampler's collision check and by plots.
     """
     o = 0.5 * np.asarray(opening, dtype=float)[..., None]
-    hx, t = units.PAD_WIDTH / 2, units.FINGER_THICKNESS
-    z_tip, z_palm = units.PAD_LENGTH / 2, -units.FINGER_LENGTH
+    hx, t = robot.PAD_WIDTH / 2, robot.FINGER_THICKNESS
+    z_tip, z_palm = robot.PAD_LENGTH / 2, -robot.FINGER_LENGTH
     e_y = np.array([0.0, 1.0, 0.0])
     fixed = lambda v: np.broadcast_to(np.asarray(v, dtype=float), o.shape[:-1] + (3,))  # noqa: E731
     return [
         ("finger_neg", fixed([-hx, -t, z_palm]) - o * e_y, fixed([hx, 0.0, z_tip]) - o * e_y),
         ("finger_pos", fixed([-hx, 0.0, z_palm]) + o * e_y, fixed([hx, t, z_tip]) + o * e_y),
-        ("palm", fixed([-units.PALM_WIDTH_X / 2, -units.PALM_WIDTH_Y / 2, z_palm - units.PALM_DEPTH]),
-         fixed([units.PALM_WIDTH_X / 2, units.PALM_WIDTH_Y / 2, z_palm])),
+        ("palm", fixed([-robot.PALM_WIDTH_X / 2, -robot.PALM_WIDTH_Y / 2, z_palm - robot.PALM_DEPTH]),
+         fixed([robot.PALM_WIDTH_X / 2, robot.PALM_WIDTH_Y / 2, z_palm])),
     ]

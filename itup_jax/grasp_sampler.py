@@ -41,7 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 import trimesh
 
-from itup_jax import units
+from itup_jax import robot
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.shapes import pad_rows_repeating
@@ -183,8 +183,8 @@ def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax
     the pads' footprint (|x| <= PAD_WIDTH/2, |z| <= PAD_LENGTH/2) within the gripper's stroke
     (|y| <= GRIPPER_MAX_OPENING/2); (+inf, -inf) when none does."""
     local = _to_grasp_frame(points_tool - p_tool_grasp, R_tool_grasp)
-    inside = ((jnp.abs(local[:, 0]) <= units.PAD_WIDTH / 2) & (jnp.abs(local[:, 2]) <= units.PAD_LENGTH / 2)
-              & (jnp.abs(local[:, 1]) <= units.GRIPPER_MAX_OPENING / 2))
+    inside = ((jnp.abs(local[:, 0]) <= robot.PAD_WIDTH / 2) & (jnp.abs(local[:, 2]) <= robot.PAD_LENGTH / 2)
+              & (jnp.abs(local[:, 1]) <= robot.GRIPPER_MAX_OPENING / 2))
     y = local[:, 1]
     return jnp.stack([jnp.min(jnp.where(inside, y, jnp.inf)), jnp.max(jnp.where(inside, y, -jnp.inf))])
 
@@ -255,7 +255,7 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
     mu = float(tool.params.mu)
     cone = config.cone_half_angle if config.cone_half_angle is not None else math.atan(mu)
     cos_exit = math.cos(config.flat_angle) - 1e-9 if flat else math.cos(cone) - 1e-9
-    max_width = units.GRIPPER_MAX_OPENING - 2 * config.clearance
+    max_width = robot.GRIPPER_MAX_OPENING - 2 * config.clearance
     pts = collision_points(tool, config.surface_spacing)
     region = tool.grasp_region
     mesh = tool.mesh

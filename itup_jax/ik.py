@@ -14,9 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-DH_A = np.array([0.0, -0.425, -0.3922, 0.0, 0.0, 0.0])
-DH_D = np.array([0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996])
-DH_ALPHA = np.array([np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0])
+from itup_jax.robot import DH_A, DH_ALPHA, DH_D
 
 
 def dh_transform(theta: np.ndarray, j: int) -> np.ndarray:

@@ -33,7 +33,7 @@ from mcap.writer import CompressionType, Writer
 
 from itup_jax.atomic import atomic_write
 from itup_jax.errors import InputError
-from itup_jax.scene import TARGET_BODIES, Scene
+from itup_jax.scene import Scene, target_bodies
 from itup_jax.task import Task
 
 _VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
@@ -162,7 +162,7 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
             for s in (-1.0, 1.0)]
     entities.append({"timestamp": _time(0), "frame_id": "gripper", "id": "pads", "lifetime": _time(0),
                      "frame_locked": True, "cubes": pads})
-    for body in TARGET_BODIES[task.kind]:
+    for body in target_bodies(task.kind):
         b = m.body(body).id
         cubes, cyls = [], []
         for g in range(m.ngeom):
@@ -221,7 +221,7 @@ def rollout_mcap_bytes(scene: Scene, task: Task, result: Any, index: int, *, eve
     p_tg, q_tg = tr["tool_pos_grasp"][index], tr["tool_quat_grasp"][index]
     force, torque = tr["gripper/wrist_force"][index], tr["gripper/wrist_torque"][index]
     pad = {s: tr[f"pad_{s}_contact"][index] for s in ("neg", "pos")}
-    targets = [(b, tr[f"target/{b}_pos"][index], tr[f"target/{b}_quat"][index]) for b in TARGET_BODIES[task.kind]]
+    targets = [(b, tr[f"target/{b}_pos"][index], tr[f"target/{b}_quat"][index]) for b in target_bodies(task.kind)]
     for seq, k in enumerate(range(0, len(t), every)):
         ns = int(t_ns[k])
         p_g, q_g = _grasp_pose_world(p_t[k], q_t[k], p_tg[k], q_tg[k])

@@ -17,16 +17,17 @@ Physics of the tool's contacts, from the tool's priors:
     (the 2 timesteps MuJoCo clamps to at the 2 ms step every dataset used before per-task steps; one
     contact model at every step, so that steps compare: experiments/timestep_convergence.py).
 
-Integration step, per task (`TASK_TIMESTEP`): the coarsest of 2, 1 and 0.5 ms whose labels rank like
-those integrated at 0.25 ms (Spearman >= 0.98 over held-out tools, experiments/timestep_convergence.py):
-0.5 ms for every task. The strikes (hammer, knock) and the sweep need it, and so does the reach since
-its hook works just clear of the table (code 0.7.0; at 1 ms its labels rank at 0.979 over 11 tools).
-The reach ran at 2 ms until code 0.8.0.
+Everything kind-specific (the environment's MJCF, its targets, where they are placed, the integration
+step) comes from the task registry, `itup_jax.tasks`. Each kind's step is the coarsest of 2, 1 and
+0.5 ms whose labels rank like those integrated at 0.25 ms (Spearman >= 0.98 over held-out tools,
+`experiments/timestep_convergence.py`): 0.5 ms for every built-in kind (at 1 ms the reach's labels,
+whose hook works just clear of the table, rank at 0.979 over 11 tools).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib.resources
 import math
 import os
 from pathlib import Path
@@ -34,22 +35,34 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from itup_jax import tasks
 from itup_jax.errors import InputError
+from itup_jax.robot import ARM_JOINTS, PAD_TORSION
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 
-MJCF_DIR = Path(os.environ.get("ITUP_MJCF_DIR", Path(__file__).resolve().parent.parent / "mjcf"))
+
+
+def _mjcf_dir() -> Path:
+    """The folder of the project's MJCF: `$ITUP_MJCF_DIR` if set; in an installed wheel the package's
+    `itup_jax/mjcf` (the repository's top-level `mjcf/`, mapped into the package at build time); in a
+    source checkout (an editable install) the repository's `mjcf/` itself."""
+    if os.environ.get("ITUP_MJCF_DIR"):
+        return Path(os.environ["ITUP_MJCF_DIR"])
+    packaged = importlib.resources.files("itup_jax") / "mjcf"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parent.parent / "mjcf"
+
+
+MJCF_DIR = _mjcf_dir()
 UR5E_XML = MJCF_DIR / "universal_robots_ur5e" / "ur5e.xml"
 GRIPPER_XML = MJCF_DIR / "parallel_gripper" / "gripper.xml"
-#: s, each task's default integration step (module docstring; README "Simulation")
-TASK_TIMESTEP = {"hammer": 0.0005, "knock": 0.0005, "sweep": 0.0005, "reach": 0.0005}
 #: s, the one step of every scene and dataset before per-task steps (a manifest recording no step was
 #: made at it)
 TIMESTEP = 0.002
 #: s, the floor of the tool-target contact's time constant (2 x TIMESTEP, as MuJoCo clamped it there)
 CONTACT_MIN_TIMECONST = 0.004
-ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
-PAD_TORSION = 0.005  # m, torsional friction length of the pads (assumed contact patch radius)
 TOOL_TARGET_FRICTION = 0.5  # -, tool on nail/blocks (assumed)
 TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed)
 
@@ -57,21 +70,17 @@ TOOL_TABLE_FRICTION = 0.4  # -, bristles or aluminium on a wooden table (assumed
 #: s, the largest timestep a scene accepts (five times the reach's; the strikes need 0.5 ms to converge)
 MAX_TIMESTEP = 0.01
 
-#: m, from a task's contact point on a target to the target's centre along the interaction normal: the
-#: target's half depth in its MJCF (`TARGET_BODIES`: the sweep's 40 mm cubes, the knock's 50 mm top block,
-#: the reach's 80 mm block) plus a gap, so the face sits that far past the contact point: 1 mm, the
-#: knock's 0.5 mm (tested against the MJCF sizes). Every target keeps its MJCF height.
-TARGET_FACE_TO_CENTRE = {"sweep": 0.021, "knock": 0.0255, "reach": 0.041}
-#: m, how far the knock's struck point may sit above or below the top block's centre (its half height
-#: is 0.03 m).
-KNOCK_FACE_HEIGHT_TOL = 0.02
+
+def __getattr__(name: str):
+    """`TASK_TIMESTEP`: kind -> its default integration step (s), read from the task registry."""
+    if name == "TASK_TIMESTEP":
+        return tasks.timesteps()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def task_timestep(kind: str) -> float:
-    """The default integration step (s) of task kind `kind` (`TASK_TIMESTEP`)."""
-    if kind not in TASK_TIMESTEP:
-        raise InputError(f"task_timestep: no task kind {kind!r}; known: {sorted(TASK_TIMESTEP)}")
-    return TASK_TIMESTEP[kind]
+    """The default integration step (s) of task kind `kind` (`tasks.get(kind).timestep`)."""
+    return tasks.get(kind).timestep
 
 
 def check_timestep(timestep, where: str) -> float:
@@ -83,7 +92,8 @@ def check_timestep(timestep, where: str) -> float:
 
 
 def scene_xml(kind: str) -> Path:
-    return MJCF_DIR / "scenes" / f"{kind}.xml"
+    """The environment MJCF of task kind `kind`."""
+    return MJCF_DIR / tasks.get(kind).scene_file
 
 
 def restitution_solref(restitution: float, contact_duration: float, timestep: float = TIMESTEP) -> tuple[float, float]:
@@ -100,19 +110,14 @@ def restitution_solref(restitution: float, contact_duration: float, timestep: fl
     return max(contact_duration * math.sqrt(1 - zeta**2) / (math.pi * zeta), floor), zeta
 
 
-#: Task kinds whose target gives way under the blow (a nail driven into wood): the tool's contact with
-#: it is critically damped (dampratio 1) whatever the tool's restitution. With the restitution's
-#: under-damped spring (e = 0.4), a block dropped on the nail drove it 1.1-1.5x as far as its kinetic energy
-#: can at the hammer's 0.5 ms step, 3-5x at 2 ms (session 22, MuJoCo 4.0): the soft contact and the nail's
-#: friction constraint together add energy.
-PLASTIC_TARGETS = frozenset({"hammer"})
-
-
 def target_solref(kind: str, restitution: float, contact_duration: float, timestep: float = TIMESTEP) -> tuple[float, float]:
-    """solref of the tool-target pairs of a `kind` scene: `restitution_solref`, with dampratio 1 for
-    the kinds in PLASTIC_TARGETS."""
+    """solref of the tool-target pairs of a `kind` scene: `restitution_solref`, with dampratio 1 for a
+    kind whose target gives way under the blow (`TaskKind.plastic_target`: a nail driven into wood).
+    With the restitution's under-damped spring (e = 0.4), a block dropped on the nail drove it 1.1-1.5x
+    as far as its kinetic energy can at the hammer's 0.5 ms step, 3-5x at 2 ms: the soft contact and the
+    nail's friction constraint together add energy."""
     timeconst, zeta = restitution_solref(restitution, contact_duration, timestep)
-    return (timeconst, 1.0) if kind in PLASTIC_TARGETS else (timeconst, zeta)
+    return (timeconst, 1.0) if tasks.get(kind).plastic_target else (timeconst, zeta)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -172,66 +177,24 @@ def _add_tool(spec: mujoco.MjSpec, tool: Tool) -> list[str]:
     return names
 
 
-_TARGET_GEOMS = {
-    "hammer": ("nail_head",),
-    "sweep": ("debris_0", "debris_1", "debris_2"),
-    "knock": ("block_3", "block_2"),
-    "reach": ("block",),
-}
-#: The task objects whose world pose is recorded (sensors `target/<body>_pos`, `target/<body>_quat`).
-TARGET_BODIES = {
-    "hammer": ("nail",),
-    "sweep": ("debris_0", "debris_1", "debris_2"),
-    "knock": ("block_0", "block_1", "block_2", "block_3"),
-    "reach": ("block",),
-}
-
-
-def _place_environment(spec: mujoco.MjSpec, task: Task) -> None:
-    """Move the environment so its targets sit where the task expects them (world)."""
-    c_obj = np.asarray(task.c_obj_world, float)
-    n = np.asarray(task.n_world[0], float)  # from the target into the tool
-    if task.kind == "hammer":
-        head_top = c_obj[0]
-        if head_top[2] < 0.045:
-            raise InputError(f"hammer scene: nail head at z = {head_top[2]:.3f} m leaves no nail above the 40 mm board")
-        spec.body("nail").pos = head_top
-        spec.body("board").pos = [head_top[0], head_top[1], 0.02]
-        spec.joint("nail_depth").range = [-(head_top[2] - 0.041), 0.0]  # stops 1 mm above the board
-    elif task.kind == "sweep":
-        push = -n[:2] / np.linalg.norm(n[:2])  # horizontal direction the bristles push the debris
-        for i, name in enumerate(TARGET_BODIES["sweep"]):
-            centre = c_obj[i, :2] + TARGET_FACE_TO_CENTRE["sweep"] * push
-            cube = spec.body(name)
-            cube.pos = [centre[0], centre[1], cube.pos[2]]  # resting on the table, at the MJCF's height
-    elif task.kind == "knock":
-        blocks = [spec.body(name) for name in TARGET_BODIES["knock"]]
-        top_z = float(blocks[-1].pos[2])  # the MJCF tower's top block centre height
-        if abs(c_obj[0, 2] - top_z) > KNOCK_FACE_HEIGHT_TOL:
-            raise InputError(f"knock scene: the struck face (z = {c_obj[0, 2]:.3f} m) must be within "
-                             f"{KNOCK_FACE_HEIGHT_TOL} m of the top block's height {top_z} m")
-        centre = c_obj[0] - TARGET_FACE_TO_CENTRE["knock"] * n  # the top block's centre, behind the struck face
-        for block in blocks:  # the tower moves as one; each block keeps the MJCF's own height
-            block.pos = [centre[0], centre[1], block.pos[2]]
-    elif task.kind == "reach":
-        centre = c_obj[0] - TARGET_FACE_TO_CENTRE["reach"] * n  # beyond the hook's contact face
-        block = spec.body("block")
-        block.pos = [centre[0], centre[1], block.pos[2]]  # resting on the table, at the MJCF's height
+def target_bodies(kind: str) -> tuple[str, ...]:
+    """The task objects of a `kind` scene whose world pose is recorded (sensors `target/<body>_pos`, `_quat`)."""
+    return tasks.get(kind).target_bodies
 
 
 def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Scene:
     """Compose and compile the scene for `tool` doing `task` (host side), integrated at `timestep` s
     (None: the task's default, `task_timestep(task.kind)`)."""
-    if task.kind not in _TARGET_GEOMS:
-        raise InputError(f"build_scene: no scene for task kind {task.kind!r}")
-    timestep = task_timestep(task.kind) if timestep is None else check_timestep(timestep, "build_scene")
-    spec = mujoco.MjSpec.from_file(str(scene_xml(task.kind)))
-    _place_environment(spec, task)
+    kind = tasks.get(task.kind)
+    timestep = kind.timestep if timestep is None else check_timestep(timestep, "build_scene")
+    spec = mujoco.MjSpec.from_file(str(MJCF_DIR / kind.scene_file))
+    kind.place(spec, task)
     arm = mujoco.MjSpec.from_file(str(UR5E_XML))
     gripper = mujoco.MjSpec.from_file(str(GRIPPER_XML))
     spec.worldbody.add_frame().attach_body(arm.body("base"), "ur5e/", "")
     spec.site("ur5e/flange").attach_body(gripper.body("gripper_base"), "gripper/", "")
-    # attach keeps the parent's <option>: set the solver options on the composed spec (DESIGN.md)
+    # attach keeps the parent's <option> and drops the child's (its elliptic cone and impratio: without
+    # them the pads dropped a 0.8 kg hammer): set the solver options on the composed spec
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
@@ -247,12 +210,12 @@ def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Sce
                           solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
             pad_pairs.append(f"{pad}-{g}")
     solref = target_solref(task.kind, float(tool.params.restitution), float(tool.params.contact_duration), timestep)
-    for target in _TARGET_GEOMS[task.kind]:
+    for target in kind.target_geoms:
         for g in tool_geoms:
             spec.add_pair(name=f"{g}-{target}", geomname1=g, geomname2=target, condim=3,
                           friction=[TOOL_TARGET_FRICTION] * 2 + [0.005, 1e-4, 1e-4], solref=list(solref))
             target_pairs.append(f"{g}-{target}")
-    if task.kind in ("sweep", "reach"):  # the tool works on the table: bristles and hook touch it
+    if kind.works_on_table:  # the tool works on the table (bristles, a hook): it touches the table
         for g in tool_geoms:
             spec.add_pair(name=f"{g}-table", geomname1=g, geomname2="table", condim=3,
                           friction=[TOOL_TABLE_FRICTION] * 2 + [0.005, 1e-4, 1e-4])
@@ -266,7 +229,7 @@ def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Sce
         if ref:
             kw.update(reftype=mj.mjOBJ_SITE, refname=ref)
         spec.add_sensor(**kw)
-    for body in TARGET_BODIES[task.kind]:  # the task objects' world poses (logs, plots)
+    for body in kind.target_bodies:  # the task objects' world poses (logs, plots)
         spec.add_sensor(name=f"target/{body}_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS, objtype=mj.mjOBJ_XBODY,
                         objname=body)
         spec.add_sensor(name=f"target/{body}_quat", type=mujoco.mjtSensor.mjSENS_FRAMEQUAT, objtype=mj.mjOBJ_XBODY,

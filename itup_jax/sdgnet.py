@@ -22,6 +22,7 @@ within-tool listwise term on the torque output (`listwise_loss`) for the top-1 p
 from __future__ import annotations
 
 import dataclasses
+import importlib.resources
 import os
 import time
 from typing import Any
@@ -47,7 +48,8 @@ COST_NAMES = ("tau", "slip", "align")
 CLASS_TARGETS = ("label_success", "label_failed")
 CLASS_NAMES = ("p_success", "p_failed")
 SUCCESS_TARGET = CLASS_TARGETS[0]
-DEFAULT_MODEL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "models", "sdgnet_default.npz")
+#: The shipped checkpoint, inside the installed package (model card: `itup_jax/models/MODEL_CARD.md`).
+DEFAULT_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_default.npz")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -39,24 +39,17 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from itup_jax import ik, units
+from itup_jax import ik, robot, tasks
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.mjx_cholesky import jax_cholesky
 from itup_jax.mjx_collision import native_capsule_box
 from itup_jax.precision import full_precision
+from itup_jax.robot import ARM_CLEARANCE, FLANGE_TO_GRASP, HOME_Q, JOINT_LIMITS
 from itup_jax.scene import Scene, build_scene, target_solref
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 
-#: The UR5e posture the first IK solution is chosen near (elbow up, wrist down): 'home'.
-HOME_Q = np.array([0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0])
-#: Distance from the flange to the grasp frame along the approach axis (gripper.xml): m.
-FLANGE_TO_GRASP = 0.085
-#: Joint ranges of the MJCF (rad): +-2 pi, elbow +-pi.
-JOINT_LIMITS = np.array([2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi])
-#: Elbow and wrist joints must stay this high above the table (m): the arm has no collision geometry.
-ARM_CLEARANCE = 0.03
 #: Pads start this much inside the tool's surface so contact exists at step 0 (m).
 INITIAL_SQUEEZE = 3e-4
 #: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128 (DESIGN.md), a
@@ -127,7 +120,7 @@ def sample_physics(tool: Tool, n: int, seed: int = 0, *, spread: Randomization |
         restitution=np.clip(nominal.restitution + spread.restitution * u(), 0.05, 0.95),
         contact_duration=nominal.contact_duration * (1.0 + spread.contact_duration * u()),
         grip_force=np.clip(nominal.grip_force * (1.0 + spread.grip_force * u()),
-                           units.GRIPPER_MIN_GRIP_FORCE, units.GRIPPER_MAX_GRIP_FORCE),
+                           robot.GRIPPER_MIN_GRIP_FORCE, robot.GRIPPER_MAX_GRIP_FORCE),
     )
 
 
@@ -241,7 +234,7 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
     q_traj, infeasible = arm_trajectory(task, grasps)
     t_traj = np.asarray(tr.t, float)
     q_safe = np.where(infeasible[:, None, None], HOME_Q, q_traj)
-    over_speed = (np.abs(np.diff(q_safe, axis=1)) / np.diff(t_traj)[None, :, None] > units.UR5E_MAX_JOINT_SPEED * 1.001).any(axis=(1, 2))
+    over_speed = (np.abs(np.diff(q_safe, axis=1)) / np.diff(t_traj)[None, :, None] > robot.UR5E_MAX_JOINT_SPEED * 1.001).any(axis=(1, 2))
 
     n_settle = int(round(config.settle_time / dt))
     n_motion = int(round(t_traj[-1] / dt))
@@ -730,48 +723,9 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     )
 
 
-#: Success thresholds of the task metrics.
-# m driven: the blow overcame the wood's grip. A position-servoed UR5e stops the hammer within its
-# follow-through: a square blow at 0.8 m/s alone drove the nail 0.2-0.6 mm (the built-in hammer held
-# from the side anywhere along the handle, no hold; session 22), far less than the hammer's kinetic
-# energy could (~3.5 mm); with the servos pressing through the hold, 0.6-7 mm. 1 mm until session 21,
-# while the nail's soft stop let the follow-through press it 20-50 mm.
-NAIL_DEPTH_SUCCESS = 1e-4
-TOPPLE_SUCCESS = 0.03  # m top-block displacement during the motion
-# m: the top block's largest horizontal move during the settle for a tower left standing. A tower
-# nobody touches sinks 1.4 mm into its soft contacts straight down and moves 0.000 mm sideways; one the
-# drooping tool touched moved 0.85 mm to 0.6 m (session 24)
-TOWER_STANDING = 5e-4
-REACH_SUCCESS_FRACTION = 0.5  # of the commanded pull/push distance
-
-
 def _task_outcome(scene: Scene, task: Task, sensordata: np.ndarray, p: Plan) -> tuple[np.ndarray, np.ndarray]:
-    s = lambda name: scene.sensor(sensordata, name)  # noqa: E731
-    if task.kind == "hammer":  # driven during the motion (from the end of the settle)
-        depth = s("nail_depth")[:, p.n_settle - 1, 0] - s("nail_depth")[:, -1, 0]
-        return depth, depth >= NAIL_DEPTH_SUCCESS
-    if task.kind == "sweep":
-        d = np.asarray(task.d_world, float)
-        line = float(np.asarray(task.c_obj_world, float)[:3].mean(0) @ d) + 0.10  # 10 cm past the debris
-        past = sum((s(f"debris_{i}")[:, -1] @ d > line).astype(int) for i in range(3))
-        return past.astype(float), past >= 2
-    if task.kind == "knock":  # moved during the motion, and the tower still standing when it starts
-        top = s("top_block")
-        settled = top[:, p.n_settle - 1]
-        moved = np.linalg.norm(top[:, -1] - settled, axis=-1)
-        # A grasp that cannot hold the tool still lets it droop in the pads during the settle, onto the
-        # tower 6 cm away, which it pushes over before the motion. Until session 24 that counted as a
-        # knock (measured from the first step): 2.2 % of the test set's knock rollouts, nearly all
-        # labelled successes with the low torque of a swing that meets nothing.
-        standing = np.linalg.norm((settled - top[:, 0])[:, :2], axis=-1) <= TOWER_STANDING
-        return moved, (moved >= TOPPLE_SUCCESS) & standing
-    block = s("block")
-    d = np.asarray(task.d_world, float)
-    moved = (block[:, -1] - block[:, 0]) @ d
-    first = int(np.argmax(np.asarray(task.drag)[:, 0] > 0))  # the pull (or push) starts
-    p_tool = np.asarray(task.traj.p_world_tool, float)
-    commanded = float((p_tool[-1] - p_tool[first]) @ d)
-    return moved, moved >= REACH_SUCCESS_FRACTION * commanded
+    """The task kind's metric and success (`TaskKind.outcome`, in `itup_jax/tasks/<kind>.py`)."""
+    return tasks.get(task.kind).outcome(scene, task, sensordata, p)
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -4,7 +4,10 @@ Tool frame
 ----------
 Every tool lives in its own *tool frame* (the mesh frame, metres). Built-in tools put the origin at
 the butt of the handle with the handle along +z; the contact face sits at the far end. A user's mesh
-keeps whatever frame its file has; the TOML spec gives contact point and grasp region in that frame.
+comes in its file's frame; the TOML spec gives contact point and grasp region in that frame, and either
+the file is in the tool frame already (checked: its long axis along z, its contact normal along its
+category's direction) or the spec states the frame (`handle_axis`, `x_axis`) and the mesh is turned into
+it (`Tool.mesh_to_tool`).
 
 Split between host and device
 -----------------------------
@@ -126,6 +129,9 @@ class Tool:
       primitives: collision primitives for the simulator, (("capsule", p0, p1, radius) |
         ("box", lo, hi), ...) in the tool frame; empty for a mesh tool (the simulator then uses the
         mesh's convex hull).
+      mesh_to_tool: [3, 3] rotation from the user's mesh file frame (after `units`) to the tool frame:
+        a point x of the file is R @ x here (identity for built-ins and meshes given in the tool
+        frame). Grasps are in the tool frame; `R.T @ p` takes a grasp position back to the file.
     """
 
     name: str
@@ -138,6 +144,7 @@ class Tool:
     grasp_region: Box
     parts: tuple = ()
     primitives: tuple = ()
+    mesh_to_tool: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
 
     @property
     def mass(self) -> float:
@@ -357,7 +364,25 @@ _BUILTIN_CACHE: dict[str, Tool] = {}
 # User tools: mesh file + TOML spec
 # ---------------------------------------------------------------------------------------------------
 _SPEC_REQUIRED = {"name", "category", "contact_point", "grasp_region"}
-_SPEC_OPTIONAL = {"contact_normal", "contact_points", "mass", "density", "mu", "restitution", "contact_duration"}
+_SPEC_OPTIONAL = {"contact_normal", "contact_points", "mass", "density", "mu", "restitution", "contact_duration",
+                  "units", "handle_axis", "x_axis"}
+#: Length units a spec may state (`units`), in metres per unit: the mesh and every position in the spec.
+SPEC_UNITS = {"m": 1.0, "mm": 1e-3}
+#: m, the largest extent a hand tool's mesh may have, and the smallest: outside them the units are
+#: almost surely wrong (a 300 mm hammer read as metres is 300 m long).
+TOOL_EXTENT_RANGE = (0.02, 2.0)
+#: m, how far a contact point may lie from the mesh's surface.
+CONTACT_SURFACE_TOL = 0.005
+#: The tool frame of each category: the contact normal's direction in it. Every category has the handle
+#: along z; hammer and mallet strike with a face whose normal is +x, the broom pushes with its bristles'
+#: +y side (its head is wide along x), the L-stick pulls with the hook's inner face, which faces back
+#: along the handle (-z; the hook itself extends along +x).
+CATEGORY_CONTACT_NORMAL = {"hammer": (1.0, 0.0, 0.0), "mallet": (1.0, 0.0, 0.0), "broom": (0.0, 1.0, 0.0),
+                           "l_stick": (0.0, 0.0, -1.0)}
+#: rad: a mesh given without `handle_axis` must have its long axis within this of z and its contact
+#: normal within FRAME_NORMAL_TOLERANCE of its category's direction, else the spec must state the frame.
+FRAME_AXIS_TOLERANCE = math.radians(30.0)
+FRAME_NORMAL_TOLERANCE = math.radians(45.0)
 
 
 def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping | None = None) -> Tool:
@@ -369,14 +394,18 @@ def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping
       spec: for a mesh file, the path of its TOML spec (or an already-parsed mapping). Fields:
         `name`, `category`, `contact_point` [3], `grasp_region = {min = [3], max = [3]}` (required);
         `contact_normal` [3], `contact_points` [[3], ...], `mass` kg, `density` kg/m^3, `mu`,
-        `restitution`, `contact_duration` s (optional; defaults from the category's prior).
+        `restitution`, `contact_duration` s (optional; defaults from the category's prior);
+        `units` ("m" or "mm": the mesh's and the spec's lengths); `handle_axis` [3] and `x_axis` [3]
+        (the file's directions that become the tool frame's +z and +x, when the mesh is not in the
+        tool frame; the docs' "Your own tool" has the frame of each category).
 
     Returns:
       A `Tool`. Built-in tools are built once per process and shared.
 
     Raises:
-      InputError: unknown built-in, unreadable/empty/open mesh, malformed spec; the message names
-        the file or field.
+      InputError: unknown built-in, unreadable/empty/open mesh, a mesh whose size is implausible for
+        a hand tool (wrong units), a contact point off the surface, a mesh not in the tool frame without
+        a stated frame, malformed spec; the message names the file or field.
     """
     key = os.fspath(name_or_path)
     if spec is None:
@@ -421,6 +450,11 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
         raise InputError(f"{label}: field 'name' must be a non-empty string")
     category = data["category"]
     prior = priors.category_prior(category, what=f"{label}: field 'category'")
+    unit_name = data.get("units", "m")
+    if unit_name not in SPEC_UNITS:
+        raise InputError(f"{label}: field 'units' must be one of {', '.join(SPEC_UNITS)} (the mesh's and the "
+                         f"spec's lengths), got {unit_name!r}")
+    scale = SPEC_UNITS[unit_name]
 
     if not os.path.exists(mesh_path):
         raise InputError(f"tool mesh {mesh_path!r}: file not found")
@@ -429,14 +463,45 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
     except Exception as exc:  # trimesh raises many types for unreadable files
         raise InputError(f"tool mesh {mesh_path!r}: cannot read it as a mesh ({exc})") from None
     mesh = check_mesh(mesh, f"tool mesh {mesh_path!r}")
+    if scale != 1.0:
+        mesh = mesh.copy()
+        mesh.apply_scale(scale)
+    _check_extent(mesh, mesh_path, unit_name)
 
+    cp = scale * _vec3(data["contact_point"], f"{label}: field 'contact_point'")
+    extra = data.get("contact_points", [])
+    if not isinstance(extra, list):
+        raise InputError(f"{label}: field 'contact_points' must be a list of [x, y, z]")
+    cps = np.array([cp] + [scale * _vec3(p, f"{label}: field 'contact_points'") for p in extra])
+    _check_on_surface(mesh, cps, label, unit_name)
+    normal = _unit(data.get("contact_normal", _default_normal(mesh, cp)), f"{label}: field 'contact_normal'")
+    region = data["grasp_region"]
+    if not isinstance(region, Mapping) or set(region) != {"min", "max"}:
+        raise InputError(f"{label}: field 'grasp_region' must be a table {{ min = [x,y,z], max = [x,y,z] }}")
+    box = _box_from(scale * _vec3(region["min"], f"{label}: field 'grasp_region'.min"),
+                    scale * _vec3(region["max"], f"{label}: field 'grasp_region'.max"),
+                    f"{label}: field 'grasp_region'")
+    if not _box_overlaps(box, mesh.bounds):  # a region away from the mesh can hold no grasp
+        raise InputError(f"{label}: field 'grasp_region' does not overlap the mesh (bounds {mesh.bounds.tolist()})")
+
+    R = _stated_frame(data, label)
+    if R is None:
+        _check_assumed_frame(mesh, cp, normal, category, label)
+        R = np.eye(3)
+    else:  # the stated frame, applied to the mesh and to every direction and position of the spec
+        mesh = mesh.copy()
+        T = np.eye(4)
+        T[:3, :3] = R
+        mesh.apply_transform(T)
+        cps, normal = cps @ R.T, R @ normal
+        box = _rotated_box(box, R)
     density = data.get("density", prior.density.value)
     _positive(density, f"{label}: field 'density'", "kg/m^3")
     mass, com, inertia = mesh_mass_properties(mesh, float(density))
     if "mass" in data:
         _positive(data["mass"], f"{label}: field 'mass'", "kg")
-        scale = float(data["mass"]) / mass
-        mass, inertia = float(data["mass"]), inertia * scale
+        ratio = float(data["mass"]) / mass
+        mass, inertia = float(data["mass"]), inertia * ratio
     params = make_tool_params(
         mass=mass, com=com, inertia=inertia,
         restitution=data.get("restitution", prior.restitution.value),
@@ -444,23 +509,83 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
         contact_duration=data.get("contact_duration", prior.contact_duration.value),
         what=f"{label}: field",
     )
-    cp = _vec3(data["contact_point"], f"{label}: field 'contact_point'")
-    extra = data.get("contact_points", [])
-    if not isinstance(extra, list):
-        raise InputError(f"{label}: field 'contact_points' must be a list of [x, y, z]")
-    cps = np.array([cp] + [_vec3(p, f"{label}: field 'contact_points'") for p in extra])
-    normal = _unit(data.get("contact_normal", _default_normal(mesh, cp)), f"{label}: field 'contact_normal'")
-    region = data["grasp_region"]
-    if not isinstance(region, Mapping) or set(region) != {"min", "max"}:
-        raise InputError(f"{label}: field 'grasp_region' must be a table {{ min = [x,y,z], max = [x,y,z] }}")
-    box = _box_from(region["min"], region["max"], f"{label}: field 'grasp_region'")
-    if not _box_overlaps(box, mesh.bounds):  # a region away from the mesh can hold no grasp
-        raise InputError(f"{label}: field 'grasp_region' does not overlap the mesh (bounds {mesh.bounds.tolist()})")
     return Tool(
         name=name, category=category, mesh=mesh, params=params, contact_point=cps[0],
         contact_normal=normal, contact_points=cps, grasp_region=box,
         parts=((name, f"{category} prior" if "density" not in data else "spec density", round(mass, 4)),),
+        mesh_to_tool=R,
     )
+
+
+def _check_extent(mesh: trimesh.Trimesh, mesh_path: str, unit_name: str) -> None:
+    """Refuse a mesh whose largest extent is implausible for a hand tool, naming the likely unit mistake."""
+    extent = float(np.max(mesh.extents))
+    lo, hi = TOOL_EXTENT_RANGE
+    if lo <= extent <= hi:
+        return
+    hint = ""
+    if extent > hi and lo <= extent * 1e-3 <= hi:
+        hint = "; it looks like millimetres: add units = \"mm\" to the spec"
+    elif extent < lo and unit_name == "mm" and lo <= extent * 1e3 <= hi:
+        hint = "; the file looks like metres already: remove units = \"mm\" from the spec"
+    raise InputError(f"tool mesh {mesh_path!r}: its largest extent is {extent:.4g} m (units = {unit_name!r}), "
+                     f"outside the {lo}-{hi} m of a hand tool{hint}")
+
+
+def _check_on_surface(mesh: trimesh.Trimesh, points: np.ndarray, label: str, unit_name: str) -> None:
+    """Refuse contact points farther than CONTACT_SURFACE_TOL from the mesh's surface."""
+    _, dist, _ = trimesh.proximity.closest_point(mesh, points)
+    far = np.nonzero(dist > CONTACT_SURFACE_TOL)[0]
+    if far.size:
+        i = int(far[0])
+        what = "contact_point" if i == 0 else f"contact_points[{i - 1}]"
+        raise InputError(f"{label}: field '{what}' lies {dist[i]:.4g} m from the mesh's surface (at most "
+                         f"{CONTACT_SURFACE_TOL} m; positions are in the mesh file's frame, units = {unit_name!r})")
+
+
+def _stated_frame(data: Mapping, label: str) -> np.ndarray | None:
+    """The rotation from the file's frame to the tool frame that the spec states (`handle_axis` becomes +z,
+    `x_axis` becomes +x after removing its part along the handle), or None when it states none."""
+    if "handle_axis" not in data and "x_axis" not in data:
+        return None
+    if "handle_axis" not in data or "x_axis" not in data:
+        raise InputError(f"{label}: fields 'handle_axis' and 'x_axis' go together (the file's directions that "
+                         "become the tool frame's +z and +x)")
+    z = _unit(data["handle_axis"], f"{label}: field 'handle_axis'")
+    x_raw = _unit(data["x_axis"], f"{label}: field 'x_axis'")
+    x = x_raw - (x_raw @ z) * z
+    if np.linalg.norm(x) < 0.1:
+        raise InputError(f"{label}: field 'x_axis' {list(data['x_axis'])} is (nearly) parallel to 'handle_axis'")
+    x = x / np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z])
+
+
+def _check_assumed_frame(mesh: trimesh.Trimesh, cp: np.ndarray, normal: np.ndarray, category: str, label: str) -> None:
+    """A spec without `handle_axis` says its mesh is in the tool frame: check the mesh's long axis lies
+    along z and the contact normal along its category's direction, else ask for the frame."""
+    expected = CATEGORY_CONTACT_NORMAL.get(category)
+    inertia = mesh.moment_inertia  # uniform density: the shape's principal axes
+    w, v = np.linalg.eigh(inertia)
+    long_axis = v[:, int(np.argmin(w))]
+    long_axis = long_axis * (1.0 if long_axis @ (cp - mesh.center_mass) >= 0 else -1.0)
+    off_axis = math.acos(min(1.0, abs(float(long_axis[2]))))
+    off_normal = math.acos(float(np.clip(normal @ np.asarray(expected), -1.0, 1.0))) if expected else 0.0
+    if off_axis <= FRAME_AXIS_TOLERANCE and off_normal <= FRAME_NORMAL_TOLERANCE:
+        return
+    raise InputError(
+        f"{label}: the mesh is not in the tool frame: its long axis points along {np.round(long_axis, 3).tolist()} "
+        f"({math.degrees(off_axis):.0f} deg from z) and its contact normal along {np.round(normal, 3).tolist()} "
+        + (f"({math.degrees(off_normal):.0f} deg from a {category}'s {list(expected)}) " if expected else "")
+        + "; state the frame in the spec: handle_axis = the file's direction along the handle (it becomes +z) "
+        "and x_axis = the file's direction that becomes +x (hammer, mallet: the face normal; broom: across the "
+        "head; L-stick: where the hook points), or rotate the mesh")
+
+
+def _rotated_box(box: Box, R: np.ndarray) -> Box:
+    """The axis-aligned box around `box` turned by R (exact for quarter turns; larger otherwise)."""
+    corners = np.array([[x, y, z] for x in (box.lo[0], box.hi[0]) for y in (box.lo[1], box.hi[1])
+                        for z in (box.lo[2], box.hi[2])]) @ R.T
+    return Box(corners.min(0), corners.max(0))
 
 
 def _default_normal(mesh: trimesh.Trimesh, point: np.ndarray) -> np.ndarray:

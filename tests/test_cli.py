@@ -10,7 +10,8 @@ import pytest
 
 from itup_jax.cli import main
 
-PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "seed", "scorer", "weights", "best", "top", "summary"}
+PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "seed", "scorer", "weights", "best", "top", "summary",
+             "status"}
 GRASP_KEYS = {"reachable", "index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
 BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", "machine", "max_rel_diff_vs_numpy"}
 
@@ -22,7 +23,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random",
                  "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/3"
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/4" and res["status"] == "ok"
     assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
     totals = [r["costs"]["total"] for r in res["top"]]
     assert totals == sorted(totals) and res["regime"] == "quasi_static"
@@ -46,16 +47,17 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     assert "<- pick" in out_text and f"the pick is the best-scored reachable grasp (rank {best['rank']})" in out_text
 
 
-def test_plan_flags_a_pick_the_arm_cannot_reach_when_no_candidate_is(tmp_path, capsys, monkeypatch):
+def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, monkeypatch):
     import importlib
 
     sim = importlib.import_module("itup_jax.simulate")
     monkeypatch.setattr(sim, "reachable", lambda task, g: np.zeros(len(g), bool))
     out = tmp_path / "none.json"
-    assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--json", str(out)]) == 0
-    best = json.loads(out.read_text())["best"]
-    assert best["rank"] == 1 and best["reachable"] is False
-    assert "warning: none of the 20 candidates is reachable" in capsys.readouterr().out
+    assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--json", str(out)]) == 3
+    res = json.loads(out.read_text())
+    assert res["best"] is None and res["status"] == "no_reachable_candidate" and res["advice"]
+    text = capsys.readouterr().out
+    assert "no pick: none of the 20 candidates is reachable" in text and "<- pick" not in text
 
 
 def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):

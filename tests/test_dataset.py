@@ -115,7 +115,7 @@ def test_variant_mass_properties_are_exact_for_a_box(tmp_path):
     a, b, c = 0.03, 0.02, 0.30
     trimesh.creation.box((a, b, c)).export(tmp_path / "box.stl")
     (tmp_path / "box.toml").write_text(
-        'name = "box"\ncategory = "mallet"\ncontact_point = [0.0, 0.0, 0.15]\n'
+        'name = "box"\ncategory = "mallet"\ncontact_point = [0.015, 0.0, 0.1]\n'
         "grasp_region = { min = [-0.02, -0.02, -0.15], max = [0.02, 0.02, 0.0] }\ndensity = 700.0\n")
     tool = itup.load_tool(str(tmp_path / "box.stl"), spec=str(tmp_path / "box.toml"))
     v = vary_tool(tool, 3)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import units
+from itup_jax import robot
 from itup_jax.grasp import GRASPNET_DEPTH, gripper_boxes, make_grasps, rotation_matrix
 
 # Rotation round trips in float64: a few ulps of the matrix entries.
@@ -34,9 +34,9 @@ def test_frame_convention_pads_on_closure_axis_and_right_handed(rng):
 def test_gripper_outline_matches_the_convention():
     boxes = {name: (lo, hi) for name, lo, hi in gripper_boxes(0.04)}
     assert boxes["finger_neg"][1][1] == pytest.approx(-0.02) and boxes["finger_pos"][0][1] == pytest.approx(0.02)
-    assert boxes["palm"][1][2] == pytest.approx(-units.FINGER_LENGTH)  # palm behind the pads along -z
-    assert boxes["finger_pos"][1][2] == pytest.approx(units.PAD_LENGTH / 2)  # fingertips at +z
-    assert boxes["finger_pos"][1][0] - boxes["finger_pos"][0][0] == pytest.approx(units.PAD_WIDTH)
+    assert boxes["palm"][1][2] == pytest.approx(-robot.FINGER_LENGTH)  # palm behind the pads along -z
+    assert boxes["finger_pos"][1][2] == pytest.approx(robot.PAD_LENGTH / 2)  # fingertips at +z
+    assert boxes["finger_pos"][1][0] - boxes["finger_pos"][0][0] == pytest.approx(robot.PAD_WIDTH)
 
 
 def test_graspnet_adapter_axes_and_round_trip(rng):

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax import units
+from itup_jax import robot
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError
 from itup_jax.grasp import gripper_boxes
 from itup_jax.tool import Box
@@ -35,7 +35,7 @@ def _check_grasps(tool, grasps, config=SamplerConfig()):
     p = np.asarray(grasps.p_tool_grasp)
     R = np.asarray(grasps.rotation)
     w = np.asarray(grasps.width)
-    assert np.all(w <= units.GRIPPER_MAX_OPENING - 2 * config.clearance) and np.all(w >= config.min_width)
+    assert np.all(w <= robot.GRIPPER_MAX_OPENING - 2 * config.clearance) and np.all(w >= config.min_width)
     assert np.all(tool.grasp_region.contains(p))
     pads = np.asarray(grasps.pad_centres())  # [N, 2, 3]: -y pad, +y pad
     assert np.all(tool.grasp_region.contains(pads, tol=1e-9))
@@ -162,7 +162,7 @@ def test_flat_pad_grasps_lie_square_across_the_handle(tools, name):
     pts = collision_points(tool, config.surface_spacing)
     for i in range(len(g)):
         local = (pts - p[i]) @ R[i]
-        foot = (np.abs(local[:, 0]) <= units.PAD_WIDTH / 2) & (np.abs(local[:, 2]) <= units.PAD_LENGTH / 2)
+        foot = (np.abs(local[:, 0]) <= robot.PAD_WIDTH / 2) & (np.abs(local[:, 2]) <= robot.PAD_LENGTH / 2)
         assert foot.sum() > 10 and np.abs(local[foot, 1]).max() <= w[i] / 2 + 1e-6
     _check_grasps(tool, g, config)
     assert np.abs(R[:, 0, 2]).max() > 0.5 and np.abs(R[:, 2, 2]).max() > 0.5  # approach axes still vary

@@ -8,10 +8,17 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.scene import (CONTACT_MIN_TIMECONST, PLASTIC_TARGETS, TARGET_BODIES, TASK_TIMESTEP, build_scene,
-                            restitution_solref, scene_xml, target_solref)
-from itup_jax.simulate import (NAIL_DEPTH_SUCCESS, TOPPLE_SUCCESS, TOWER_STANDING, mjx_model_fields, plan,
-                               randomized_model, sample_physics)
+from itup_jax import tasks as registry
+from itup_jax.scene import CONTACT_MIN_TIMECONST, build_scene, restitution_solref, scene_xml, target_solref
+from itup_jax.simulate import mjx_model_fields, plan, randomized_model, sample_physics
+from itup_jax.tasks.hammer import NAIL_DEPTH_SUCCESS
+from itup_jax.tasks.knock import TOPPLE_SUCCESS, TOWER_STANDING
+
+TASK_TIMESTEP = registry.timesteps()
+
+
+def target_bodies_of(kind):
+    return registry.get(kind).target_bodies
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +73,7 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
     m = scenes[kind].model
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)  # the tool starts away from the objects and falls clear of them
-    start = {b: d.body(b).xpos.copy() for b in TARGET_BODIES[kind]}
+    start = {b: d.body(b).xpos.copy() for b in target_bodies_of(kind)}
     for _ in range(int(round(2.0 / m.opt.timestep))):
         mujoco.mj_step(m, d)
     moved = {b: float(np.linalg.norm(d.body(b).xpos - p)) for b, p in start.items()}
@@ -77,12 +84,12 @@ def test_task_objects_left_alone_stay_put(scenes, kind):
 def test_targets_keep_their_mjcf_height_and_face_the_contact_point(scenes, tasks, kind, gap):
     """Every target of the sweep, the knock and the reach keeps its MJCF height, and the face the tool
     meets lies `gap` past the task's contact point, horizontally along the interaction normal (the
-    sweep's normal is tilted: its cubes are pushed along its horizontal part): `TARGET_FACE_TO_CENTRE`
+    sweep's normal is tilted: its cubes are pushed along its horizontal part): `FACE_TO_CENTRE`
     is the MJCF target's half depth plus that gap. The knock's tower moves as one column, its top block
     at the struck point's height."""
-    from itup_jax.scene import TARGET_FACE_TO_CENTRE, scene_xml
+    face_to_centre = getattr(registry, kind).FACE_TO_CENTRE
     spec = mujoco.MjSpec.from_file(str(scene_xml(kind)))
-    bodies = TARGET_BODIES[kind]
+    bodies = target_bodies_of(kind)
     half = {b: np.asarray(spec.geom(b).size, float) for b in bodies}  # [3] m, each target's half extents
     _, task = tasks[kind]
     n = np.asarray(task.n_world[0], float)
@@ -92,7 +99,7 @@ def test_targets_keep_their_mjcf_height_and_face_the_contact_point(scenes, tasks
     struck = [bodies[-1]] if kind == "knock" else bodies  # the tool meets the knock's top block only
     for b in struck:
         assert half[b][0] == half[b][1]  # square in plan, so the face's distance does not turn with n
-        assert TARGET_FACE_TO_CENTRE[kind] == pytest.approx(half[b][0] + gap, abs=1e-12)
+        assert face_to_centre == pytest.approx(half[b][0] + gap, abs=1e-12)
     m = scenes[kind].model
     for b in bodies:
         assert m.body(b).pos[2] == spec.body(b).pos[2]
@@ -209,7 +216,7 @@ def test_the_nail_holds_below_its_grip_and_stops_at_its_limit():
 def test_the_hammers_contact_with_the_nail_is_plastic(tasks):
     """The nail gives way: its pairs are critically damped whatever the tool's restitution; the other
     kinds' targets bounce with the restitution (`restitution_solref`)."""
-    assert PLASTIC_TARGETS == {"hammer"}
+    assert {k for k in itup.TASK_KINDS if registry.get(k).plastic_target} == {"hammer"}
     for kind in itup.TASK_KINDS:
         tc, zeta = target_solref(kind, 0.4, 2e-3)
         assert tc == restitution_solref(0.4, 2e-3)[0]
@@ -243,7 +250,7 @@ def test_each_task_is_integrated_at_its_own_step_with_one_contact_model(tasks):
     contacts (their solref, the pads' and the tool-target pairs') are the same at every step <= 2 ms."""
     assert set(TASK_TIMESTEP) == set(itup.TASK_KINDS)
     assert TASK_TIMESTEP["hammer"] == TASK_TIMESTEP["knock"] == TASK_TIMESTEP["sweep"] == 0.0005
-    assert TASK_TIMESTEP["reach"] == 0.0005  # 2 ms until code 0.8.0 (README, Simulation)
+    assert TASK_TIMESTEP["reach"] == 0.0005
     tool, task = tasks["hammer"]
     fine, coarse = build_scene(tool, task), build_scene(tool, task, timestep=0.002)
     assert fine.model.opt.timestep == 0.0005 and coarse.model.opt.timestep == 0.002
@@ -251,7 +258,7 @@ def test_each_task_is_integrated_at_its_own_step_with_one_contact_model(tasks):
     np.testing.assert_array_equal(fine.model.pair_solimp, coarse.model.pair_solimp)
     assert build_scene(*tasks["reach"]).model.opt.timestep == 0.0005
     assert build_scene(*tasks["reach"], timestep=0.002).model.opt.timestep == 0.002
-    with pytest.raises(itup.InputError, match="no task kind 'drill'"):
+    with pytest.raises(itup.InputError, match="task kind 'drill': unknown"):
         itup.task_timestep("drill")
 
 

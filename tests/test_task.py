@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import units
+from itup_jax import robot
 from itup_jax.task import peak_speeds
 
 KINDS = itup.TASK_KINDS
@@ -20,7 +20,7 @@ def test_defaults_build_without_speed_warnings(tools, kind):
         warnings.simplefilter("error")
         task = itup.make_task(kind, tools[DEFAULT_TOOL[kind]])
     peaks = peak_speeds(task, tools[DEFAULT_TOOL[kind]])
-    assert peaks["angular"] <= units.UR5E_MAX_JOINT_SPEED
+    assert peaks["angular"] <= robot.UR5E_MAX_JOINT_SPEED
     T, K = task.num_steps, task.num_contacts
     assert task.impact.shape == task.drag.shape == (T, K)
     assert task.traj.R_world_tool.shape == (T, 3, 3)
@@ -35,7 +35,7 @@ def test_swing_strikes_the_target_at_the_impact_speed(tasks, kind):
     c_world = np.asarray(task.traj.point_position(task.c_tool[0]))[i]
     np.testing.assert_allclose(c_world, np.asarray(task.c_obj_world[0]), atol=1e-12)
     v_c = np.asarray(task.traj.point_velocity(task.c_tool[0]))[i]
-    default = {"hammer": itup.task.HammerParams, "knock": itup.task.KnockParams}[kind]().impact_speed
+    default = itup.tasks.get(kind).params().impact_speed
     assert np.linalg.norm(v_c) == pytest.approx(default, rel=1e-9)
     n = np.asarray(task.n_world[0])
     assert v_c @ n < -0.9 * np.linalg.norm(v_c)  # moving into the target, nearly along its normal
@@ -55,7 +55,7 @@ def test_hammer_holds_still_after_its_follow_through(tools):
     """The hammer ends with `t_hold` s at its follow-through pose (the rollout sees the blow land even
     when the arm lags its reference); `t_hold=0` ends on the follow-through."""
     tool = tools["hammer"]
-    prm = itup.task.HammerParams()
+    prm = itup.tasks.hammer.HammerParams()
     assert prm.t_hold == 0.2
     task = itup.make_task("hammer", tool)
     t = np.asarray(task.traj.t)
@@ -106,7 +106,7 @@ def test_reach_works_with_the_hook_tip_clearance_above_the_table(tools, variant,
     meets the block's face. (Up to 0.7.0 the tool-frame origin sat at a fixed height, which drove this
     variant's hook 21 mm into the table.)"""
     from itup_jax.dataset import GenerateConfig, unit_tool
-    from itup_jax.task import REACH_BLOCK_HEIGHT, ReachParams
+    from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT, ReachParams
     tool = tools["l_stick"] if variant == 0 else unit_tool(GenerateConfig(seed=1), "reach", variant)[0]
     task = itup.make_task("reach", tool, clearance=clearance)
     v = np.asarray(tool.mesh.vertices)
@@ -126,7 +126,7 @@ def test_reach_block_height_is_the_scene_block():
     """The height `make_task('reach')` checks the hook's contact point against is the MJCF block's."""
     import mujoco
     from itup_jax.scene import scene_xml
-    from itup_jax.task import REACH_BLOCK_HEIGHT
+    from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT
     spec = mujoco.MjSpec.from_file(str(scene_xml("reach")))
     body, geom = spec.body("block"), spec.geom("block")
     assert body.pos[2] - geom.size[2] == pytest.approx(0.0) and 2 * geom.size[2] == pytest.approx(REACH_BLOCK_HEIGHT)

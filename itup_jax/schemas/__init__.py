@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.resources
 import json
 import pathlib
 
-SCHEMA_DIR = pathlib.Path(__file__).resolve().parent
+#: The schemas' folder, inside the installed package.
+SCHEMA_DIR = pathlib.Path(str(importlib.resources.files("itup_jax.schemas")))
 
 
 def load_schema(name: str) -> dict:
