@@ -1,4 +1,4 @@
-"""Analytic costs against MuJoCo: which lever arm and which torque projection of DESIGN.md predict the
+"""Analytic costs against MuJoCo: which lever arm and which torque projection of docs/design.md predict the
 measured wrist torque, and does the slip cost predict measured slip?
 
     python experiments/analytic_vs_measured.py --out results/analytic_vs_measured        # generates its data

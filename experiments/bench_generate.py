@@ -4,8 +4,7 @@
 
 Makes the shards of procedural tools (`dataset.make_shard`, the units of `itup generate --seed 3`) in
 two fresh processes, one after the other: one with the size buckets (`shapes.py`, the code's default)
-and one without them (the bucket widths set so high that every size is its own bucket, as before
-session 27). Each process first makes `--warmup` shards (tools 1..W, not counted: the one-time compiles
+and one without them (the bucket widths set so high that every size is its own bucket). Each process first makes `--warmup` shards (tools 1..W, not counted: the one-time compiles
 of the rollouts, costs and the first buckets), then the shards of `--tools` further tools, each new to
 it, and reports the median time per shard, the executables those shards added to the three
 tool-shaped kernels' caches, and the growth of its resident memory over them. Small `--grasps` makes the

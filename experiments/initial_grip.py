@@ -1,5 +1,5 @@
 """How the grip starts: how deep the pads sit in the tool at step 0, and how far the tool turns and slides
-in the pads during the settle, before the motion (session 25).
+in the pads during the settle, before the motion.
 
     python experiments/initial_grip.py --data /tmp/sdg_v6_test8 --out results/initial_grip   # ~40 s
     python experiments/initial_grip.py --quick --out /tmp/initial_grip   # a tiny dataset made here (tests)
@@ -43,8 +43,16 @@ from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import GenerateConfig, load_shard, unit_tool  # noqa: E402
 from itup_jax.grasp import Grasps  # noqa: E402
 from itup_jax.scene import build_scene  # noqa: E402
-from itup_jax.simulate import (INITIAL_SQUEEZE, Physics, SimConfig, grasp_point_slip, initial_pad_overlap,  # noqa: E402
-                               plan, quat_angle, rollout_native)
+from itup_jax.simulate import (  # noqa: E402
+    INITIAL_SQUEEZE,
+    Physics,
+    SimConfig,
+    grasp_point_slip,
+    initial_pad_overlap,
+    plan,
+    quat_angle,
+    rollout_native,
+)
 from itup_jax.task import TASK_KINDS  # noqa: E402
 
 EARLY = 0.05  # s: the first part of the settle, where the contacts push the tool out

@@ -8,8 +8,7 @@ Dataset generation runs MJX on an accelerator and native MuJoCo on a CPU (`simul
 a dataset mixes neither: this script measures how far the two label sets differ when they could be mixed.
 Per task (its built-in tool), `sample_grasps(tool, N, seed)` is simulated with both backends under the
 same randomised physics (`simulate(..., seed=)`: the draws depend on the seed only), MJX in float64 as
-`simulate` runs it (`MJX_FLOAT64`; `--mjx-float32` for float32; before session 18 it followed
-JAX_ENABLE_X64). On the rows both call valid:
+`simulate` runs it (`MJX_FLOAT64`; `--mjx-float32` for float32). On the rows both call valid:
   - peak wrist torque: Spearman rank correlation, median and 90th-percentile relative difference;
   - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
   - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
@@ -23,8 +22,7 @@ With `--traces K`, the whole batch is simulated again with per-step traces and t
 traced rollouts are the compared ones (the same physics draws; MJX reuses its compiled program), and
 the first K grasps valid in both are reported (`row`: the grasp's index). Each traced row records both
 backends' peak wrist torque during the motion, its time, and the time from which the two torque traces
-differ by more than 5 % of the native peak: where in the motion the labels part. (Before session 21 the
-K grasps were simulated as a batch of their own, with their own physics draws and a second MJX compile.)
+differ by more than 5 % of the native peak: where in the motion the labels part.
 
 Timing, per task: the native path on all of this machine's cores (end to end: IK plan, stepping, labels)
 and MJX's first call (compile included) and a second, warm call on the same inputs (`--once`: the first
@@ -216,7 +214,7 @@ def main(argv=None) -> dict:
            "precision": "float32" if a.mjx_float32 else "float64",  # MJX's; native MuJoCo is float64
            "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
            "xla_flags": os.environ.get("XLA_FLAGS", ""),
-           # MJX collides capsules with boxes by itup_jax.mjx_collision (session 18; session 17's runs used MJX's own)
+           # MJX collides capsules with boxes by itup_jax.mjx_collision 
            "mjx_capsule_box": "itup_jax.mjx_collision", "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)

@@ -6,7 +6,7 @@
     python experiments/score_weights.py --quick --out /tmp/weights     # a tiny dataset made here (tests)
 
 The shipped `ScoreWeights` (w_tau 1 /(N m), w_slip 100 /m, w_align 1 /rad, w_task 10, w_fail 10) were
-chosen in session 7 with 256 candidates per tool. `candidate_count.py` found that the pick by the total
+chosen on validation tools with 256 candidates per tool. `candidate_count.py` found that the pick by the total
 gains little from 1,024 or 4,096 candidates, while the pick by predicted C_tau alone gains much (but
 misses the task in half the tools). This experiment asks whether other weights do better at planner
 scale. Per held-out tool (variants >= 1) of --data:

@@ -63,8 +63,8 @@ from itup_jax.grasp import Grasps
 from itup_jax.scene import build_scene
 from itup_jax.scoring import Scores, ScoreWeights, sdgnet_total
 from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
-from itup_jax.stats import roc_auc, spearman
 from itup_jax.simulate import Randomization, simulate
+from itup_jax.stats import roc_auc, spearman
 from itup_jax.verify import best_grasp_verified, measured_total
 
 MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}

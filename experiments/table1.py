@@ -32,8 +32,8 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.dataset import vary_tool
-from itup_jax.evaluate import DEFAULT_METHODS, MEASURED, evaluate, reduction
 from itup_jax.errors import InputError
+from itup_jax.evaluate import DEFAULT_METHODS, MEASURED, evaluate, reduction
 from itup_jax.scene import build_scene, check_timestep, task_timestep
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
 from itup_jax.tool import load_tool

@@ -1,7 +1,7 @@
 """Are the labels converged in the simulator's timestep? The same grasps, the same contact model and
 nominal physics, integrated at several timesteps: if the labels at a step rank the grasps differently
 from the labels at a finer step, part of what they measure is the integration. This study chose each
-task's default step (`scene.TASK_TIMESTEP`; until session 10 every scene ran at 2 ms).
+task's default step (`scene.TASK_TIMESTEP`).
 
     python experiments/timestep_convergence.py --data /tmp/sdg_test8 --tools-per-task 3 --out results/timestep
     python experiments/timestep_convergence.py --quick --out /tmp/timestep     # a tiny dataset made here (tests)

@@ -20,6 +20,7 @@ Notebook API::
     labels = itup.simulate(tool, task, grasps).labels  # MuJoCo ground truth, arrays [N]
 """
 
+from itup_jax import tasks
 from itup_jax.costs import (
     CostParams,
     Costs,
@@ -33,14 +34,13 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
-from itup_jax import tasks
 from itup_jax.scene import Scene, build_scene, task_timestep
 from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
 from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
 from itup_jax.task import Task, make_task
 from itup_jax.tool import Tool, ToolParams, load_tool
-from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.trajectory import Trajectory
+from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.wrench import Loads, task_loads
 
 __version__ = "0.8.0"

@@ -135,8 +135,18 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
 
     from itup_jax.grasp_sampler import sample_grasps
     from itup_jax.scene import build_scene
-    from itup_jax.simulate import (MJX_CPU_MAX_BATCH, _initial_states, _mjx_rollout_fn, _slice_physics,
-                                   mjx_model_fields, plan, randomized_model, reachable, sample_physics, simulate)
+    from itup_jax.simulate import (
+        MJX_CPU_MAX_BATCH,
+        _initial_states,
+        _mjx_rollout_fn,
+        _slice_physics,
+        mjx_model_fields,
+        plan,
+        randomized_model,
+        reachable,
+        sample_physics,
+        simulate,
+    )
 
     tool = load_tool("hammer")
     task = make_task("hammer", tool)
@@ -328,8 +338,8 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
     import functools
 
     from itup_jax.grasp import rotation_matrix
-    from itup_jax.grasp_sampler import (_CHUNK, SamplerConfig, _gripper_hits, _gripper_hits_batch as kernel,
-                                        collision_points, sample_grasps)
+    from itup_jax.grasp_sampler import _CHUNK, SamplerConfig, _gripper_hits, collision_points, sample_grasps
+    from itup_jax.grasp_sampler import _gripper_hits_batch as kernel
     from itup_jax.task import TASK_KINDS
 
     config = SamplerConfig()

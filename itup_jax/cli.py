@@ -29,6 +29,8 @@ import numpy as np
 
 #: Exit status when planning finds no grasp it can recommend (documented in `itup --help`).
 EXIT_NO_PICK = 3
+#: `itup demo --quick`: candidates, randomised-physics draws per pick.
+QUICK_DEMO = (32, 2)
 
 EXAMPLES = """examples:
   itup demo                                   # the main job: SDG-Net vs force closure, verified in MuJoCo
@@ -620,6 +622,8 @@ def cmd_demo(args) -> int:
     from itup_jax.simulate import induced
 
     t_start = time.perf_counter()
+    if args.quick:  # a smoke run: few candidates, two draws per pick
+        args.n, args.seeds = min(args.n, QUICK_DEMO[0]), min(args.seeds, QUICK_DEMO[1])
     if args.n < 2 or args.seeds < 1:
         raise_input(f"--n must be >= 2 and --seeds >= 1, got --n {args.n} --seeds {args.seeds}")
     _check_out_dir("--out", args.out)
@@ -777,7 +781,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--backend", default=None, choices=["native", "mjx"],
                      help="default: mjx on an accelerator, native on a CPU. On a GPU machine native MuJoCo on its CPU "
-                     "cores was faster for these scenes, and gives the CPU's labels (BENCHMARKS.md, GPU)")
+                     "cores was faster for these scenes, and gives the CPU's labels (docs/benchmarks.md, GPU)")
     gen.add_argument("--nominal", action="store_true", help="no domain randomisation")
     gen.add_argument("--timestep", type=float, default=None,
                      help="s, the simulator's integration step for every task (default: each task's, "
@@ -881,6 +885,8 @@ def build_parser() -> argparse.ArgumentParser:
                         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_verify_args(dm, TASK_KINDS)
     dm.add_argument("--out", default="itup-demo", help="output folder (default ./itup-demo/)")
+    dm.add_argument("--quick", action="store_true",
+                    help=f"a smoke run: at most {QUICK_DEMO[0]} candidates and {QUICK_DEMO[1]} draws per pick")
     dm.set_defaults(fn=cmd_demo)
 
     t = sub.add_parser("tools", help="list the built-in tools and the category priors")

@@ -185,7 +185,7 @@ def wrench_costs(tool: Tool | ToolParams, task: Task, grasps: Grasps, params: Co
 # Regime classifier
 # ---------------------------------------------------------------------------------------------------
 class Regime(enum.IntEnum):
-    """Contact regimes of DESIGN.md: quasi-static (reach), dynamic (hammer, knock), clustered (sweep)."""
+    """Contact regimes of docs/design.md: quasi-static (reach), dynamic (hammer, knock), clustered (sweep)."""
 
     QUASI_STATIC = 0
     DYNAMIC = 1

@@ -43,8 +43,14 @@ from itup_jax.errors import InputError, is_integer
 from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp_sampler import CONTACT_MODELS, SamplerConfig, sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
-from itup_jax.simulate import (DETERMINISTIC_GPU_FLAG, LABEL_FIELDS, Randomization, default_backend,
-                               gpu_determinism, simulate)
+from itup_jax.simulate import (
+    DETERMINISTIC_GPU_FLAG,
+    LABEL_FIELDS,
+    Randomization,
+    default_backend,
+    gpu_determinism,
+    simulate,
+)
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
 from itup_jax.tool import BUILTIN_TOOLS as BUILDERS
 from itup_jax.tool import Box, Tool, load_tool, make_tool_params
@@ -178,7 +184,7 @@ class GenerateConfig:
     # (experiments/timestep_convergence.py), so one task's rows of different steps are not mixed
     # (`load_datasets`); the manifest records each task's step
     timestep: float | None = None
-    # the procedural family of variants >= 1: "stretch" (`vary_tool`, every dataset before session 16)
+    # the procedural family of variants >= 1: "stretch" (`vary_tool`)
     # or "parts" (`part_variant`: handle and head varied independently)
     variants: str = "stretch"
     # the grasp sampler's contact model (`SamplerConfig.contact`): "flat" (the pads lie flat on the tool;
@@ -530,8 +536,6 @@ def _parse_manifest(mpath: str) -> dict[str, Any]:
 def read_manifest(out_dir: str) -> dict[str, Any]:
     """The manifest of the dataset in `out_dir`, checked (`_parse_manifest`); InputError if there is none."""
     mpath = os.path.join(out_dir, MANIFEST)
-    if not os.path.isdir(out_dir):
-        raise InputError(f"dataset {out_dir!r}: no such folder")
     if not os.path.exists(mpath):
         raise InputError(f"dataset {out_dir!r}: no {MANIFEST} there (make one with `itup generate`)")
     return _parse_manifest(mpath)

@@ -43,7 +43,7 @@ VERIFY_K = 5
 #: The torque-first verified pick: SDG-Net's VERIFY_TORQUE_K best by the torque-first total
 #: (`ScoreWeights.torque_first`: torque, and the task and grip penalties), each rolled out under
 #: VERIFY_TORQUE_DRAWS draws of the priors, the lowest mean measured total kept (`itup plan --verify 10
-#: --verify-draws 3 --torque-first`; chosen on the validation set in session 23, README "Results").
+#: --verify-draws 3 --torque-first`; chosen on the validation set, docs/results.md).
 VERIFIED_TORQUE = "sdgnet_verified_torque"
 VERIFY_TORQUE_K = 10
 VERIFY_TORQUE_DRAWS = 3

@@ -9,7 +9,7 @@ the world (property C1) nor under a different choice of the tool's mesh frame:
                    the occupancy of a cell is a field D(x) of the tool alone, evaluated at the cell's
                    centre: D is tabulated once per tool on a voxel grid in the tool frame
                    (`density_field`) and read by trilinear interpolation, 64 reads per grasp instead
-                   of a sum over every surface point (measured: 610 ms -> see BENCHMARKS.md for 10,000
+                   of a sum over every surface point (measured: 610 ms -> see docs/benchmarks.md for 10,000
                    grasps). `exact_occupancy` is the direct sum, the reference the tests check against.
   loads [12]       peak |component| over time of the force the grasp carries and of the torque about the
                    grasp origin (grasp-frame axes), and both at the step of peak torque (signed).
@@ -139,7 +139,7 @@ def grasp_features(field: DensityField, loads: Loads, tool: ToolParams, grasp: G
 
     def to_grasp(v):
         """Rows v -> R^T v, as broadcast products: a [T,3] @ [3,3] per grasp would vmap into tiny batched
-        matmuls, measured 2.5x slower for 10,000 grasps (BENCHMARKS.md)."""
+        matmuls, measured 2.5x slower for 10,000 grasps (docs/benchmarks.md)."""
         return v[..., 0:1] * R[0] + v[..., 1:2] * R[1] + v[..., 2:3] * R[2]
 
     occ = occupancy(field, p, R, spec)

@@ -18,7 +18,7 @@ and the default until then).
 The simulated gripper has flat pads (22 x 37.5 mm), and flat pads on a handle whose closure axis is
 tilted off its cross-section touch it at their ends: at step 0 they start a median 2.3-2.7 mm inside
 the tool, and the tool turns 4-9 degrees in the first 50 ms until it lies flat between them
-(`experiments/initial_grip.py`, session 25). With `contact="flat"` (the default since code 0.6.0) the
+(`experiments/initial_grip.py`). With `contact="flat"` (the default since code 0.6.0) the
 grasp is the one the pads settle into:
 
 2'. the closure direction is the inward normal, u = -n1 (no cone);
@@ -156,7 +156,7 @@ def _to_grasp_frame(d: jax.Array, R_tool_grasp: jax.Array) -> jax.Array:
 
     Written as three products rather than `d @ R`: vmapped over grasps, a contraction over 3 becomes a
     batched dot that XLA's CPU backend runs ~25x slower than this fused elementwise form (`itup bench
-    sample` times both; BENCHMARKS.md)."""
+    sample` times both; docs/benchmarks.md)."""
     return d[:, 0:1] * R_tool_grasp[0] + d[:, 1:2] * R_tool_grasp[1] + d[:, 2:3] * R_tool_grasp[2]
 
 

@@ -7,10 +7,10 @@ its batch into parts, queues them on XLA's intra-op thread pool (one thread per 
 they are done. When as many of these kernels run at once as the pool has threads, every thread blocks
 waiting for parts queued behind the others, and the program never returns: all threads idle, the caller
 in `block_until_ready`. On this 2-core CPU that is what happened to the knock's MJX rollout at a batch of
-16 in every run (sessions 17-19; gdb, session 19: both pool threads in `BlockingCounter::Wait` under
-`jax::ParallelBatchMap` in `CholeskyFactorization`), and to the hammer's at 128 (DESIGN.md). Neither
+16 in every run (gdb: both pool threads in `BlockingCounter::Wait` under
+`jax::ParallelBatchMap` in `CholeskyFactorization`), and to the hammer's at 128 . Neither
 `--xla_cpu_multi_thread_eigen=false`, nor `jax_cpu_enable_async_dispatch=False`, nor turning XNNPACK off
-avoids it (tried, session 19).
+avoids it (tried).
 
 The functions here do the same arithmetic as LAPACK's unblocked Cholesky (column by column, left-looking)
 with JAX's own operations, which XLA compiles into the program: no custom call, nothing that blocks.
@@ -18,7 +18,7 @@ with JAX's own operations, which XLA compiles into the program: no custom call, 
 a `with` block; `simulate.rollout_mjx` traces its program on a CPU inside one. A program traced inside the
 block keeps them; code traced elsewhere is not affected. On a GPU MJX keeps jaxlib's (cuSOLVER) kernels.
 The matrices are small (the scenes' nv is 20-26), so the loop over columns costs little
-(`itup bench rollout`, BENCHMARKS.md).
+(`itup bench rollout`, docs/benchmarks.md).
 
 Conventions are `jax.scipy.linalg`'s: `cho_factor(a, lower=False)` returns (c, lower) with a = c^T c
 (upper) or c c^T (lower), and the other triangle of c zero; `cho_solve((c, lower), b)` reads only c's

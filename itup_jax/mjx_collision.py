@@ -8,9 +8,9 @@ each face's plane. For a capsule much longer than the box that is not parallel t
 far outside the face is deep below its plane: a 0.44 m handle turned 3.4 degrees from a pad's face puts
 its ends 13 mm below it. The face behind is then chosen, and the contact reports a 2 cm penetration with
 its normal reversed, where native MuJoCo (`mjc_CapsuleBox`) reports 1.4 mm on the front face
-(`tests/test_mjx_collision.py` keeps that case). In the reach rollouts of session 17 this pushed the
+(`tests/test_mjx_collision.py` keeps that case). In reach rollouts this pushed the
 handle out of the pads in the first step of the settle phase: MJX lost the tool in 20-24 of 30 grasps
-where native MuJoCo lost it in 13 (BENCHMARKS.md, "MJX against native").
+where native MuJoCo lost it in 13 (docs/benchmarks.md, "MJX against native").
 
 `capsule_box` clips the capsule's segment to the box grown by the capsule's radius (plus `CLIP_SLACK`)
 before handing it to MJX's own routine. No point of the segment outside that region can be within the

@@ -4,7 +4,7 @@ JAX's default precision for a float32 `dot` is the fastest the hardware offers: 
 TensorFloat32 (10-bit mantissa) on recent NVIDIA GPUs, bfloat16 passes on a TPU. For physics that is not
 rounding: on an H100 the analytic costs of 100,000 grasps differed from the float64 NumPy reference by up
 to 1.2e-2 relative under the default, and by 7.6e-6 under "highest", in the same time (0.90 ms;
-BENCHMARKS.md, "GPU"). So every outer jit of this package (costs, features, scoring, SDG-Net prediction
+docs/benchmarks.md, "GPU"). So every outer jit of this package (costs, features, scoring, SDG-Net prediction
 and training, the MJX rollout) traces its body under `full_precision`, and its products are float32
 wherever it runs. On a CPU nothing changes.
 """

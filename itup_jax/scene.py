@@ -42,7 +42,6 @@ from itup_jax.task import Task
 from itup_jax.tool import Tool
 
 
-
 def _mjcf_dir() -> Path:
     """The folder of the project's MJCF: `$ITUP_MJCF_DIR` if set; in an installed wheel the package's
     `itup_jax/mjcf` (the repository's top-level `mjcf/`, mapped into the package at build time); in a

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.resources
-import os
 import time
 from typing import Any
 
@@ -58,30 +57,30 @@ class TrainConfig:
     epochs: int = 200
     batch: int = 128
     lr: float = 2e-3
-    weight_decay: float = 0.1  # decoupled (AdamW); width, depth and decay chosen by validation loss (models/README.md)
+    weight_decay: float = 0.1  # decoupled (AdamW); width, depth and decay chosen by validation loss (models/MODEL_CARD.md)
     patience: int = 25
     val_fraction: float = 0.25  # of the tools (task x variant), held out
     seed: int = 0
     per_task: bool = False  # one MLP per task, each trained (and early-stopped) on its task's rows alone
     # > 0: after the shared network, a copy per task trained on that task's rows for this many more
     # epochs (same held-out tools, same normalisation, AdamW at `finetune_lr`, kept only where it lowers
-    # that task's validation loss). The shipped checkpoint since session 11 uses 60 (`itup train
+    # that task's validation loss). The shipped checkpoint uses 60 (`itup train
     # --finetune-epochs 60`: Spearman +0.02 to +0.03 on held-out tools over the shared network alone on the same
-    # data; models/README.md); the default stays 0, one network for every task, the paper's model
+    # data; models/MODEL_CARD.md); the default stays 0, one network for every task, the paper's model
     finetune_epochs: int = 0
     finetune_lr: float = 5e-4
     # N m: the torque target is log1p(tau / torque_scale). 0.02 (about the smallest peaks measured) ranks
-    # held-out grasps better than 1 N m (Spearman +0.02; models/README.md); its picks need the success head
+    # held-out grasps better than 1 N m (Spearman +0.02); its picks need the success head
     torque_scale: float = 0.02
     # weights of the binary heads' cross-entropy in the loss (task success, grasp failure); 0: no such
-    # head (both 0: 3 outputs, the paper's loss alone, as every checkpoint before session 7). 0.3 ranks
-    # torque better than 1.0 at the same success AUC (models/README.md)
+    # head (both 0: 3 outputs, the paper's loss alone, as the oldest checkpoints). 0.3 ranks
+    # torque better than 1.0 at the same success AUC
     success_weight: float = 0.3
     failure_weight: float = 0.3
     # > 0: adds rank_weight x the within-tool listwise loss (`listwise_loss`) of the torque output to the
     # loss of the network(s) that score: the per-task fine-tuning when finetune_epochs > 0 (the shared
     # network before it keeps the paper's loss: the term there too measured 2.6x slower and no better,
-    # models/README.md), else the one network (or each per_task one). Each step also draws `rank_tools`
+    # models/MODEL_CARD.md), else the one network (or each per_task one). Each step also draws `rank_tools`
     # training tools and `rank_group` of each one's grasps and adds the KL divergence between the top-1
     # distributions softmax(-log torque / rank_temperature) of their labels and of their predictions:
     # the network is spent on which grasp of a tool is lowest (the top-1 regret) rather than on the
@@ -160,8 +159,8 @@ class Model:
 
     @property
     def class_heads(self) -> list[str]:
-        """Labels of the binary heads, in output order after the three costs (checkpoints of session 7's
-        first commits say `success_head` instead)."""
+        """Labels of the binary heads, in output order after the three costs (the oldest
+        checkpoints say `success_head` instead)."""
         if "class_heads" in self.spec:
             return list(self.spec["class_heads"])
         return [SUCCESS_TARGET] if self.spec.get("success_head") else []

@@ -3,7 +3,7 @@
 Every procedural tool has its own mesh, so its surface sample and its tabulated density field have
 their own sizes. A jitted kernel traced on those sizes compiles again for every tool, and XLA keeps
 each executable: `itup generate` compiled three kernels for every shard and its process kept growing
-(6.6 GB resident after 280 shards of a 512-shard run; session 27, BENCHMARKS.md "Dataset generation").
+(6.6 GB resident after 280 shards of a 512-shard run, docs/benchmarks.md "Dataset generation").
 Padding a size up to a bucket with values that cannot change the kernel's result (a repeated point
 under any / min / max, zeros under `map_coordinates`' zero `cval`) bounds the compiles to a few per
 octave of size, and leaves every result bit for bit as it was.

@@ -13,12 +13,12 @@ Backends (same inputs, same outputs):
   * 'native': `mujoco.rollout` with one MjData per thread and one MjModel per rollout (so mass,
     friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
   * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
-    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (DESIGN.md), `rollout_mjx` runs
+    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower , `rollout_mjx` runs
     chunks of at most 64 per CPU device, and MJX's Cholesky is `mjx_cholesky`'s (jaxlib's LAPACK kernel
     deadlocked there: the knock at a batch of 16, the hammer at 128). Capsule-box
     contacts go through `mjx_collision.capsule_box_collider` (MJX's own reverses a pad's contact on long
     tilted handles). It runs in float64 (`MJX_FLOAT64`), where its reach labels match native MuJoCo's; in
-    float32 the pads' stiff contacts spike (BENCHMARKS.md, "MJX against native").
+    float32 the pads' stiff contacts spike (docs/benchmarks.md, "MJX against native").
 
 Rollouts whose IK fails (unreachable pose, joint limit, or elbow/wrist below the table) are flagged `infeasible`:
 the native path does not step them at all, and for both backends their measured labels are NaN (flags False,
@@ -52,13 +52,13 @@ from itup_jax.tool import Tool
 
 #: Pads start this much inside the tool's surface so contact exists at step 0 (m).
 INITIAL_SQUEEZE = 3e-4
-#: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128 (DESIGN.md), a
-#: deadlock in jaxlib's LAPACK Cholesky that `mjx_cholesky` now avoids (a hammer batch of 128 ran in
-#: session 19); the cap stays until larger batches have run more than once.
+#: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128 , a
+#: deadlock in jaxlib's LAPACK Cholesky that `mjx_cholesky` now avoids (a hammer batch of 128 has
+#: run); the cap stays until larger batches have run more than once.
 MJX_CPU_MAX_BATCH = 64
 #: MJX rollouts run in float64 by default. In float32 the pads' stiff contacts spike while a tool is held
 #: still: on the reach, float32 MJX's torques rank at 0.52 against native MuJoCo's and float64 MJX's at
-#: 0.995 (session 18, CPU; BENCHMARKS.md "MJX against native"). On a GPU float64 may cost speed (not measured).
+#: 0.995 (CPU; docs/benchmarks.md "MJX against native"). On a GPU float64 may cost speed (not measured).
 MJX_FLOAT64 = True
 
 
@@ -365,7 +365,7 @@ def _rollout_mjx(scene: Scene, p: Plan, physics: Physics, devices: list, float64
     # one compile per batch shape (45-100 s on an H100): the per-device batch is rounded up to a power of
     # two, so batches of 65-128 rollouts share one program, 129-256 the next, ... (padding <= 2x)
     per_device = 1 << max(0, -(-n // nd) - 1).bit_length()
-    # on a CPU a device batch of 128 or more hangs MJX (DESIGN.md): run chunks of <= 64 per device,
+    # on a CPU a device batch of 128 or more hangs MJX : run chunks of <= 64 per device,
     # every chunk padded to the same shape (one compile)
     if devices[0].platform == "cpu":
         per_device = min(per_device, MJX_CPU_MAX_BATCH)
@@ -409,7 +409,7 @@ _MJX_CACHE: "weakref.WeakKeyDictionary[Scene, dict]" = weakref.WeakKeyDictionary
 
 #: XLA's switch for deterministic scatters on a GPU. Without it two MJX calls on the same inputs return
 #: different labels there (an H100, 512 hammer rollouts: the peak torques differed between two calls; with
-#: it they were bit for bit equal; BENCHMARKS.md, "GPU"), so a dataset would not be reproducible. XLA
+#: it they were bit for bit equal; docs/benchmarks.md, "GPU"), so a dataset would not be reproducible. XLA
 #: reads XLA_FLAGS once, when JAX starts its backend: set it before (`request_deterministic_gpu`).
 DETERMINISTIC_GPU_FLAG = "--xla_gpu_deterministic_ops=true"
 _DETERMINISM_FLAGS = ("--xla_gpu_deterministic_ops", "--xla_gpu_exclude_nondeterministic_ops")
@@ -806,7 +806,7 @@ def _simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics,
 
 
 def default_backend() -> str:
-    """'mjx' on an accelerator, 'native' on a CPU (DESIGN.md: MJX is 240-430x slower on this CPU)."""
+    """'mjx' on an accelerator, 'native' on a CPU (docs/design.md: MJX is 240-430x slower on this CPU)."""
     return "native" if jax.default_backend() == "cpu" else "mjx"
 
 

@@ -38,7 +38,6 @@ from itup_jax.tool import Tool
 from itup_jax.trajectory import Profile, Trajectory, sample_pose_fn
 
 
-
 def __getattr__(name: str):
     """`TASK_KINDS` (the registered kinds) and `DEFAULT_TOOL` (kind -> built-in tool), read from the
     registry each time, so a kind registered later is listed too."""

@@ -5,8 +5,6 @@ Everything in itup-jax is SI: metres, kilograms, seconds, newtons, newton-metres
 
 from __future__ import annotations
 
-import math
-
 # --- Physics -------------------------------------------------------------------------------------
 #: Standard gravity, m/s^2 (CGPM 1901 conventional value).
 STANDARD_GRAVITY = 9.80665

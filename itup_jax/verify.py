@@ -7,16 +7,16 @@
 
 SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick is often not
 the best, which is frequently a lone grasp well below the rest and usually among its first few
-(docs/results_history.md, "Session 12: verified picks"). Rolling the k best reachable ones out once each
+. Rolling the k best reachable ones out once each
 (k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and taking the lowest *measured*
 total finds it: on the unseen test tools the pick's measured total is a median 0 % above the lowest
-among all candidates (16 % for the scorer's own pick; session 21, README "Results"). With a torque-only
+among all candidates (16 % for the scorer's own pick, docs/results.md). With a torque-only
 `weights` the pick is the lowest measured torque, which on most tools is a grasp that fails the task.
 
 With `draws` r > 1 each shortlisted grasp is rolled out r times under r draws of the physical priors
 (`randomize`), and its measured total is the mean over them: a grasp that misses the task or slips out
 in one draw of three carries a third of that penalty. One nominal rollout cannot tell a grasp that does
-the task from one that does it only at the priors' nominal values (session 23, README "Results").
+the task from one that does it only at the priors' nominal values (docs/results.md).
 The measured total is the SDG-Net total (`ScoreWeights`)
 with each prediction replaced by what the rollout measured: projected peak torque (N m), slip (m),
 alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed in the grip
@@ -37,11 +37,12 @@ import numpy as np
 
 from itup_jax.errors import InputError, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.scene import Scene, build_scene
+from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.simulate import LABEL_FIELDS, Labels, Randomization, default_backend, reachability_in_order, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
+
 
 @dataclasses.dataclass(frozen=True)
 class Verified:

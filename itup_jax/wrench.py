@@ -3,7 +3,7 @@
 Per-example functions (one contact, one time step); batch them with `vmap` at the call site.
 SI units; world frame unless a name says otherwise.
 
-Physics (DESIGN.md, "Physics"):
+Physics (docs/design.md, "Physics"):
   lever arm for the impact   r = c_contact - c_com,   contact velocity  v_c = v + w x (c - p_origin)
   normal impulse             J = max(0, -(1 + e)(v_c . n)) / (1/m + 1/m_obj + n . [I^-1 (r x n)] x r)
   impact force               F = (J / dt) n

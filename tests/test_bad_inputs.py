@@ -7,7 +7,6 @@ import os
 
 import numpy as np
 import pytest
-import trimesh
 
 import itup_jax as itup
 from itup_jax.cli import EXIT_NO_PICK, main

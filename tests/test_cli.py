@@ -31,7 +31,6 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     # first ones are not, so it lies further down the ranking, every grasp above it unreachable
     import itup_jax as itup
     from itup_jax.simulate import reachable
-
     from itup_jax.task import DEFAULT_TOOL
 
     tool = itup.load_tool(DEFAULT_TOOL["reach"])

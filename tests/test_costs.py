@@ -1,4 +1,4 @@
-"""Cost laws (DESIGN.md C1-C4), gradients against finite differences, batching, the NumPy oracle."""
+"""Cost laws (docs/design.md, laws C1-C4), gradients against finite differences, batching, the NumPy oracle."""
 
 import dataclasses
 
@@ -7,13 +7,14 @@ import jax.numpy as jnp
 import jaxlie
 import numpy as np
 import pytest
+from transforms import move_tool_frame as _move_tool_frame
+from transforms import move_world as _move_world
 
 import itup_jax as itup
 from itup_jax.costs import CostParams, Regime, batched_wrench_costs, grasp_cost_trace, grasp_costs, wrench_costs_jit
 from itup_jax.grasp import Grasps, make_grasps
 from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
 from itup_jax.wrench import task_loads
-from transforms import move_tool_frame as _move_tool_frame, move_world as _move_world
 
 COST_NAMES = ("tau", "slip", "align", "total", "tau_closure")
 # Invariance and implementation-equivalence checks run in float64: only rounding separates the two

@@ -12,9 +12,17 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax.dataset import (MANIFEST, GenerateConfig, generate, load_dataset, load_datasets, load_shard, unit_tool,
-                              vary_tool)
 from itup_jax.cli import main
+from itup_jax.dataset import (
+    MANIFEST,
+    GenerateConfig,
+    generate,
+    load_dataset,
+    load_datasets,
+    load_shard,
+    unit_tool,
+    vary_tool,
+)
 
 SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1, contact="point")  # a fixture with 8+ valid rows
 

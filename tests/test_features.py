@@ -5,13 +5,13 @@ import jax.numpy as jnp
 import jaxlie
 import numpy as np
 import pytest
+from transforms import move_tool_frame as _move_tool_frame
+from transforms import move_world as _move_world
 
 import itup_jax as itup
 from itup_jax.features import FeatureSpec, density_field, exact_occupancy, grasp_features, occupancy, surface_sample
-from itup_jax.grasp import rotation_matrix
-from itup_jax.grasp import make_grasps
+from itup_jax.grasp import make_grasps, rotation_matrix
 from itup_jax.wrench import task_loads
-from transforms import move_tool_frame as _move_tool_frame, move_world as _move_world
 
 # float64, same computation on transformed inputs: rounding of ~0.3 m x 200 N products.
 INV_ATOL = 1e-9

@@ -1,7 +1,7 @@
 """The grasp frame convention and its adapters (GraspNet, MuJoCo)."""
 
-import jaxlie
 import jax.numpy as jnp
+import jaxlie
 import mujoco
 import numpy as np
 import pytest

@@ -11,8 +11,8 @@ import trimesh
 
 import itup_jax as itup
 from itup_jax import robot
-from itup_jax.grasp_sampler import SamplerConfig, SamplingError
 from itup_jax.grasp import gripper_boxes
+from itup_jax.grasp_sampler import SamplerConfig, SamplingError
 from itup_jax.tool import Box
 
 # Contact normals are read back from the nearest mesh face; on a 48-facet cylinder a point near a facet
@@ -172,7 +172,7 @@ def test_flat_pad_grasps_start_at_the_squeeze_and_do_not_turn(tasks):
     """In MuJoCo (nominal physics, the hammer): flat-pad grasps start with the pads the squeeze s inside
     the handle's capsule (r - r cos(pi/48) more, the mesh facets' sag), and the tool turns less than a
     degree in the pads over the settle. Point-contact grasps of the same tool start deeper and turn
-    several degrees (session 25: a median 4-9 degrees in the first 50 ms)."""
+    several degrees (a median 4-9 degrees in the first 50 ms)."""
     import dataclasses as dc
     import importlib
 

@@ -2,7 +2,7 @@
 
 On a CPU the precision changes nothing, so these tests read the lowered programs: each `dot_general`
 must carry precision HIGHEST. On an H100 the default (TF32) put the analytic costs 1.2e-2 relative from
-the float64 reference; HIGHEST put them 7.6e-6 from it (BENCHMARKS.md, "GPU").
+the float64 reference; HIGHEST put them 7.6e-6 from it (docs/benchmarks.md, "GPU").
 """
 
 import jax

@@ -125,8 +125,8 @@ def test_knock_scene_refuses_a_strike_off_the_top_block(tools):
 def test_a_tower_pushed_over_before_the_motion_is_no_knock(scenes, tasks):
     """Grasp 29 of 64 on the built-in mallet (seed 0, nominal physics) cannot hold the tool still: during
     the settle the tool droops in the pads onto the tower, 6 cm from its face, and pushes it over before
-    the swing starts. That is no knock; until session 24 it counted as one (the top block's move was
-    measured from the first step), with the low torque of a swing that meets nothing. Every other tower
+    the swing starts. That is no knock (measured from the first step it would count as one, with the low
+    torque of a swing that meets nothing). Every other tower
     stands still sideways through the settle (it sinks ~1.4 mm straight down into its soft contacts), and
     its label is whether the motion moved the top block 3 cm."""
     tool, task = tasks["knock"]
@@ -149,8 +149,8 @@ def test_a_tower_pushed_over_before_the_motion_is_no_knock(scenes, tasks):
 
 def test_strikes_leave_the_nail_within_its_travel(scenes, tasks):
     """The joint's range stops the nail head 1 mm above the board; no strike drives it further. Every
-    reachable grasp of 64 of the built-in hammer (seed 0, nominal physics); until session 22 the nail's
-    soft stop let the follow-through push it 20-50 mm."""
+    reachable grasp of 64 of the built-in hammer (seed 0, nominal physics); a soft stop would let the
+    follow-through push it 20-50 mm."""
     tool, task = tasks["hammer"]
     scene = scenes["hammer"]
     labels = itup.simulate(tool, task, itup.sample_grasps(tool, 64, seed=0), scene=scene, backend="native",

@@ -78,8 +78,8 @@ def test_checkpoint_gives_back_its_training_recipe(tmp_path):
     old = dataclasses.replace(model, spec={**model.spec, "config": {"hidden": [16], "lr": 1e-3}})
     assert old.train_config == TrainConfig(hidden=(16,), lr=1e-3)
     # the shipped recipe, what sdgnet_scaling / fidelity --train-model retrain: the recipe of the shipped
-    # checkpoint's last adaptation (session 32's reach step, `--finetune-epochs 150 --finetune-lr 1e-3
-    # --ema 0.999`; itup_jax/models/README.md)
+    # checkpoint's last adaptation (the reach step, `--finetune-epochs 150 --finetune-lr 1e-3
+    # --ema 0.999`; itup_jax/models/MODEL_CARD.md)
     shipped = load_model().train_config
     assert shipped.finetune_epochs == 150 and shipped.hidden == (128, 128, 128)
 

@@ -59,9 +59,9 @@ def test_sharded_mjx_labels_equal_unsharded():
 @pytest.mark.parametrize("n", [130])
 def test_cpu_mjx_batches_are_chunked_not_hung(n, monkeypatch):
     """A CPU batch above 64 per device is split into chunks of <= 64 (128 hangs MJX here)."""
-    import numpy as np
-
     import importlib
+
+    import numpy as np
 
     sim = importlib.import_module("itup_jax.simulate")  # the module (itup_jax.simulate is also a function name)
 

@@ -12,7 +12,7 @@ from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, reachable, samp
 # Static holding torque: the settled arm still creeps (servo residuals, pad creep): 1 %.
 STATIC_RTOL = 0.01
 # MJX runs in float64 (simulate.MJX_FLOAT64) but its contact solver differs in detail from the C one: raw peak torques agree
-# to ~10 % on firm grasps (DESIGN.md measured 3 % on a simpler scene), slip to a few mm, alignment
+# to ~10 % on firm grasps (docs/design.md measured 3 % on a simpler scene), slip to a few mm, alignment
 # drift to a few hundredths of a radian. Labels of grasps that slip (>5 mm) are chaotic and not compared.
 MJX_TORQUE_RTOL = 0.15
 MJX_SLIP_ATOL = 3e-3
@@ -140,7 +140,7 @@ def test_grasp_near_the_head_feels_less_torque_than_at_the_handle_end(hammer):
     (4.35 against 5.44 N m, where the rigid-body cost grows 3.3x; the projected peak rises from the head
     to mid-handle, then stays): the grip is compliant and the arm's servos, not the nail, stop the
     hammer. The raw peak, the sum of the static and the strike's torque vectors, follows no order
-    (4.07-4.99 N m over seven grasps along the handle, session 22).
+    (4.07-4.99 N m over seven grasps along the handle).
     """
     tool, task, scene = hammer
     g = make_grasps([[0.0, 0.0, 0.22], [0.0, 0.0, 0.06]], np.stack([R_FROM_SIDE] * 2), [0.029] * 2)
@@ -209,7 +209,7 @@ def test_bad_backend_is_refused(hammer):
 
 
 def test_mjx_agrees_with_native_mujoco(hammer):
-    """One small MJX compile in the default run (DESIGN.md: MJX on this CPU is slow; batch << 128)."""
+    """One small MJX compile in the default run (docs/design.md: MJX on this CPU is slow; batch << 128)."""
     tool, task, scene = hammer
     g = make_grasps([[0.0, 0.0, 0.20], [0.0, 0.0, 0.10]], np.stack([R_FROM_SIDE] * 2), [0.029] * 2)
     native = simulate(tool, task, g, scene=scene, randomize=None, backend="native").labels

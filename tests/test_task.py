@@ -106,7 +106,8 @@ def test_reach_works_with_the_hook_tip_clearance_above_the_table(tools, variant,
     meets the block's face. (Up to 0.7.0 the tool-frame origin sat at a fixed height, which drove this
     variant's hook 21 mm into the table.)"""
     from itup_jax.dataset import GenerateConfig, unit_tool
-    from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT, ReachParams
+    from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT
+    from itup_jax.tasks.reach import ReachParams
     tool = tools["l_stick"] if variant == 0 else unit_tool(GenerateConfig(seed=1), "reach", variant)[0]
     task = itup.make_task("reach", tool, clearance=clearance)
     v = np.asarray(tool.mesh.vertices)
@@ -125,6 +126,7 @@ def test_reach_works_with_the_hook_tip_clearance_above_the_table(tools, variant,
 def test_reach_block_height_is_the_scene_block():
     """The height `make_task('reach')` checks the hook's contact point against is the MJCF block's."""
     import mujoco
+
     from itup_jax.scene import scene_xml
     from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT
     spec = mujoco.MjSpec.from_file(str(scene_xml("reach")))

@@ -115,4 +115,4 @@ def timesteps() -> dict[str, float]:
 
 
 # The built-in kinds, in the order the CLI lists them. A new kind: one module, one line here.
-from itup_jax.tasks import hammer, sweep, knock, reach  # noqa: E402,F401
+from itup_jax.tasks import hammer, knock, reach, sweep  # noqa: E402,F401

@@ -21,8 +21,8 @@ import numpy as np
 from itup_jax import units
 from itup_jax.errors import InputError
 from itup_jax.task import R_HANDLE_X_FACE_DOWN, assemble, time_grid
-from itup_jax.trajectory import Profile, sample_pose_fn
 from itup_jax.tasks import TaskKind, register
+from itup_jax.trajectory import Profile, sample_pose_fn
 
 #: m, the block's height (`mjcf/scenes/reach.xml`): the hook must meet its face between 0 and this.
 BLOCK_HEIGHT = 0.06

@@ -18,8 +18,8 @@ import numpy as np
 from itup_jax import units
 from itup_jax.errors import InputError
 from itup_jax.task import assemble, rot, time_grid
-from itup_jax.trajectory import Profile, sample_pose_fn
 from itup_jax.tasks import TaskKind, register
+from itup_jax.trajectory import Profile, sample_pose_fn
 
 #: The debris cubes.
 DEBRIS = ("debris_0", "debris_1", "debris_2")
