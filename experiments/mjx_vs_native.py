@@ -214,7 +214,7 @@ def main(argv=None) -> dict:
            "precision": "float32" if a.mjx_float32 else "float64",  # MJX's; native MuJoCo is float64
            "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
            "xla_flags": os.environ.get("XLA_FLAGS", ""),
-           # MJX collides capsules with boxes by itup_jax.mjx_collision 
+           # MJX collides capsules with boxes by itup_jax.mjx_collision
            "mjx_capsule_box": "itup_jax.mjx_collision", "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)

@@ -6,6 +6,7 @@ Grasps for tools are chosen by minimising the wrench that the task trajectory in
   1-2 grounding (tool, target, contact and grasp region)  -> `tool` (Tool, load_tool), `task` (Omega)
   3   trajectory synthesis xi(t)                          -> `trajectory`, `task.make_task`
   4   grasp candidates G                                  -> `grasp` (frame), `grasp_sampler`
+  (planning: sample, score, the best reachable, verify)   -> `planning.plan_grasp`
   5   wrench-conditioned scoring                          -> `wrench` (physics), `costs`, `scoring` (SDG-Net),
                                                              `verify` (SDG-Net's shortlist checked in MuJoCo)
   6   execution along xi in MuJoCo                        -> `scene` (MjSpec composition), `ik`, `simulate`
@@ -34,6 +35,7 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
+from itup_jax.planning import GraspPlan, plan_grasp
 from itup_jax.scene import Scene, build_scene, task_timestep
 from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
 from itup_jax.simulate import Labels, Randomization, SimConfig, SimResult, simulate
@@ -62,4 +64,5 @@ __all__ = [
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
     "Scene", "TASK_TIMESTEP", "build_scene", "task_timestep", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
     "Scores", "ScoreWeights", "best_grasp", "score", "Verified", "best_grasp_verified", "tasks",
+    "GraspPlan", "plan_grasp",
 ]

@@ -19,9 +19,9 @@ nothing is half-written); 3 no acceptable grasp (`plan`: no candidate the arm ca
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
+import re
 import sys
 from typing import Any
 
@@ -96,101 +96,45 @@ def _load_tool_arg(args) -> Any:
 
 
 def cmd_plan(args) -> int:
+    """`itup plan`: `planning.plan_grasp` and a printout."""
     import itup_jax as itup
-    from itup_jax.grasp import to_graspnet
+    from itup_jax.planning import plan_grasp
 
-    for flag, v, lowest in (("--n", args.n, 1), ("--top", args.top, 1), ("--verify", args.verify, 0),
-                            ("--verify-draws", args.verify_draws, 1)):
-        if v < lowest:
-            raise_input(f"{flag} must be >= {lowest}, got {v}")
-    # several draws per grasp mean random physics (nominal physics rolls out the same every time)
-    physics = args.verify_physics or ("random" if args.verify_draws > 1 else "nominal")
-    if args.verify_draws > 1 and physics == "nominal":
-        raise_input(f"--verify-draws {args.verify_draws} needs --verify-physics random: under nominal physics "
-                    "every draw of a grasp rolls out the same")
-    if args.verify_draws > 1 and args.verify == 0:
-        raise_input("--verify-draws applies to the verified pick: give --verify K too")
-    if args.torque_first:
-        clash = [f"--{k.replace('_', '-')}" for k in ("w_tau", "w_slip", "w_align") if getattr(args, k) is not None]
-        if clash or args.scorer != "sdgnet":
-            raise_input("--torque-first sets SDG-Net's weights (torque alone, the task and grip penalties kept); "
-                        + (f"it cannot be combined with {', '.join(clash)}" if clash else f"not the {args.scorer!r} scorer's"))
     if args.json:
         _check_out_folder("--json", args.json)
     if args.scorer == "sdgnet":
         _check_model_arg(args)
+    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail") if getattr(args, k) is not None}
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
-    # the weights are the analytic cost's (CostParams) or SDG-Net's (ScoreWeights); each keeps its own
-    # defaults for a flag left out, and a baseline has none to take
-    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail") if getattr(args, k) is not None}
-    if given and args.scorer not in ("analytic", "sdgnet"):
-        raise_input(f"--{'/--'.join(k.replace('_', '-') for k in given)}: the {args.scorer!r} scorer has no "
-                    "weights (they apply to --scorer analytic or sdgnet)")
-    if {"w_task", "w_fail"} & set(given) and args.scorer == "analytic":
-        raise_input("--w-task/--w-fail weigh SDG-Net's predicted probabilities; the analytic cost has no such terms")
-    grasps = itup.sample_grasps(tool, args.n, seed=args.seed)
-    if args.scorer == "analytic":
-        params = itup.CostParams(**given)
-        weights = {k: float(getattr(params, k)) for k in ("w_tau", "w_slip", "w_align")}
-        costs = itup.wrench_costs(tool, task, grasps, params)
-    else:
-        from itup_jax.scoring import ScoreWeights
+    try:
+        plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=args.model, weights=given,
+                          torque_first=args.torque_first, top=args.top, verify=args.verify,
+                          verify_draws=args.verify_draws, verify_physics=args.verify_physics)
+    except itup.InputError as exc:  # the library's names for the options, written as the flags that set them
+        raise_input(_as_flags(str(exc).replace("plan_grasp: ", "")))
+    _print_plan(args, plan)
+    result = plan.to_json()
+    if args.json:
+        _atomic_write_json(args.json, result)
+        print(f"wrote {args.json}")
+    return 0 if plan.status == "ok" else EXIT_NO_PICK
 
-        # --torque-first: the preset, with --w-task/--w-fail if given (the others were refused above)
-        sw = ScoreWeights.torque_first(**given) if args.torque_first else ScoreWeights(**given)
-        weights = dataclasses.asdict(sw) if args.scorer == "sdgnet" else None
-        model = args.model if args.scorer == "sdgnet" and args.model else args.scorer
-        costs = itup.score(tool, task, grasps, model=model, seed=args.seed, weights=sw)
-    total = np.asarray(costs.total)
-    ranking = np.argsort(total, kind="stable")
-    order = ranking[: args.top]
-    regime = itup.classify_regime(tool, task)
-    gn = to_graspnet(grasps)
-    # whether the arm can follow the task trajectory with each listed grasp (closed-form IK; the scorers
-    # rank grasps, not the arm's reach): the pick is the best-scored reachable grasp, found by walking
-    # the ranking past the listed ones if need be
-    from itup_jax.simulate import reachability_in_order
 
-    reachable: dict[int, bool] = {}
-    pick_rank = None
-    for rank, (i, ok) in enumerate(reachability_in_order(task, grasps, ranking)):
-        reachable[i] = ok
-        if ok and pick_rank is None:
-            pick_rank = rank
-        if pick_rank is not None and rank + 1 >= len(order):
-            break
-    pick_rank = pick_rank or 0  # nothing reachable: the scorer's first stands, flagged
-    pick = int(ranking[pick_rank])
+_OPTION_NAMES = re.compile(r"(?<![\w-])(verify_draws|verify_physics|torque_first|w_tau|w_slip|w_align|w_task|w_fail|"
+                           r"verify|top|n)(?![\w])")
 
-    def row(i: int) -> dict[str, Any]:
-        return {
-            "index": int(i),
-            "p_tool_grasp_m": np.asarray(grasps.p_tool_grasp[i], float).round(6).tolist(),
-            "q_tool_grasp_wxyz": np.asarray(grasps.q_tool_grasp[i], float).round(6).tolist(),
-            "width_m": round(float(grasps.width[i]), 6),
-            "reachable": reachable.get(int(i)),
-            "graspnet_rotation_matrix": gn["rotation_matrix"][i].round(6).tolist(),
-            "costs": {k: round(float(getattr(costs, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
-                                                                          "p_success", "p_failed")
-                      if getattr(costs, k, None) is not None},
-        }
 
-    result = {
-        "schema": "itup.plan/4",
-        "task": args.task,
-        "tool": {"name": tool.name, "category": tool.category, "mass_kg": round(tool.mass, 6)},
-        "regime": regime.name.lower(),
-        "n_candidates": int(args.n),
-        "seed": args.seed,
-        "scorer": args.scorer,
-        "weights": weights,
-        "best": {**row(pick), "rank": pick_rank + 1},
-        "top": [row(i) for i in order],
-        "summary": {k: {"min": float(np.min(getattr(costs, k))), "median": float(np.median(getattr(costs, k))),
-                        "max": float(np.max(getattr(costs, k)))} for k in ("tau", "slip", "align", "total")},
-    }
-    print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {result['regime']} | "
+def _as_flags(message: str) -> str:
+    """A library message about keyword options, with each option named as the CLI flag that sets it."""
+    message = re.sub(r"weights \[([^\]]*)\]", lambda m: ", ".join(w.strip(" '") for w in m.group(1).split(",")), message)
+    return _OPTION_NAMES.sub(lambda m: "--" + m.group(1).replace("_", "-"), message)
+
+
+def _print_plan(args, plan) -> None:
+    """The ranking, the pick, the verification rollouts and what to try when there is no pick."""
+    tool, grasps, costs = plan.tool, plan.grasps, plan.scores
+    print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {plan.regime} | "
           f"{args.n} antipodal candidates (seed {args.seed}) | scorer {args.scorer}")
     # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
     # (N m, m, rad); the baselines' scores are dimensionless
@@ -200,94 +144,54 @@ def cmd_plan(args) -> int:
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
           + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
           + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
-    listed = [(rank, int(i)) for rank, i in enumerate(order)]
-    if pick_rank >= len(order):  # the pick lies below the listed ones: its row follows them
-        listed.append((pick_rank, pick))
+    listed = [(rank, int(i)) for rank, i in enumerate(plan.top)]
+    pick_rank, best = plan.pick_rank, plan.best_index
+    if pick_rank >= len(plan.top):  # the pick lies below the listed ones: its row follows them
+        listed.append((pick_rank, best))
+    marked = plan.status == "ok" and not args.verify
     for rank, i in listed:
-        c = row(i)["costs"]
-        if rank > len(order):  # a gap between the listed rows and the pick
+        c = plan.row(i)["costs"]
+        if rank > len(plan.top):  # a gap between the listed rows and the pick
             print(f"{'...':>4}")
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
-              + f"{c['total']:>9.3f} {'yes' if reachable[i] else 'no':>5}  "
+              + f"{c['total']:>9.3f} {'yes' if plan.reachable[i] else 'no':>5}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}"
-              f"{' <- pick' if i == pick and reachable[pick] and not args.verify else ''}")
-    status = "ok"
-    if not reachable[pick]:
-        status = "no_reachable_candidate"
-        result["advice"] = [f"sample more candidates (--n, now {args.n}) or another --seed",
-                            "widen the spec's grasp_region, or check the tool's size and frame",
-                            "the task's placement may put the tool out of the arm's reach: another task parameter"]
+              f"{' <- pick' if i == best and marked else ''}")
+    if plan.status == "no_reachable_candidate":
         print(f"no pick: none of the {args.n} candidates is reachable for the arm along the task (closed-form IK); "
-              + "; ".join(result["advice"]))
+              + "; ".join(plan.advice))
     elif pick_rank > 0:
         print(f"reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); the pick is "
               f"the best-scored reachable grasp (rank {pick_rank + 1}); --verify K rolls out the K best reachable ones")
-    s = result["summary"]
-    print(f"all candidates: C {s['total']['min']:.3f}..{s['total']['max']:.3f} (median {s['total']['median']:.3f})")
-    if args.verify > 0 and status == "ok":
-        from itup_jax.scoring import ScoreWeights
-        from itup_jax.simulate import Randomization
-        from itup_jax.verify import best_grasp_verified, measured_total
-
-        # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
-        # weights, whatever the scorer (the analytic cost's weights are for N, not m)
-        measure_w = sw if args.scorer == "sdgnet" else ScoreWeights()
-        draws = args.verify_draws
-        v = best_grasp_verified(tool, task, grasps, k=args.verify, draws=draws, seed=args.seed, scores=costs,
-                                weights=measure_w, randomize=None if physics == "nominal" else Randomization())
-        L = v.labels
-        per_rollout = measured_total(L, measure_w)
-        print(f"MuJoCo ({physics} physics{', seed ' + str(args.seed) if physics == 'random' else ''}"
-              f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
-              f"by the scorer: the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
-        print(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
-              f"{'failed':>6} {'success':>7} {'measured C':>10}")
-        rows = []
-        for r, i in enumerate(v.shortlist):
-            for d in range(draws):
-                j = r * draws + d
-                row_r = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[j]) for f in
-                         ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
-                          "alignment_drift", "failed", "success", "infeasible", "task_metric"))}
-                row_r["index"], row_r["draw"] = int(i), d
-                row_r["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
-                rows.append(row_r)
-                status = "ok" if row_r["valid"] else "diverged"
-                mean = (f"{v.measured_total[r]:>10.3f}{' *' if int(i) == v.index else ''}" if d == draws - 1 else "")
-                print(f"{(str(r + 1) if d == 0 else ''):>4} {(str(int(i)) if d == 0 else ''):>5} {status:>8} "
-                      f"{row_r['peak_torque_induced']:>11.3f} {row_r['peak_torque_projected']:>12.3f} "
-                      f"{1e3 * row_r['slip_translation']:>8.2f} {np.degrees(row_r['slip_rotation']):>7.2f} "
-                      f"{str(row_r['failed']):>6} {str(row_r['success']):>7} {mean}")
-        ahead = int(np.sum(total[v.unreachable] <= total[v.shortlist[-1]])) if len(v.shortlist) else len(v.unreachable)
-        if ahead:
-            print(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
-        if v.chosen_by == "score":
-            print("no rollout was valid: the scorer's pick stands (it may be unreachable)")
-        result["verified"] = {"k": args.verify, "draws": draws, "tried": len(v.shortlist), "backend": v.backend,
-                              "unreachable": [int(i) for i in v.unreachable],
-                              "physics": physics, "weights": dataclasses.asdict(measure_w),
-                              "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
-                                             for i, m in zip(v.shortlist, v.measured_total)],
-                              "chosen_by": v.chosen_by, "pick": {**row(v.index), "reachable": v.chosen_by == "measured" or None},
-                              "labels": rows}
-        # a verified pick must have done the task and held in every one of its rollouts
-        ok = [r["valid"] and r["success"] and not r["failed"] for r in rows if r["index"] == v.index]
-        if not ok or not all(ok):
-            status = "no_verified_success"
-            result["verified"]["pick"] = None
-            result["advice"] = [f"verify more grasps (--verify, now {args.verify}) or sample more (--n, now {args.n})",
-                                "another grasp region in the tool's spec (grasp_region)",
-                                "a stronger grip, or another tool: none of the rolled-out grasps did the task and held"]
-            print(f"no pick: none of the {len(v.shortlist)} verified grasps did the task and held in MuJoCo; "
-                  + "; ".join(result["advice"]))
-    result["status"] = status
-    if status != "ok":
-        result["best"] = None
-    if args.json:
-        _atomic_write_json(args.json, result)
-        print(f"wrote {args.json}")
-    return 0 if status == "ok" else EXIT_NO_PICK
+    total = np.asarray(costs.total)
+    print(f"all candidates: C {total.min():.3f}..{total.max():.3f} (median {float(np.median(total)):.3f})")
+    v = plan.verified
+    if v is None:
+        return
+    draws = plan.verify_draws
+    print(f"MuJoCo ({plan.physics} physics{', seed ' + str(args.seed) if plan.physics == 'random' else ''}"
+          f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
+          f"by the scorer: the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
+    print(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
+          f"{'failed':>6} {'success':>7} {'measured C':>10}")
+    for j, row in enumerate(plan.verify_rows):
+        r, d = divmod(j, draws)
+        i = row["index"]
+        status = "ok" if row["valid"] else "diverged"
+        mean = (f"{v.measured_total[r]:>10.3f}{' *' if i == v.index else ''}" if d == draws - 1 else "")
+        print(f"{(str(r + 1) if d == 0 else ''):>4} {(str(i) if d == 0 else ''):>5} {status:>8} "
+              f"{row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
+              f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
+              f"{str(row['failed']):>6} {str(row['success']):>7} {mean}")
+    ahead = int(np.sum(total[v.unreachable] <= total[v.shortlist[-1]])) if len(v.shortlist) else len(v.unreachable)
+    if ahead:
+        print(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
+    if v.chosen_by == "score":
+        print("no rollout was valid: the scorer's pick stands (it may be unreachable)")
+    if plan.status == "no_verified_success":
+        print(f"no pick: none of the {len(v.shortlist)} verified grasps did the task and held in MuJoCo; "
+              + "; ".join(plan.advice))
 
 
 def cmd_generate(args) -> int:

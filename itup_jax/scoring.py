@@ -200,11 +200,13 @@ def best_grasp(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, rea
     if not reachable_only:
         i = int(np.argmin(total))
         return i, grasps[i], s
-    from itup_jax.simulate import reachability_in_order  # MuJoCo's kinematics: imported only when asked
+    from itup_jax.planning import first_reachable
 
-    i = next((j for j, ok in reachability_in_order(task, grasps, np.argsort(total, kind="stable")) if ok), None)
-    if i is None:
+    ranking = np.argsort(total, kind="stable")
+    rank, _ = first_reachable(task, grasps, ranking)
+    if rank is None:
         raise InputError(f"best_grasp: none of the {len(grasps)} grasps is reachable for the arm along the "
                          f"{task.kind} task's trajectory (closed-form IK); sample more or other grasps")
+    i = int(ranking[rank])
     return i, grasps[i], s
 

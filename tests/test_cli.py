@@ -152,12 +152,12 @@ def test_importing_mjx_prints_nothing_to_stdout():
 
 
 @pytest.mark.parametrize("argv,match", [
-    (["plan", "--task", "hammer", "--n", "0"], "--n must be >= 1"),
-    (["plan", "--top", "0"], "--top must be >= 1"),
-    (["plan", "--verify", "-1"], "--verify must be >= 0"),
-    (["plan", "--verify", "2", "--verify-draws", "0"], "--verify-draws must be >= 1"),
+    (["plan", "--task", "hammer", "--n", "0"], "--n must be an integer >= 1"),
+    (["plan", "--top", "0"], "--top must be an integer >= 1"),
+    (["plan", "--verify", "-1"], "--verify must be an integer >= 0"),
+    (["plan", "--verify", "2", "--verify-draws", "0"], "--verify-draws must be an integer >= 1"),
     (["plan", "--verify-draws", "3"], "give --verify K too"),
-    (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics random"),
+    (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics 'random'"),
     (["plan", "--torque-first", "--w-slip", "1"], "cannot be combined with --w-slip"),
     (["plan", "--torque-first", "--scorer", "analytic"], "not the 'analytic' scorer's"),
     (["bench", "verify", "--draws", "0"], "--draws 0"),

@@ -1,0 +1,263 @@
+"""Planning a grasp for a task: sample, score, walk the ranking to the best grasp the arm can carry,
+and optionally check the best ones in MuJoCo. `itup plan` is this function and a printout.
+
+    plan = plan_grasp(tool, task, n=1000, verify=5)
+    plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
+    plan.pick              # index into plan.grasps of the recommended grasp (None unless status is "ok")
+    plan.to_json()         # the `itup.plan/4` document (itup_jax/schemas/plan.schema.json)
+
+Host-side orchestration: the scorers and the rollouts it calls jit themselves at their outer calls.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from itup_jax.errors import InputError
+from itup_jax.grasp import Grasps, to_graspnet
+from itup_jax.tool import Tool
+
+#: Candidates sampled by default.
+DEFAULT_N = 1000
+#: Ranking rows reported by default.
+DEFAULT_TOP = 5
+#: Statuses of a plan (`GraspPlan.status`).
+STATUSES = ("ok", "no_reachable_candidate", "no_verified_success")
+#: The measured labels reported per verification rollout.
+VERIFY_FIELDS = ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
+                 "alignment_drift", "failed", "success", "infeasible", "task_metric")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class GraspPlan:
+    """What `plan_grasp` found (host side).
+
+    Attributes:
+      grasps: the N sampled candidates.  scores: the scorer's `Scores` of them ([N] arrays).
+      ranking: [N] candidate indices by increasing total.  top: the first `top` of them.
+      reachable: {index: bool} for every candidate whose reachability was checked (closed-form IK).
+      pick_rank: 0-based rank of the best-scored reachable candidate (0 when none is).
+      pick: its index, or None when `status` is not "ok".
+      status: "ok", "no_reachable_candidate", or "no_verified_success" (with verification: none of the
+        verified grasps did the task and held in all of its rollouts).
+      advice: what to try when `status` is not "ok".
+      verified: `verify.Verified` of the MuJoCo check, or None.
+      verify_rows: one dict per verification rollout (`VERIFY_FIELDS`, index, draw, measured_total).
+      weights: the scorer's weights as given to it (None for a baseline).  measure_weights: the
+        `ScoreWeights` of the measured total (verification).  physics: "nominal" or "random".
+    """
+
+    tool: Tool
+    task: Any
+    grasps: Grasps
+    scores: Any
+    ranking: np.ndarray
+    top: np.ndarray
+    reachable: dict
+    pick_rank: int
+    pick: int | None
+    status: str
+    advice: tuple
+    n: int
+    seed: int
+    scorer: str
+    weights: dict | None
+    regime: str
+    graspnet_rotation: np.ndarray = None  # [N, 3, 3] the candidates' rotations in graspnetAPI's convention
+    verified: Any = None
+    verify_rows: tuple = ()
+    verify_k: int = 0
+    verify_draws: int = 1
+    measure_weights: Any = None
+    physics: str = "nominal"
+
+    @property
+    def best_index(self) -> int:
+        """The scorer's pick: the best-scored reachable candidate (the first when none is reachable)."""
+        return int(self.ranking[self.pick_rank])
+
+    def row(self, i: int) -> dict[str, Any]:
+        """The JSON row of candidate i: pose, width, reachability, graspnet rotation, scores."""
+        s = self.scores
+        return {
+            "index": int(i),
+            "p_tool_grasp_m": np.asarray(self.grasps.p_tool_grasp[i], float).round(6).tolist(),
+            "q_tool_grasp_wxyz": np.asarray(self.grasps.q_tool_grasp[i], float).round(6).tolist(),
+            "width_m": round(float(self.grasps.width[i]), 6),
+            "reachable": self.reachable.get(int(i)),
+            "graspnet_rotation_matrix": np.asarray(self.graspnet_rotation[i], float).round(6).tolist(),
+            "costs": {k: round(float(getattr(s, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
+                                                                      "p_success", "p_failed")
+                      if getattr(s, k, None) is not None},
+        }
+
+    def to_json(self) -> dict[str, Any]:
+        """The `itup.plan/4` document."""
+        import dataclasses as dc
+
+        s = self.scores
+        out = {
+            "schema": "itup.plan/4",
+            "task": self.task.kind,
+            "tool": {"name": self.tool.name, "category": self.tool.category, "mass_kg": round(self.tool.mass, 6)},
+            "regime": self.regime,
+            "n_candidates": int(self.n),
+            "seed": self.seed,
+            "scorer": self.scorer,
+            "weights": self.weights,
+            "best": {**self.row(self.best_index), "rank": self.pick_rank + 1} if self.status == "ok" else None,
+            "top": [self.row(i) for i in self.top],
+            "summary": {k: {"min": float(np.min(getattr(s, k))), "median": float(np.median(getattr(s, k))),
+                            "max": float(np.max(getattr(s, k)))} for k in ("tau", "slip", "align", "total")},
+            "status": self.status,
+        }
+        if self.advice:
+            out["advice"] = list(self.advice)
+        v = self.verified
+        if v is not None:
+            ok = self.status == "ok"
+            out["verified"] = {
+                "k": self.verify_k, "draws": self.verify_draws, "tried": len(v.shortlist), "backend": v.backend,
+                "unreachable": [int(i) for i in v.unreachable], "physics": self.physics,
+                "weights": dc.asdict(self.measure_weights),
+                "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
+                               for i, m in zip(v.shortlist, v.measured_total)],
+                "chosen_by": v.chosen_by,
+                "pick": {**self.row(v.index), "reachable": v.chosen_by == "measured" or None} if ok else None,
+                "labels": list(self.verify_rows),
+            }
+        return out
+
+
+def first_reachable(task, grasps: Grasps, ranking: np.ndarray, *, check_first: int = 0) -> tuple[int | None, dict]:
+    """(rank of the first reachable candidate of `ranking` or None, {index: reachable} of every candidate
+    checked). Walks the ranking in chunks (`simulate.reachability_in_order`) until a reachable one is
+    found and at least the first `check_first` are checked."""
+    from itup_jax.simulate import reachability_in_order  # MuJoCo's kinematics: imported only when asked
+
+    reachable: dict[int, bool] = {}
+    rank_found = None
+    for rank, (i, ok) in enumerate(reachability_in_order(task, grasps, ranking)):
+        reachable[i] = ok
+        if ok and rank_found is None:
+            rank_found = rank
+        if rank_found is not None and rank + 1 >= check_first:
+            break
+    return rank_found, reachable
+
+
+def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
+               weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
+               verify_draws: int = 1, verify_physics: str | None = None) -> GraspPlan:
+    """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
+
+    Args:
+      scorer: "sdgnet" (the checkpoint `model`, default the shipped one), "analytic", or a baseline.
+      weights: the total's weights: for "analytic" `CostParams` fields (w_tau, w_slip, w_align), for
+        "sdgnet" `ScoreWeights` fields (also w_task, w_fail); each keeps its default when left out.
+      torque_first: SDG-Net's total weighs torque alone with the task and grip penalties
+        (`ScoreWeights.torque_first`).
+      top: ranking rows to report (their reachability is checked too).
+      verify: K > 0 rolls the K best reachable out in MuJoCo and keeps the lowest measured total
+        (`verify.best_grasp_verified`); verify_draws R > 1 rolls each out under R draws of the priors
+        (verify_physics "random", the default then) and keeps the lowest mean.
+    Returns:
+      `GraspPlan`; its status says whether a grasp is recommended.
+    Raises:
+      InputError: an invalid option or combination, before any work.
+    """
+    import itup_jax as itup
+    from itup_jax.scoring import SCORERS, ScoreWeights
+
+    for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
+        if not isinstance(v, (int, np.integer)) or v < lowest:
+            raise InputError(f"plan_grasp: {flag} must be an integer >= {lowest}, got {v!r}")
+    if scorer not in SCORERS and not (scorer == "sdgnet" or model is not None):
+        raise InputError(f"plan_grasp: scorer {scorer!r}: unknown; choose from {', '.join(SCORERS)}")
+    physics = verify_physics or ("random" if verify_draws > 1 else "nominal")
+    if physics not in ("nominal", "random"):
+        raise InputError(f"plan_grasp: verify_physics must be 'nominal' or 'random', got {verify_physics!r}")
+    if verify_draws > 1 and physics == "nominal":
+        raise InputError(f"plan_grasp: verify_draws {verify_draws} needs verify_physics 'random': under nominal "
+                         "physics every draw of a grasp rolls out the same")
+    if verify_draws > 1 and verify == 0:
+        raise InputError("plan_grasp: verify_draws applies to the verified pick: give verify K too")
+    given = dict(weights or {})
+    if torque_first:
+        clash = [k for k in ("w_tau", "w_slip", "w_align") if k in given]
+        if clash or scorer != "sdgnet":
+            raise InputError("plan_grasp: torque_first sets SDG-Net's weights (torque alone, the task and grip "
+                             "penalties kept); " + (f"it cannot be combined with {', '.join(clash)}" if clash
+                                                    else f"not the {scorer!r} scorer's"))
+    if given and scorer not in ("analytic", "sdgnet"):
+        raise InputError(f"plan_grasp: weights {sorted(given)}: the {scorer!r} scorer has no weights (they apply "
+                         "to the analytic and sdgnet scorers)")
+    if {"w_task", "w_fail"} & set(given) and scorer == "analytic":
+        raise InputError("plan_grasp: w_task/w_fail weigh SDG-Net's predicted probabilities; the analytic cost "
+                         "has no such terms")
+
+    grasps = itup.sample_grasps(tool, n, seed=seed)
+    sw = None
+    if scorer == "analytic":
+        params = itup.CostParams(**given)
+        used = {k: float(getattr(params, k)) for k in ("w_tau", "w_slip", "w_align")}
+        scores = itup.wrench_costs(tool, task, grasps, params)
+    else:
+        sw = ScoreWeights.torque_first(**given) if torque_first else ScoreWeights(**given)
+        used = dataclasses.asdict(sw) if scorer == "sdgnet" else None
+        scores = itup.score(tool, task, grasps, model=model if scorer == "sdgnet" and model else scorer, seed=seed,
+                            weights=sw)
+    total = np.asarray(scores.total)
+    if not np.all(np.isfinite(total)):
+        bad = int(np.sum(~np.isfinite(total)))
+        raise InputError(f"plan_grasp: the {scorer!r} scorer gave {bad} of {n} candidates a non-finite score"
+                         + (f" (checkpoint {model!r})" if model else ""))
+    ranking = np.argsort(total, kind="stable")
+    order = ranking[:top]
+    rank_found, reachable = first_reachable(task, grasps, ranking, check_first=len(order))
+    regime = itup.classify_regime(tool, task).name.lower()
+    base = dict(tool=tool, task=task, grasps=grasps, scores=scores, ranking=ranking, top=order, reachable=reachable,
+                n=n, seed=seed, scorer=scorer, weights=used, regime=regime,
+                graspnet_rotation=np.asarray(to_graspnet(grasps)["rotation_matrix"]))
+    if rank_found is None:
+        advice = (f"sample more candidates (n, now {n}) or another seed",
+                  "widen the spec's grasp_region, or check the tool's size and frame",
+                  "the task's placement may put the tool out of the arm's reach: another task parameter")
+        return GraspPlan(**base, pick_rank=0, pick=None, status="no_reachable_candidate", advice=advice)
+    pick = int(ranking[rank_found])
+    if verify == 0:
+        return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
+
+    from itup_jax.scoring import ScoreWeights as SW
+    from itup_jax.simulate import Randomization
+    from itup_jax.verify import best_grasp_verified, measured_total
+
+    # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
+    # weights, whatever the scorer (the analytic cost's weights are for N, not m)
+    measure_w = sw if scorer == "sdgnet" else SW()
+    v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
+                            weights=measure_w, randomize=None if physics == "nominal" else Randomization())
+    L = v.labels
+    per_rollout = measured_total(L, measure_w)
+    rows = []
+    for r, i in enumerate(v.shortlist):
+        for d in range(verify_draws):
+            j = r * verify_draws + d
+            row = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[j]) for f in VERIFY_FIELDS)}
+            row["index"], row["draw"] = int(i), d
+            row["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
+            rows.append(row)
+    # a verified pick must have done the task and held in every one of its rollouts
+    mine = [r["valid"] and r["success"] and not r["failed"] for r in rows if r["index"] == v.index]
+    status, advice = "ok", ()
+    if not mine or not all(mine):
+        status = "no_verified_success"
+        advice = (f"verify more grasps (verify, now {verify}) or sample more (n, now {n})",
+                  "another grasp region in the tool's spec (grasp_region)",
+                  "a stronger grip, or another tool: none of the rolled-out grasps did the task and held")
+    return GraspPlan(**base, pick_rank=rank_found, pick=int(v.index) if status == "ok" else None, status=status,
+                     advice=advice, verified=v, verify_rows=tuple(rows), verify_k=verify, verify_draws=verify_draws,
+                     measure_weights=measure_w, physics=physics)

@@ -1,0 +1,51 @@
+"""`plan_grasp`: the library function behind `itup plan`."""
+
+import numpy as np
+import pytest
+from jsonschema import validate
+
+import itup_jax as itup
+from itup_jax.planning import first_reachable
+from itup_jax.schemas import load_schema
+from itup_jax.simulate import reachable
+
+
+def test_the_pick_is_the_best_scored_reachable_candidate(tasks):
+    tool, task = tasks["reach"]
+    plan = itup.plan_grasp(tool, task, n=40, scorer="random", top=3)
+    assert plan.status == "ok" and plan.pick == plan.best_index
+    ok = reachable(task, plan.grasps[plan.ranking])
+    assert plan.pick_rank == int(np.argmax(ok)) and ok[plan.pick_rank]
+    assert all(plan.reachable[int(i)] == bool(reachable(task, plan.grasps[int(i)][None])[0]) for i in plan.top)
+    doc = plan.to_json()
+    validate(doc, load_schema("plan"))
+    assert doc["best"]["index"] == plan.pick and doc["best"]["rank"] == plan.pick_rank + 1
+    # scoring.best_grasp walks the same ranking to the same grasp
+    i, _, _ = itup.best_grasp(tool, task, plan.grasps, "random", reachable_only=True)
+    assert i == plan.pick
+
+
+def test_first_reachable_reports_none_when_nothing_is(tasks, monkeypatch):
+    import importlib
+
+    sim = importlib.import_module("itup_jax.simulate")
+
+    tool, task = tasks["knock"]
+    g = itup.sample_grasps(tool, 20, seed=0)
+    monkeypatch.setattr(sim, "reachable", lambda task, g: np.zeros(len(g), bool))
+    rank, checked = first_reachable(task, g, np.arange(20))
+    assert rank is None and len(checked) == 20 and not any(checked.values())
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(n=0), "n must be an integer >= 1"),
+    (dict(verify=2, verify_draws=2, verify_physics="nominal"), "verify_draws 2 needs verify_physics 'random'"),
+    (dict(verify_draws=2), "give verify K too"),
+    (dict(torque_first=True, scorer="analytic"), "not the 'analytic' scorer's"),
+    (dict(weights={"w_task": 1.0}, scorer="analytic"), "w_task/w_fail"),
+])
+def test_bad_options_are_refused_before_any_work(tasks, kw, match, monkeypatch):
+    tool, task = tasks["hammer"]
+    monkeypatch.setattr(itup, "sample_grasps", lambda *a, **k: pytest.fail("sampled before the check"))
+    with pytest.raises(itup.InputError, match=match):
+        itup.plan_grasp(tool, task, **kw)
