@@ -38,6 +38,10 @@ def load(path: str) -> tuple[list, dict[str, Any]]:
     if not os.path.exists(path):
         raise InputError(f"checkpoint {path!r}: file not found")
     if not zipfile.is_zipfile(path):  # before np.load, which would try a pickle and blame that
+        with open(path, "rb") as fh:
+            if fh.read(4) == b"PK\x03\x04":
+                raise InputError(f"checkpoint {path!r}: unreadable or truncated (an .npz archive's start without "
+                                 "its end)")
         raise InputError(f"checkpoint {path!r}: not a checkpoint (not an .npz archive: no zip header)")
     try:
         with np.load(path, allow_pickle=False) as z:

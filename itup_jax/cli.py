@@ -121,14 +121,17 @@ def cmd_plan(args) -> int:
     return 0 if plan.status == "ok" else EXIT_NO_PICK
 
 
-_OPTION_NAMES = re.compile(r"(?<![\w-])(verify_draws|verify_physics|torque_first|w_tau|w_slip|w_align|w_task|w_fail|"
-                           r"verify|top|n)(?![\w])")
+#: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
+PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail",
+                "verify", "top", "n")
 
 
-def _as_flags(message: str) -> str:
-    """A library message about keyword options, with each option named as the CLI flag that sets it."""
+def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
+    """A library message about keyword options, with each option in `names` written as the CLI flag that
+    sets it (`verify_draws` -> `--verify-draws`; `weights ['w_slip']` -> `--w-slip`)."""
     message = re.sub(r"weights \[([^\]]*)\]", lambda m: ", ".join(w.strip(" '") for w in m.group(1).split(",")), message)
-    return _OPTION_NAMES.sub(lambda m: "--" + m.group(1).replace("_", "-"), message)
+    pattern = re.compile(r"(?<![\w-])(" + "|".join(map(re.escape, names)) + r")(?![\w])")
+    return pattern.sub(lambda m: "--" + m.group(1).replace("_", "-"), message)
 
 
 def _print_plan(args, plan) -> None:
@@ -217,44 +220,14 @@ def cmd_generate(args) -> int:
     return 0
 
 
-def _datasets_spec(folders, manifests) -> list[dict]:
-    """What a checkpoint records of the datasets it was trained on."""
-    from itup_jax.dataset import dataset_timesteps, split_dataset_arg
-
-    split = [split_dataset_arg(a) for a in folders]
-    return [{"folder": os.path.abspath(d), "tasks": list(t) if t else None, "config": m["config"],
-             "timesteps": dataset_timesteps(m), "totals": m.get("totals"), "code_version": m["code_version"]}
-            for (d, t), m in zip(split, manifests)]
-
-
-def _predicted_targets(flag: str, path: str, model, data: dict, feature_spec: dict, outputs=None) -> dict:
-    """`data` with `model`'s predictions of the rows as the targets (`sdgnet.teacher_targets`, all outputs
-    or `outputs`), after refusing a checkpoint whose features were made with another `FeatureSpec` than
-    the datasets' (named by `flag` and `path` in the message)."""
-    from itup_jax.sdgnet import teacher_targets
-
-    if model.spec["feature_spec"] != feature_spec:
-        raise_input(f"{flag} {path!r}: its features were made with {model.spec['feature_spec']}, "
-                    f"the datasets' with {feature_spec}")
-    return teacher_targets(data, model, outputs=outputs)
-
-
-def _teacher_record(path: str, teacher) -> dict:
-    """What a distilled checkpoint's spec keeps of its teacher (`spec["teacher"]`)."""
-    return {"file": os.path.abspath(path), "ensemble_size": teacher.ensemble_size, "command": teacher.spec.get("command")}
-
-
-def _load_training_data(paths: list[str]) -> tuple[dict, list[dict]]:
-    """`dataset.load_datasets` for `itup train`, its own warnings (UserWarning: a shard found in two
-    folders, read once) printed as one line each on stderr instead of Python's warning format; any other
-    warning shown as Python would show it."""
+def _library_warnings_on_stderr(fn, *args, **kwargs):
+    """Call fn; its own UserWarnings (e.g. a shard found in two dataset folders, read once) printed as one
+    line each on stderr instead of Python's warning format; any other warning shown as Python would."""
     import warnings
-
-    from itup_jax.dataset import load_datasets
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
-        out = load_datasets(paths)
+        out = fn(*args, **kwargs)
     for w in caught:
         if w.category is UserWarning:
             print(f"itup train: note: {w.message}", file=sys.stderr)
@@ -264,8 +237,10 @@ def _load_training_data(paths: list[str]) -> tuple[dict, list[dict]]:
 
 
 def _cmd_adapt(args) -> int:
-    """`itup train --init M.npz`: continue training a checkpoint on new data (`sdgnet.adapt`)."""
-    from itup_jax.sdgnet import adapt, load_model, save_model
+    """`itup train --init M.npz`: continue training a checkpoint on new data (`training.adapt_on_datasets`)."""
+    from itup_jax.errors import InputError
+    from itup_jax.sdgnet import save_model
+    from itup_jax.training import adapt_on_datasets
 
     fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
                             ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
@@ -276,35 +251,16 @@ def _cmd_adapt(args) -> int:
     if fixed:
         raise_input(f"--init: the recipe is the checkpoint's own; {', '.join(fixed)} cannot change it "
                     f"(--finetune-epochs, --finetune-lr, --patience, --ema and --seed set the adaptation)")
-    model = load_model(args.init)  # checked before any data is read
-    if args.teacher is not None and args.keep is not None:
-        raise_input("--teacher and --keep both replace the rows' labels with a checkpoint's predictions; give one")
-    teacher = load_model(args.teacher) if args.teacher is not None else None
-    keep = None
-    if args.keep is not None:
-        from itup_jax.sdgnet import COST_NAMES
-
-        keep = tuple(k for k in args.keep.split(",") if k.strip())
-        heads = COST_NAMES + tuple(model.head_names)
-        if not keep or set(keep) - set(heads):
-            raise_input(f"--keep {args.keep!r}: comma-separated outputs of {args.init!r}, some of {', '.join(heads)}")
-    epochs = args.finetune_epochs if args.finetune_epochs is not None else (model.train_config.finetune_epochs or 60)
-    data, manifests = _load_training_data(args.data)
-    fs = manifests[0]["config"]["feature_spec"]
-    if keep is not None:  # these outputs are held at the checkpoint's own predictions
-        data = _predicted_targets("--init", args.init, model, data, fs, outputs=keep)
-    if teacher is not None:  # distil while adapting: every output towards the teacher's predictions of the rows
-        data = _predicted_targets("--teacher", args.teacher, teacher, data, fs)
-    out = adapt(model, data, epochs=epochs, lr=args.finetune_lr, seed=args.seed, patience=args.patience,
-                ema=args.ema, feature_spec=fs, progress=not args.quiet)
-    out.spec["adapted_from"]["file"] = os.path.abspath(args.init)
-    if keep is not None:
-        out.spec["adapted_from"]["kept"] = list(keep)
-    if teacher is not None:
-        out.spec["teacher"] = _teacher_record(args.teacher, teacher)
-    out.spec["datasets"] = _datasets_spec(args.data, manifests)
-    out.spec["command"] = _command_line()
+    keep = None if args.keep is None else tuple(k.strip() for k in args.keep.split(",") if k.strip())
+    try:
+        out = _library_warnings_on_stderr(
+            adapt_on_datasets, args.init, args.data, epochs=args.finetune_epochs, lr=args.finetune_lr,
+            seed=args.seed, patience=args.patience, ema=args.ema, keep=keep, teacher=args.teacher,
+            progress=not args.quiet, command=_command_line())
+    except InputError as exc:
+        raise_input(_as_flags(str(exc).replace("adapt: ", ""), names=("keep", "teacher")))
     save_model(args.out, out)
+    epochs = out.spec["adapted_from"].get("epochs", args.finetune_epochs)
     kept = [k for k, e in out.spec.get("by_task", {"all": out.spec}).items() if e.get("best_epoch", 0) < 0]
     print(f"wrote {args.out}: {args.init} adapted (up to {epochs} epochs per network, early stopping); best "
           f"validation loss {out.spec['best_val_loss']:.4f} on the new data's held-out tools"
@@ -313,7 +269,9 @@ def _cmd_adapt(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from itup_jax.sdgnet import TrainConfig, save_model, train
+    """`itup train`: `training.train_on_datasets` (or, with --init, `adapt_on_datasets`) and a printout."""
+    from itup_jax.sdgnet import TrainConfig, save_model
+    from itup_jax.training import train_on_datasets
 
     _check_out_folder("--out", args.out)  # before training, not after
     if args.init:
@@ -335,20 +293,8 @@ def cmd_train(args) -> int:
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
-    teacher = None
-    if args.teacher:
-        from itup_jax.sdgnet import load_model
-
-        teacher = load_model(args.teacher)  # checked before any data is read
-    data, manifests = _load_training_data(args.data)
-    fs = manifests[0]["config"]["feature_spec"]  # load_datasets refuses datasets of different specs
-    if teacher is not None:  # the teacher's predictions are the targets
-        data = _predicted_targets("--teacher", args.teacher, teacher, data, fs)
-    model = train(data, cfg, feature_spec=fs, progress=not args.quiet)
-    if teacher is not None:
-        model.spec["teacher"] = _teacher_record(args.teacher, teacher)
-    model.spec["datasets"] = _datasets_spec(args.data, manifests)
-    model.spec["command"] = _command_line()
+    model = _library_warnings_on_stderr(train_on_datasets, args.data, cfg, teacher=args.teacher,
+                                        progress=not args.quiet, command=_command_line())
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
@@ -357,98 +303,100 @@ def cmd_train(args) -> int:
 
 
 def cmd_ensemble(args) -> int:
-    from itup_jax.sdgnet import ensemble, load_model, save_model
+    """`itup ensemble`: `training.ensemble_of` and a printout."""
+    from itup_jax.sdgnet import save_model
+    from itup_jax.training import ensemble_of
 
     _check_out_folder("--out", args.out)
     if os.path.abspath(args.out) in {os.path.abspath(m) for m in args.models}:
         raise_input(f"--out {args.out!r} is one of the --models; write the ensemble to a new file")
-    model = ensemble([load_model(m) for m in args.models])
-    model.spec["ensemble"]["files"] = [os.path.abspath(m) for m in args.models]
-    model.spec["command"] = _command_line()
+    model = ensemble_of(args.models, command=_command_line())
     save_model(args.out, model)
     print(f"wrote {args.out}: an ensemble of {model.ensemble_size} SDG-Nets (their log costs and probabilities "
           f"averaged; {model.ensemble_size}x the MLP's cost per candidate)")
     return 0
 
 
-def _given(value, default):
-    """A benchmark's own default for an option left out (each benchmark has its own --n and --repeats)."""
-    return default if value is None else value
+def _ints(flag: str, text: str, lowest: int) -> tuple[int, ...]:
+    """Comma-separated integers >= lowest, or a clear error naming the flag."""
+    try:
+        values = tuple(int(t) for t in text.split(",") if t.strip())
+    except ValueError:
+        values = ()
+    if not values or min(values) < lowest:
+        raise_input(f"{flag} must be comma-separated integers >= {lowest}, got {text!r}")
+    return values
 
 
-def cmd_bench(args) -> int:
+def cmd_bench_costs(args) -> int:
     from itup_jax.bench import bench_costs
 
-    if args.what == "rollout":
-        from itup_jax.bench import bench_rollout
+    if args.n < 1 or args.t < 8:
+        raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {args.n} --t {args.t}")
+    res = bench_costs(n=args.n, t=args.t, repeats=args.repeats, task_kind=args.task)
+    print(json.dumps(res) if args.json else
+          f"costs: n={res['n']} t={res['t']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.1f} ms "
+          f"(numpy {res['numpy_ms']:.1f} ms, x{res['speedup_vs_numpy']}) on {res['machine']['cpu']}")
+    return 0
 
-        batches = tuple(int(b) for b in args.mjx_batches.split(",") if b) if args.mjx_batches else ()
-        try:
-            threads = tuple(int(t) for t in args.threads.split(",") if t)
-        except ValueError:
-            threads = ()
-        if not threads or min(threads) < 1:
-            raise_input(f"bench rollout: --threads must be comma-separated integers >= 1, got {args.threads!r}")
-        n = _given(args.n, 64)
-        if not 1 <= n <= 256:
-            raise_input(f"bench rollout: --n must be in 1..256, got {n}")
-        res = bench_rollout(n=n, threads=threads, mjx_batches=batches, mjx_steps=args.mjx_steps,
-                            repeats=_given(args.repeats, 9))
-        nt = threads[-1]
-        print(json.dumps(res) if args.json else
-              f"rollout: raw {res[f'raw_steps_per_s_threads{nt}']} steps/s, labels "
-              f"{res[f'label_steps_per_s_threads{nt}']} steps/s (x{res[f'label_over_raw_threads{nt}']}) on {nt} "
-              f"threads; mjx {res['mjx']}")
-        return 0
-    if args.what == "score":
-        from itup_jax.bench import bench_score
 
-        n = _given(args.n, 10_000)
-        if n < 1:
-            raise_input(f"bench score: --n must be >= 1, got {n}")
-        res = bench_score(n=n, repeats=max(_given(args.repeats, 10), 1) * 2, task_kind=args.task, model=args.model)
-        print(json.dumps(res) if args.json else
-              f"score: n={res['n']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.2f} ms "
-              f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
-              f"{res['matmul_flops_per_s']:.3g}) on {res['machine']['cpu']}")
-        return 0
-    if args.what == "verify":
-        from itup_jax.bench import bench_verify
+def cmd_bench_rollout(args) -> int:
+    from itup_jax.bench import bench_rollout
 
-        n = _given(args.n, 1000)
-        if n < 1 or args.k < 1 or args.draws < 1:
-            raise_input(f"bench verify: need --n, --k and --draws >= 1, got --n {n} --k {args.k} --draws {args.draws}")
-        res = bench_verify(n=n, k=args.k, repeats=max(_given(args.repeats, 10) // 2, 1), model=args.model,
-                           draws=args.draws, torque_first=args.torque_first)
-        print(json.dumps(res) if args.json else "\n".join(
-            f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
-            f"scoring {n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
-            f"{r['scene_build_s']:.2f} s" for r in res["tasks"]))
-        return 0
-    if args.what == "sample":
-        from itup_jax.bench import bench_sample
+    batches = _ints("bench rollout: --mjx-batches", args.mjx_batches, 1) if args.mjx_batches else ()
+    threads = _ints("bench rollout: --threads", args.threads, 1)
+    if not 1 <= args.n <= 256:
+        raise_input(f"bench rollout: --n must be in 1..256, got {args.n}")
+    res = bench_rollout(n=args.n, threads=threads, mjx_batches=batches, mjx_steps=args.mjx_steps, repeats=args.repeats)
+    nt = threads[-1]
+    print(json.dumps(res) if args.json else
+          f"rollout: raw {res[f'raw_steps_per_s_threads{nt}']} steps/s, labels "
+          f"{res[f'label_steps_per_s_threads{nt}']} steps/s (x{res[f'label_over_raw_threads{nt}']}) on {nt} "
+          f"threads; mjx {res['mjx']}")
+    return 0
 
-        n = _given(args.n, 4096)
-        if n < 1:
-            raise_input(f"bench sample: --n must be >= 1, got {n}")
-        res = bench_sample(n=n, repeats=max(_given(args.repeats, 10) // 3, 1))
-        print(json.dumps(res) if args.json else "\n".join(
-            f"sample {r['task']:6s}: {n} grasps in {r['warm_s']:.2f} s warm ({r['grasps_per_s']} grasps/s; first call "
-            f"{r['first_call_s']:.2f} s); collision kernel {r['kernel_chunk_ms']:.1f} ms per {res['chunk']} candidates x "
-            f"{r['surface_points']} points vs {r['dot_kernel_chunk_ms']:.1f} ms as a batched dot (x{r['kernel_speedup']}, "
-            f"{'same' if r['kernels_agree'] else 'DIFFERENT'} hits)" for r in res["tasks"]))
-        return 0
-    if args.what != "costs":
-        raise_input(f"bench {args.what!r}: unknown benchmark; available: costs, rollout, score, verify, sample")
-    n = _given(args.n, 100_000)
-    if n < 1 or args.t < 8:
-        raise_input(f"bench costs: need --n >= 1 and --t >= 8, got --n {n} --t {args.t}")
-    res = bench_costs(n=n, t=args.t, repeats=_given(args.repeats, 10), task_kind=args.task)
-    if args.json:
-        print(json.dumps(res))
-    else:
-        print(f"costs: n={res['n']} t={res['t']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.1f} ms "
-              f"(numpy {res['numpy_ms']:.1f} ms, x{res['speedup_vs_numpy']}) on {res['machine']['cpu']}")
+
+def cmd_bench_score(args) -> int:
+    from itup_jax.bench import bench_score
+
+    if args.n < 1 or args.repeats < 1:
+        raise_input(f"bench score: --n and --repeats must be >= 1, got --n {args.n} --repeats {args.repeats}")
+    _check_model_arg(args)
+    res = bench_score(n=args.n, repeats=args.repeats, task_kind=args.task, model=args.model)
+    print(json.dumps(res) if args.json else
+          f"score: n={res['n']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.2f} ms "
+          f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
+          f"{res['matmul_flops_per_s']:.3g}) on {res['machine']['cpu']}")
+    return 0
+
+
+def cmd_bench_verify(args) -> int:
+    from itup_jax.bench import bench_verify
+
+    if args.n < 1 or args.k < 1 or args.draws < 1 or args.repeats < 1:
+        raise_input(f"bench verify: need --n, --k, --draws and --repeats >= 1, got --n {args.n} --k {args.k} "
+                    f"--draws {args.draws} --repeats {args.repeats}")
+    _check_model_arg(args)
+    res = bench_verify(n=args.n, k=args.k, repeats=args.repeats, model=args.model, draws=args.draws,
+                       torque_first=args.torque_first)
+    print(json.dumps(res) if args.json else "\n".join(
+        f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
+        f"scoring {args.n} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
+        f"{r['scene_build_s']:.2f} s" for r in res["tasks"]))
+    return 0
+
+
+def cmd_bench_sample(args) -> int:
+    from itup_jax.bench import bench_sample
+
+    if args.n < 1 or args.repeats < 1:
+        raise_input(f"bench sample: --n and --repeats must be >= 1, got --n {args.n} --repeats {args.repeats}")
+    res = bench_sample(n=args.n, repeats=args.repeats)
+    print(json.dumps(res) if args.json else "\n".join(
+        f"sample {r['task']:6s}: {args.n} grasps in {r['warm_s']:.2f} s warm ({r['grasps_per_s']} grasps/s; first call "
+        f"{r['first_call_s']:.2f} s); collision kernel {r['kernel_chunk_ms']:.1f} ms per {res['chunk']} candidates x "
+        f"{r['surface_points']} points vs {r['dot_kernel_chunk_ms']:.1f} ms as a batched dot (x{r['kernel_speedup']}, "
+        f"{'same' if r['kernels_agree'] else 'DIFFERENT'} hits)" for r in res["tasks"]))
     return 0
 
 
@@ -522,6 +470,7 @@ def cmd_demo(args) -> int:
     from itup_jax.evaluate import evaluate, feasible_candidates, reduction
     from itup_jax.mcap_log import write_rollout_mcap
     from itup_jax.plotting import plot_picks
+    from itup_jax.task import contact_motion
     from itup_jax.scene import build_scene
     from itup_jax.simulate import induced
 
@@ -567,7 +516,8 @@ def cmd_demo(args) -> int:
     traces = {m: (t_motion, np.hypot(d_tau[k, :, 0], d_tau[k, :, 2]), np.linalg.norm(tau[k, tr.plan.n_settle:], axis=-1))
               for k, m in enumerate(methods)}
     files["png"] = plot_picks(tool, picks, os.path.join(args.out, "picks.png"), traces=traces,
-                              title=f"{tool.name}, {args.task}: SDG-Net (red) vs force closure (blue)")
+                              title=f"{tool.name}, {args.task}: SDG-Net (red) vs force closure (blue)",
+                              motion=contact_motion(task))
     out = {"schema": "itup.demo/1", **res, "torque_reduction_vs_force_closure_pct": red, "files": files,
            "wall_s": round(time.perf_counter() - t_start, 2)}
     files["json"] = os.path.join(args.out, "demo.json")
@@ -600,17 +550,34 @@ def cmd_tools(args) -> int:
 
 def _add_verify_args(p: argparse.ArgumentParser, task_kinds) -> None:
     """Arguments shared by `evaluate` and `demo`: the tool and task, candidates, seeds, model."""
-    p.add_argument("--task", default="hammer", choices=task_kinds)
+    from itup_jax.evaluate import evaluate
+
+    p.add_argument("--task", default=task_kinds[0], choices=task_kinds)
     p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
     p.add_argument("--tool-spec", default=None)
-    p.add_argument("--n", type=int, default=256, help="reachable candidates every method chooses from")
-    p.add_argument("--seeds", type=int, default=5, help="randomised-physics rollouts per pick")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--n", type=int, default=_default(evaluate, "n"),
+                   help="reachable candidates every method chooses from (default %(default)s)")
+    p.add_argument("--seeds", type=int, default=_default(evaluate, "seeds"),
+                   help="randomised-physics rollouts per pick (default %(default)s)")
+    p.add_argument("--seed", type=int, default=_default(evaluate, "seed"))
     p.add_argument("--model", default=None, help="SDG-Net checkpoint (default: shipped)")
 
 
+def _default(fn, name: str):
+    """The default of `fn`'s keyword `name`: every CLI default is the library's."""
+    import inspect
+
+    return inspect.signature(fn).parameters[name].default
+
+
 def build_parser() -> argparse.ArgumentParser:
-    from itup_jax.evaluate import METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
+    from itup_jax import bench
+    from itup_jax.dataset import GenerateConfig
+    from itup_jax.evaluate import DEFAULT_METHODS, METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
+    from itup_jax.planning import plan_grasp
+    from itup_jax.sdgnet import TrainConfig
+
+    gen_defaults, train_defaults = GenerateConfig(), TrainConfig()
     from itup_jax.scene import TASK_TIMESTEP
     from itup_jax.scoring import SCORERS
     from itup_jax.task import TASK_KINDS
@@ -625,12 +592,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("plan", help="best reachable grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--task", default="hammer", choices=TASK_KINDS)
+    p.add_argument("--task", default=TASK_KINDS[0], choices=TASK_KINDS)
     p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
     p.add_argument("--tool-spec", default=None, help="TOML spec of a mesh tool")
-    p.add_argument("--n", type=int, default=1000, help="grasp candidates (default 1000)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--top", type=int, default=5, help="rows of the ranking to print (the pick, the best-scored reachable "
+    p.add_argument("--n", type=int, default=_default(plan_grasp, "n"), help="grasp candidates (default %(default)s)")
+    p.add_argument("--seed", type=int, default=_default(plan_grasp, "seed"))
+    p.add_argument("--top", type=int, default=_default(plan_grasp, "top"), help="rows of the ranking to print (the pick, the best-scored reachable "
                    "grasp, is printed too when it lies below them)")
     p.add_argument("--w-tau", type=float, default=None, help="weight of C_tau, 1/(N m) (default 1)")
     p.add_argument("--w-slip", type=float, default=None,
@@ -641,48 +608,72 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet: weight of the predicted probability of missing the task (default scoring.W_TASK)")
     p.add_argument("--w-fail", type=float, default=None,
                    help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
-    p.add_argument("--verify", type=int, default=0, metavar="K",
+    p.add_argument("--verify", type=int, default=_default(plan_grasp, "verify"), metavar="K",
                    help="roll the K best grasps out in MuJoCo and pick the lowest measured total (5 is a good choice)")
     p.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
                    help="physics of the --verify rollouts: the priors' nominal values (the default for one draw) or one "
                    "draw each from --seed (the default with --verify-draws > 1)")
-    p.add_argument("--verify-draws", type=int, default=1, metavar="R",
+    p.add_argument("--verify-draws", type=int, default=_default(plan_grasp, "verify_draws"), metavar="R",
                    help="roll each of the K grasps out R times under random physics; the pick has the lowest mean "
                    "measured total (default 1)")
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
-    p.add_argument("--scorer", default="sdgnet", choices=SCORERS,
+    p.add_argument("--scorer", default=_default(plan_grasp, "scorer"), choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/4)")
     p.set_defaults(fn=cmd_plan)
 
-    b = sub.add_parser("bench", help="benchmarks: costs, rollout, score, verify, sample")
-    b.add_argument("what", help="costs | rollout | score | verify | sample")
-    b.add_argument("--n", type=int, default=None,
-                   help="costs: grasps (default 100000); score: candidates (default 10000); rollout: rollouts "
-                   "(default 64); verify: candidates (default 1000); sample: grasps (default 4096)")
-    b.add_argument("--k", type=int, default=5, help="verify: verified grasps per pick (default 5)")
-    b.add_argument("--draws", type=int, default=1, help="verify: rollouts per verified grasp (> 1: random physics; "
-                   "default 1)")
-    b.add_argument("--torque-first", action="store_true", help="verify: the torque-first weights "
-                   "(ScoreWeights.torque_first; `itup plan --torque-first`)")
-    b.add_argument("--model", default=None, help="score: SDG-Net checkpoint (default: the shipped one)")
-    b.add_argument("--mjx-batches", default="1,16,64", help="rollout: MJX batch sizes ('' for none)")
-    b.add_argument("--mjx-steps", type=int, default=50, help="rollout: MJX steps timed per batch")
-    b.add_argument("--threads", default="1,2", help="rollout: native stepping threads to time, comma-separated")
-    b.add_argument("--t", type=int, default=64)
-    b.add_argument("--task", default="hammer", choices=TASK_KINDS)
-    b.add_argument("--repeats", type=int, default=None, help="timed repeats (default: each benchmark's own)")
-    b.add_argument("--json", action="store_true", help="print one JSON object")
-    b.set_defaults(fn=cmd_bench)
+    b = sub.add_parser("bench", help="benchmarks, each with its own flags: costs, rollout, score, verify, sample")
+    bsub = b.add_subparsers(dest="bench", required=True, metavar="BENCHMARK")
+
+    def bench_parser(name, fn, cmd, help_text):
+        bp = bsub.add_parser(name, help=help_text)
+        bp.add_argument("--json", action="store_true", help="print one JSON object")
+        bp.set_defaults(fn=cmd, _bench_fn=fn)
+        return bp
+
+    bp = bench_parser("costs", bench.bench_costs, cmd_bench_costs, "the analytic costs (one jit) against NumPy")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_costs, "n"), help="grasps (default %(default)s)")
+    bp.add_argument("--t", type=int, default=_default(bench.bench_costs, "t"), help="time steps (default %(default)s)")
+    bp.add_argument("--task", default=_default(bench.bench_costs, "task_kind"), choices=TASK_KINDS)
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_costs, "repeats"))
+    bp = bench_parser("rollout", bench.bench_rollout, cmd_bench_rollout,
+                      "hammer scene: raw native stepping, label generation, MJX")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_rollout, "n"), help="rollouts (default %(default)s)")
+    bp.add_argument("--threads", default=",".join(map(str, _default(bench.bench_rollout, "threads"))),
+                    help="native stepping threads to time, comma-separated (default %(default)s)")
+    bp.add_argument("--mjx-batches", default=",".join(map(str, _default(bench.bench_rollout, "mjx_batches"))),
+                    help="MJX batch sizes, comma-separated ('' for none; default %(default)s)")
+    bp.add_argument("--mjx-steps", type=int, default=_default(bench.bench_rollout, "mjx_steps"),
+                    help="MJX steps timed per batch (default %(default)s)")
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_rollout, "repeats"))
+    bp = bench_parser("score", bench.bench_score, cmd_bench_score, "SDG-Net scoring of n candidates (one jit)")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_score, "n"), help="candidates (default %(default)s)")
+    bp.add_argument("--task", default=_default(bench.bench_score, "task_kind"), choices=TASK_KINDS)
+    bp.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_score, "repeats"))
+    bp = bench_parser("verify", bench.bench_verify, cmd_bench_verify, "the verified pick's rollouts against scoring")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_verify, "n"), help="candidates (default %(default)s)")
+    bp.add_argument("--k", type=int, default=_default(bench.bench_verify, "k"),
+                    help="verified grasps per pick (default %(default)s)")
+    bp.add_argument("--draws", type=int, default=_default(bench.bench_verify, "draws"),
+                    help="rollouts per verified grasp (> 1: random physics; default %(default)s)")
+    bp.add_argument("--torque-first", action="store_true",
+                    help="the torque-first weights (ScoreWeights.torque_first; `itup plan --torque-first`)")
+    bp.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_verify, "repeats"))
+    bp = bench_parser("sample", bench.bench_sample, cmd_bench_sample, "the flat-pad sampler and its collision kernel")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_sample, "n"), help="grasps (default %(default)s)")
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_sample, "repeats"))
 
     gen = sub.add_parser("generate", help="label dataset: shards + manifest; resumes after a kill")
     gen.add_argument("--out", required=True, help="dataset folder (created; resumed if it holds a manifest)")
     gen.add_argument("--tasks", default=",".join(TASK_KINDS), help="comma-separated task kinds")
-    gen.add_argument("--tools-per-task", type=int, default=4, help="built-in tool + procedural variants")
-    gen.add_argument("--grasps", type=int, default=128, help="grasps (rollouts) per tool")
-    gen.add_argument("--seed", type=int, default=0)
+    gen.add_argument("--tools-per-task", type=int, default=gen_defaults.tools_per_task,
+                     help="built-in tool + procedural variants (default %(default)s)")
+    gen.add_argument("--grasps", type=int, default=gen_defaults.grasps, help="grasps (rollouts) per tool (default %(default)s)")
+    gen.add_argument("--seed", type=int, default=gen_defaults.seed)
     gen.add_argument("--backend", default=None, choices=["native", "mjx"],
                      help="default: mjx on an accelerator, native on a CPU. On a GPU machine native MuJoCo on its CPU "
                      "cores was faster for these scenes, and gives the CPU's labels (docs/benchmarks.md, GPU)")
@@ -691,10 +682,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="s, the simulator's integration step for every task (default: each task's, "
                      + ", ".join(f"{k} {v * 1e3:g} ms" for k, v in TASK_TIMESTEP.items())
                      + ": the coarsest whose labels converge, experiments/timestep_convergence.py)")
-    gen.add_argument("--variants", default="stretch", choices=["stretch", "parts"],
+    gen.add_argument("--variants", default=gen_defaults.variants, choices=["stretch", "parts"],
                      help="procedural tools: 'stretch' scales the whole built-in tool (every dataset before session "
                      "16), 'parts' varies the handle and the head independently (dataset.part_variant)")
-    gen.add_argument("--contact", default="flat", choices=["flat", "point"],
+    gen.add_argument("--contact", default=gen_defaults.contact, choices=["flat", "point"],
                      help="grasp sampler: 'flat' (the pads lie flat on the tool; grasp_sampler.py) or 'point' (antipodal "
                      "point contacts in the friction cone, every dataset up to code 0.5.0)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -725,14 +716,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="weight of the task-success head's cross-entropy; 0: no success head (default: TrainConfig's)")
     tr.add_argument("--failure-weight", type=float, default=None,
                     help="weight of the grip-failure head's cross-entropy; 0: no failure head (default: TrainConfig's)")
-    tr.add_argument("--epochs", type=int, default=200)
-    tr.add_argument("--batch", type=int, default=128)
-    tr.add_argument("--lr", type=float, default=2e-3)
-    tr.add_argument("--patience", type=int, default=25)
+    tr.add_argument("--epochs", type=int, default=train_defaults.epochs, help="(default %(default)s)")
+    tr.add_argument("--batch", type=int, default=train_defaults.batch, help="(default %(default)s)")
+    tr.add_argument("--lr", type=float, default=train_defaults.lr, help="peak learning rate (default %(default)s)")
+    tr.add_argument("--patience", type=int, default=train_defaults.patience,
+                    help="epochs without a better validation loss before stopping (default %(default)s)")
     tr.add_argument("--val-fraction", type=float, default=None,
                     help="share of the data's tools held out for validation and early stopping, in (0, 1) "
                          "(default: TrainConfig's, 0.25); the rest are trained on")
-    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--seed", type=int, default=train_defaults.seed)
     tr.add_argument("--finetune-epochs", type=int, default=None,
                     help="epochs of fine-tuning a copy of the shared network on each task's rows, one network per "
                          "task in the checkpoint; 0: the shared network alone (default: TrainConfig's, 0)")
@@ -778,7 +770,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("evaluate", help="each method's pick, measured in MuJoCo over randomised physics",
                         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_verify_args(ev, TASK_KINDS)
-    ev.add_argument("--methods", default="sdgnet,force_closure,geometric,random",
+    ev.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                     help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's "
                     f"{VERIFY_K} best rolled out under nominal physics, the best measured kept; sdgnet_verified_torque: its "
                     f"{VERIFY_TORQUE_K} best by the torque-first total, each under {VERIFY_TORQUE_DRAWS} draws of the priors)")

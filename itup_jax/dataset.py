@@ -58,6 +58,10 @@ from itup_jax.wrench import task_loads
 
 FORMAT = "itup.dataset/1"
 MANIFEST = "manifest.json"
+#: The version of the labels: what a row's labels mean (scenes, thresholds, measures). It changes only
+#: when labels change (CHANGELOG.md lists each change), not with the package's version. A dataset records
+#: it, and a folder of another label version refuses to resume (its rows would mean something else).
+LABEL_VERSION = "0.8.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
@@ -375,9 +379,11 @@ def _existing_shards(mpath: str, header: dict[str, Any]) -> list[dict]:
     if old_steps != header["timesteps"]:  # a default step changed since
         raise InputError(f"generate: {mpath} was simulated at {old_steps} s, this run would use "
                          f"{header['timesteps']} s; resuming would mix their labels: use a new folder")
-    if old.get("code_version") != __version__:  # labels may mean something else across versions
-        raise InputError(f"generate: {mpath} was made by itup-jax {old.get('code_version')}, this is "
-                         f"{__version__}; resuming would mix their shards: use a new folder")
+    old_labels = old.get("label_version", old.get("code_version"))  # older manifests: the code's version
+    if old_labels != LABEL_VERSION:  # labels mean something else across label versions
+        raise InputError(f"generate: {mpath} holds labels of version {old_labels} (made by itup-jax "
+                         f"{old.get('code_version')}), this code makes version {LABEL_VERSION}; resuming would mix "
+                         "their shards: use a new folder")
     return old["shards"]
 
 
@@ -447,6 +453,7 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
         os.makedirs(mcap_dir, exist_ok=True)
     mpath = os.path.join(out_dir, MANIFEST)
     header = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
+              "label_version": LABEL_VERSION,
               "label_fields": list(LABEL_FIELDS), "timesteps": {t: config.task_timestep(t) for t in config.tasks}}
     units = shard_units(config)
     own = units[process_index::process_count]

@@ -6,14 +6,19 @@
 
 Channels (JSON messages, each with a JSON Schema registered under the name Foxglove recognises):
   /tf            foxglove.FrameTransforms  world -> gripper (the grasp frame), world -> tool,
-                                           world -> target/<body> for every task object, per step
+                                           world -> target/<body> for every task object, and
+                                           world -> body/<name> for every arm and gripper link, per step
   /scene         foxglove.SceneUpdate      primitives attached to those frames (tool capsules/boxes,
-                                           the two pads, the task objects), once, frame-locked
+                                           the two pads, the task objects, the arm's and gripper's
+                                           links) and the static environment (table, board) in the
+                                           world frame, once, frame-locked
   /wrist_wrench  itup.WristWrench          force (N) and torque (N m) at the wrist F/T site, per step
   /pad_contact   itup.PadContact           normal force of each pad's strongest contact (N), per step
   /labels        itup.RolloutLabels        the rollout's labels, once at the end
 and an MCAP metadata record `itup.rollout` (task, tool, grasp, physics). Times are simulation time
-from the first recorded step, in nanoseconds. Files are written atomically; uncompressed (the
+from the first recorded step, in nanoseconds. The links' poses are the model's forward kinematics of the
+arm's joint angles, recovered by the closed-form IK (`ik.track`) from the flange pose that the recorded
+grasp frame gives: the arm as it was, not as it was commanded. Files are written atomically; uncompressed (the
 `mcap` package's compressors need extra dependencies), about 0.5 MB per rollout at the default
 decimation.
 """
@@ -140,6 +145,96 @@ def _capsule_entities(p0, p1, radius, color) -> tuple[list, list]:
     return [cyl], sph
 
 
+def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
+    """Foxglove cubes, cylinders and spheres of MuJoCo geoms: in their body's frame (the model's geom_pos,
+    geom_quat), or at `poses` [(pos, quat_wxyz)] when given. Planes become 2 mm slabs; meshes are skipped."""
+    out = {"cubes": [], "cylinders": [], "spheres": []}
+    G = mujoco.mjtGeom
+    for k, g in enumerate(geoms):
+        size = np.asarray(m.geom_size[g], float)
+        pos, quat = (m.geom_pos[g], m.geom_quat[g]) if poses is None else poses[k]
+        color = _rgba(*map(float, m.geom_rgba[g]))
+        kind = m.geom_type[g]
+        if kind == G.mjGEOM_BOX:
+            out["cubes"].append({"pose": _pose(pos, quat), "size": _v(2 * size), "color": color})
+        elif kind == G.mjGEOM_PLANE:
+            half = [size[0] or 0.6, size[1] or 0.6]
+            slab = np.asarray(pos, float) - _quat_rotate(quat, [0.0, 0.0, 0.001])
+            out["cubes"].append({"pose": _pose(slab, quat), "size": _v([2 * half[0], 2 * half[1], 0.002]),
+                                 "color": color})
+        elif kind == G.mjGEOM_CYLINDER:
+            d = 2 * float(size[0])
+            out["cylinders"].append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": 2 * float(size[1])},
+                                     "bottom_scale": 1.0, "top_scale": 1.0, "color": color})
+        elif kind == G.mjGEOM_CAPSULE:
+            axis = _quat_rotate(quat, [0.0, 0.0, float(size[1])])
+            c, sp = _capsule_entities(np.asarray(pos) - axis, np.asarray(pos) + axis, float(size[0]), color)
+            out["cylinders"] += c
+            out["spheres"] += sp
+        elif kind == G.mjGEOM_SPHERE:
+            d = 2 * float(size[0])
+            out["spheres"].append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": d}, "color": color})
+    return out
+
+
+def _quat_rotate(q_wxyz, v) -> np.ndarray:
+    """v [3] rotated by the unit quaternion q (w, x, y, z)."""
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, np.asarray(q_wxyz, float))
+    return R.reshape(3, 3) @ np.asarray(v, float)
+
+
+def robot_bodies(m: mujoco.MjModel) -> list[int]:
+    """The arm's and gripper's bodies with geoms of their own (`ur5e/...`, `gripper/...`)."""
+    return [b for b in range(1, m.nbody) if m.body(b).name.startswith(("ur5e/", "gripper/"))
+            and np.any(m.geom_bodyid == b)]
+
+
+def static_geoms(m: mujoco.MjModel) -> list[int]:
+    """Geoms fixed in the world that belong to neither the robot nor the tool: the table, a board."""
+    out = []
+    for g in range(m.ngeom):
+        b = int(m.geom_bodyid[g])
+        name = m.body(b).name
+        if m.body_weldid[b] == 0 and not name.startswith(("ur5e/", "gripper/")) and name != "tool":
+            out.append(g)
+    return out
+
+
+def robot_link_poses(scene: Scene, p_grasp: np.ndarray, q_grasp: np.ndarray, finger_qpos: np.ndarray):
+    """World poses of the robot's links at each step, from the recorded grasp frame's world pose
+    (p_grasp [S, 3], q_grasp [S, 4] wxyz): the flange pose, the closed-form IK tracked over the steps
+    from 'home', and the model's forward kinematics with the fingers at `finger_qpos` [2].
+    Returns (bodies [L], pos [S, L, 3], quat [S, L, 4]); rows where IK finds no solution are NaN."""
+    from itup_jax import ik
+    from itup_jax.robot import FLANGE_TO_GRASP, HOME_Q
+
+    m = scene.model
+    S = len(p_grasp)
+    R = np.zeros((S, 9))
+    for k in range(S):
+        mujoco.mju_quat2Mat(R[k], np.asarray(q_grasp[k], float))
+    T = np.tile(np.eye(4), (S, 1, 1))
+    T[:, :3, :3] = R.reshape(S, 3, 3)
+    T[:, :3, 3] = p_grasp
+    T_grasp_flange = np.eye(4)
+    T_grasp_flange[2, 3] = -FLANGE_TO_GRASP
+    q = ik.track(T @ T_grasp_flange, HOME_Q)  # [S, 6]
+    bodies = robot_bodies(m)
+    pos = np.full((S, len(bodies), 3), np.nan)
+    quat = np.full((S, len(bodies), 4), np.nan)
+    d = mujoco.MjData(m)
+    d.qpos[scene.finger_qpos] = finger_qpos
+    for k in range(S):
+        if not np.all(np.isfinite(q[k])):
+            continue
+        d.qpos[scene.arm_qpos] = q[k]
+        mujoco.mj_kinematics(m, d)
+        pos[k] = d.xpos[bodies]
+        quat[k] = d.xquat[bodies]
+    return bodies, pos, quat
+
+
 def _scene_update(scene: Scene, task: Task, width: float) -> dict:
     """Frame-locked primitives: the tool's collision primitives, the pads, the task objects' geoms."""
     m = scene.model
@@ -178,6 +273,21 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
                              "bottom_scale": 1.0, "top_scale": 1.0, "color": color})
         entities.append({"timestamp": _time(0), "frame_id": f"target/{body}", "id": body, "lifetime": _time(0),
                          "frame_locked": True, "cubes": cubes, "cylinders": cyls})
+    for b in robot_bodies(m):
+        name = m.body(b).name
+        prims = _geom_primitives(m, np.nonzero(m.geom_bodyid == b)[0])
+        entities.append({"timestamp": _time(0), "frame_id": f"body/{name}", "id": name, "lifetime": _time(0),
+                         "frame_locked": True, **prims})
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    geoms = static_geoms(m)
+    poses = []
+    for g in geoms:
+        qw = np.zeros(4)
+        mujoco.mju_mat2Quat(qw, d.geom_xmat[g])
+        poses.append((d.geom_xpos[g].copy(), qw))
+    entities.append({"timestamp": _time(0), "frame_id": "world", "id": "environment", "lifetime": _time(0),
+                     "frame_locked": True, **_geom_primitives(m, geoms, poses)})
     return {"deletions": [], "entities": entities}
 
 
@@ -222,11 +332,19 @@ def rollout_mcap_bytes(scene: Scene, task: Task, result: Any, index: int, *, eve
     force, torque = tr["gripper/wrist_force"][index], tr["gripper/wrist_torque"][index]
     pad = {s: tr[f"pad_{s}_contact"][index] for s in ("neg", "pos")}
     targets = [(b, tr[f"target/{b}_pos"][index], tr[f"target/{b}_quat"][index]) for b in target_bodies(task.kind)]
-    for seq, k in enumerate(range(0, len(t), every)):
+    steps = list(range(0, len(t), every))
+    grasp_world = [_grasp_pose_world(p_t[k], q_t[k], p_tg[k], q_tg[k]) for k in steps]
+    links, link_p, link_q = robot_link_poses(scene, np.array([g[0] for g in grasp_world]),
+                                             np.array([g[1] for g in grasp_world]),
+                                             result.plan.qpos0[index, scene.finger_qpos])
+    link_names = [scene.model.body(b).name for b in links]
+    for seq, k in enumerate(steps):
         ns = int(t_ns[k])
-        p_g, q_g = _grasp_pose_world(p_t[k], q_t[k], p_tg[k], q_tg[k])
+        p_g, q_g = grasp_world[seq]
         tfs = [_tf(ns, "world", "gripper", p_g, q_g), _tf(ns, "world", "tool", p_t[k], q_t[k])]
         tfs += [_tf(ns, "world", f"target/{b}", p[k], q[k]) for b, p, q in targets]
+        if np.all(np.isfinite(link_p[seq])):
+            tfs += [_tf(ns, "world", f"body/{name}", link_p[seq, j], link_q[seq, j]) for j, name in enumerate(link_names)]
         put("/tf", ns, {"transforms": tfs}, seq)
         put("/wrist_wrench", ns, {"timestamp": _time(ns), "frame_id": "gripper/ft_site", "force": _v(force[k]),
                                   "torque": _v(torque[k]), "torque_norm": float(np.linalg.norm(torque[k]))}, seq)

@@ -128,33 +128,129 @@ def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *,
     return save_figure(fig, path, dpi=100)
 
 
-def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = None, title: str | None = None) -> str:
-    """The tool with each method's picked grasp (gripper wireframe), and (with `traces`) each pick's
-    measured wrist torque over the motion. grasps: {method: Grasps of one}; traces: {method: (t [S] s,
-    projected [S] N m, raw [S] N m)}: the projected induced torque (`simulate.induced`'s (x, z) norm, the
-    labels' and C_tau's quantity; solid) and the raw torque norm, holding torque included (dotted).
-    Writes a PNG (atomically) and returns the path."""
+def _view_axes(tool: Tool) -> tuple[int, int]:
+    """The tool-frame plane a side view draws: (the axis across the handle that the contact normal leans
+    along, z). Hammer and mallet: x-z (the face normal is +x); broom: y-z; L-stick: x-z (its hook)."""
+    n = np.asarray(tool.contact_normal, float)
+    return (0, 2) if abs(n[0]) >= abs(n[1]) else (1, 2)
+
+
+def _silhouette(ax, tool: Tool, axes: tuple[int, int], colour: str = "0.8") -> None:
+    """The mesh projected on the plane of `axes`: every triangle filled (their union is the outline)."""
+    from matplotlib.collections import PolyCollection
+
+    tri = np.asarray(tool.mesh.vertices, float)[np.asarray(tool.mesh.faces)][:, :, list(axes)]
+    ax.add_collection(PolyCollection(tri, facecolors=colour, edgecolors=colour, linewidths=0.3))
+
+
+def _pad_outlines(g: Grasps, axes: tuple[int, int]) -> list[np.ndarray]:
+    """The two pads of a grasp (22 x 37.5 mm, at y = -+width/2 in the grasp frame) projected on `axes`:
+    [2] arrays [4, 2] of corners in the tool frame."""
+    from itup_jax.robot import PAD_LENGTH, PAD_WIDTH
+
+    R = np.asarray(g.rotation, float).reshape(3, 3)
+    p = np.asarray(g.p_tool_grasp, float).reshape(3)
+    w = float(np.asarray(g.width).reshape(()))
+    out = []
+    for side in (-1.0, 1.0):
+        c = np.array([[sx * PAD_WIDTH / 2, side * w / 2, sz * PAD_LENGTH / 2]
+                      for sx, sz in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+        out.append((p + c @ R.T)[:, list(axes)])
+    return out
+
+
+def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = None, title: str | None = None,
+               motion: np.ndarray | None = None) -> str:
+    """Each method's picked grasp on the tool, and (with `traces`) each pick's measured wrist torque over
+    the motion.
+
+    Left: a side view of the whole tool (tool frame, the plane of the handle and the contact normal) with
+    the contact point, the face's normal and, given `motion` [3] (the contact point's direction of motion
+    at contact, tool frame), the direction the tool moves; each pick as the outline of its two pads and
+    its approach axis. Middle: the same view zoomed on the picks, in mm, each pick with its own colour and
+    line style. Right: the torque traces, {method: (t [S] s, projected [S] N m, raw [S] N m)}: the
+    projected induced torque (`simulate.induced`'s (x, z) norm, the labels' and C_tau's quantity; solid)
+    and the raw torque norm, holding torque included (dotted).
+    grasps: {method: Grasps of one}. Writes a PNG (atomically) and returns the path."""
+    from matplotlib.ticker import MaxNLocator
+
     colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
-    ncol = 2 if traces else 1
-    fig = plt.figure(figsize=(6.5 * ncol, 5.0))
-    ax = fig.add_subplot(1, ncol, 1, projection="3d")
-    draw_mesh(ax, tool.mesh)
-    for (name, g), c in zip(grasps.items(), colours):
-        R = np.asarray(g.rotation, float).reshape(3, 3)
-        p = np.asarray(g.p_tool_grasp, float).reshape(3)
-        draw_gripper(ax, R, p, float(np.asarray(g.width).reshape(())) + 0.01, colour=c, lw=1.4)
-        ax.text(*(p + np.array([0.0, 0.0, 0.015])), name, color=c, fontsize=8)
-    _equal_axes(ax, np.asarray(tool.mesh.vertices))
-    ax.view_init(elev=15, azim=-50)
+    styles = ["-", "--", "-.", ":", "-", "--"]
+    axes = _view_axes(tool)
+    names = "xyz"
+    ncol = 3 if traces else 2
+    fig, axs = plt.subplots(1, ncol, figsize=(5.2 * ncol, 5.2), gridspec_kw={"width_ratios": [1, 1, 1.6][:ncol]})
+    verts = np.asarray(tool.mesh.vertices, float)[:, list(axes)]
+    cp = np.asarray(tool.contact_point, float)[list(axes)]
+    n2 = np.asarray(tool.contact_normal, float)[list(axes)]
+    span = float(np.ptp(verts, axis=0).max())
+    ax = axs[0]
+    _silhouette(ax, tool, axes)
+    for (name, g), c, ls in zip(grasps.items(), colours, styles):
+        for pad in _pad_outlines(g, axes):
+            ax.fill(*pad.T, facecolor=c, alpha=0.35, edgecolor=c, lw=1.2, ls=ls)
+    ax.plot(*cp, marker="*", ms=14, color="tab:orange", mec="k", mew=0.5, ls="none", label="contact point")
+    if np.linalg.norm(n2) > 1e-6:
+        d = 0.18 * span * n2 / np.linalg.norm(n2)
+        ax.annotate("", xy=cp + d, xytext=cp, arrowprops=dict(arrowstyle="-|>", color="tab:orange", lw=2))
+        ax.text(*(cp + 1.15 * d), "face", color="tab:orange", fontsize=9, ha="center", va="center")
+    if motion is not None:
+        m2 = np.asarray(motion, float)[list(axes)]
+        if np.linalg.norm(m2) > 1e-6:
+            d = 0.18 * span * m2 / np.linalg.norm(m2)
+            side = 0.08 * span * np.array([d[1], -d[0]]) / np.linalg.norm(d)  # beside the contact, not on it
+            start = cp - 1.2 * d + side
+            ax.annotate("", xy=start + d, xytext=start, arrowprops=dict(arrowstyle="-|>", color="k", lw=1.5, ls="--"))
+            ax.text(*(start + 0.5 * d + 0.8 * side), "motion", fontsize=9, ha="center", va="center")
+    lo, hi = verts.min(0) - 0.2 * span, verts.max(0) + 0.2 * span
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"tool {names[axes[0]]} (m)")
+    ax.set_ylabel(f"tool {names[axes[1]]} (m): along the handle")
+    ax.xaxis.set_major_locator(MaxNLocator(4))
+    ax.yaxis.set_major_locator(MaxNLocator(6))
     ax.set_title(title or f"{tool.name}: picked grasps", fontsize=9)
+    ax.legend(fontsize=8, loc="lower right")
+    # zoom on the picks, in mm
+    ax = axs[1]
+    pads = {name: _pad_outlines(g, axes) for name, g in grasps.items()}
+    pts = np.concatenate([np.concatenate(v) for v in pads.values()])
+    centre = pts.mean(0)
+    half = max(float(np.ptp(pts, axis=0).max()) / 2 + 0.015, 0.03)
+    tri = np.asarray(tool.mesh.vertices, float)[np.asarray(tool.mesh.faces)][:, :, list(axes)]
+    from matplotlib.collections import PolyCollection
+
+    ax.add_collection(PolyCollection(1e3 * (tri - centre), facecolors="0.85", edgecolors="0.85", linewidths=0.3))
+    for (name, g), c, ls in zip(grasps.items(), colours, styles):
+        for k, pad in enumerate(pads[name]):
+            ax.fill(*(1e3 * (pad - centre)).T, facecolor="none", edgecolor=c, lw=2, ls=ls,
+                    label=name if k == 0 else None)
+        R = np.asarray(g.rotation, float).reshape(3, 3)
+        o = (np.asarray(g.p_tool_grasp, float).reshape(3))[list(axes)] - centre
+        a = R[:, 2][list(axes)]  # the approach axis, from the palm to the fingertips
+        if np.linalg.norm(a) > 1e-6:
+            a = a / np.linalg.norm(a)
+            ax.annotate("", xy=1e3 * o, xytext=1e3 * (o - min(0.6 * half, 0.03) * a),
+                        arrowprops=dict(arrowstyle="-|>", color=c, lw=1.2, ls=ls))
+        ax.plot(*(1e3 * o), marker="o", ms=4, color=c)
+    ax.set_xlim(-1e3 * half, 1e3 * half)
+    ax.set_ylim(-1e3 * half, 1e3 * half)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"tool {names[axes[0]]} (mm, from the picks' centre)")
+    ax.set_ylabel(f"tool {names[axes[1]]} (mm)")
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.yaxis.set_major_locator(MaxNLocator(5))
+    ax.legend(fontsize=8, loc="upper left", title="pads; arrow: approach", title_fontsize=8)
+    ax.set_title("the picks, zoomed", fontsize=9)
     if traces:
-        ax2 = fig.add_subplot(1, 2, 2)
+        ax2 = axs[2]
         for (name, (t, projected, raw)), c in zip(traces.items(), colours):
-            ax2.plot(t, projected, color=c, lw=1.2, label=f"{name}: projected induced")
-            ax2.plot(t, raw, color=c, lw=0.8, ls=":", label=f"{name}: raw |τ|, holding torque included")
+            ax2.plot(t, projected, color=c, lw=1.3, label=f"{name}: projected induced")
+            ax2.plot(t, raw, color=c, lw=0.8, ls=":", label=f"{name}: raw |τ| (holding torque included)")
         ax2.set_xlabel("time from the start of the motion (s)")
         ax2.set_ylabel("wrist torque (N m)")
         ax2.legend(fontsize=8)
-        ax2.set_title("measured in MuJoCo", fontsize=9)
+        ax2.set_title("wrist torque measured in MuJoCo", fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path, dpi=100)

@@ -288,6 +288,19 @@ def custom_task(
                      impact=sched["impact"], drag=sched["drag"], slip_velocity=slip_velocity)
 
 
+def contact_motion(task: Task) -> np.ndarray:
+    """[3] unit direction (tool frame) in which the primary contact point moves at its first contact (the
+    first step its impact or drag schedule is on; the step of the fastest motion when neither is)."""
+    on = (np.asarray(task.impact)[:, 0] > 0) | (np.asarray(task.drag)[:, 0] > 0)
+    v = np.asarray(task.traj.point_velocity(task.c_tool[0]), float)  # [T, 3] world
+    k = int(np.argmax(on)) if on.any() else int(np.argmax(np.linalg.norm(v, axis=-1)))
+    if on.any() and np.linalg.norm(v[k]) < 1e-9:  # a drag that starts from rest: where it heads next
+        k = k + int(np.argmax(np.linalg.norm(v[k:], axis=-1) > 1e-9))
+    v_tool = np.asarray(task.traj.R_world_tool, float)[k].T @ v[k]
+    norm = np.linalg.norm(v_tool)
+    return v_tool / norm if norm > 0 else v_tool
+
+
 def peak_speeds(task: Task, tool: Tool) -> dict[str, float]:
     """Peak angular speed (rad/s) and peak contact-point speed (m/s) along the trajectory."""
     w = float(jnp.max(jnp.linalg.norm(task.traj.w_world, axis=-1)))

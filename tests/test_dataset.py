@@ -89,15 +89,24 @@ def test_another_config_in_the_same_folder_is_refused(full_run, tmp_path):
         generate(copy, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=7, seed=1, contact="point"), progress=False)
 
 
-def test_resuming_a_dataset_of_another_code_version_is_refused(full_run, tmp_path):
+def test_resuming_a_dataset_of_another_label_version_is_refused(full_run, tmp_path):
+    """The label version decides: another package version with the same labels resumes; another label
+    version (or an old manifest whose code version differs, which recorded no label version) does not."""
+    from itup_jax.dataset import LABEL_VERSION
+
     out, _ = full_run
     copy = str(tmp_path / "copy3")
     shutil.copytree(out, copy)
     path = os.path.join(copy, MANIFEST)
     m = json.load(open(path))
-    m["code_version"] = "0.0.1"
-    json.dump(m, open(path, "w"))
-    with pytest.raises(itup.InputError, match="made by itup-jax 0.0.1"):
+    assert m["label_version"] == LABEL_VERSION and m["code_version"] == itup.__version__
+    json.dump(dict(m, code_version="0.0.1"), open(path, "w"))
+    assert len(generate(copy, SMALL, progress=False)["shards"]) == len(m["shards"])  # same labels: resumes
+    json.dump(dict(m, label_version="0.0.1"), open(path, "w"))
+    with pytest.raises(itup.InputError, match="holds labels of version 0.0.1"):
+        generate(copy, SMALL, progress=False)
+    json.dump({k: v for k, v in dict(m, code_version="0.0.2").items() if k != "label_version"}, open(path, "w"))
+    with pytest.raises(itup.InputError, match="holds labels of version 0.0.2"):
         generate(copy, SMALL, progress=False)
 
 

@@ -2,6 +2,7 @@
 
 import os
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -29,7 +30,7 @@ def test_channels_carry_the_foxglove_schemas(logged):
     assert log["schemas"]["/scene"] == "foxglove.SceneUpdate"
     assert set(log["schemas"].values()) <= set(SCHEMAS)
     frames = {t["child_frame_id"] for t in log["/tf"][0]["transforms"]}
-    assert frames == {"gripper", "tool", "target/nail"}
+    assert {"gripper", "tool", "target/nail"} <= frames
     t0 = log["/tf"][0]["transforms"][0]
     assert set(t0) == {"timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"}
     q = t0["rotation"]
@@ -77,3 +78,35 @@ def test_generate_logs_mcap_without_changing_the_shards(tmp_path):
     assert len(logs) == 1 and logs[0].startswith("reach_000_")
     log = read_rollout_mcap(str(tmp_path / "logs" / logs[0]))
     assert log["/wrist_wrench"] and log["schemas"]["/tf"] == "foxglove.FrameTransforms"
+
+
+def test_the_log_shows_the_arm_gripper_and_environment(logged, tasks):
+    """Every arm and gripper link has a frame per step and primitives; the links' poses put the gripper's
+    grasp site where the recorded grasp frame is (IK of the recorded flange pose, then MuJoCo's forward
+    kinematics); the table and the board are drawn in the world frame."""
+    from itup_jax.mcap_log import robot_bodies
+
+    res, i, log = logged
+    tool, task = tasks["hammer"]
+    scene = build_scene(tool, task)
+    m = scene.model
+    names = {m.body(b).name for b in robot_bodies(m)}
+    assert {"ur5e/shoulder_link", "ur5e/wrist_3_link"} <= names and any(n.startswith("gripper/") for n in names)
+    frames = {t["child_frame_id"] for t in log["/tf"][0]["transforms"]}
+    assert {f"body/{n}" for n in names} <= frames
+    ents = {e["id"]: e for e in log["/scene"][0]["entities"]}
+    assert names <= set(ents) and all(ents[n]["cubes"] or ents[n]["cylinders"] for n in names)
+    env = ents["environment"]
+    assert env["frame_id"] == "world" and len(env["cubes"]) >= 2  # the table (a slab) and the board
+    # the grasp site, placed by the links' poses, lies on the recorded grasp frame
+    site = m.site("gripper/grasp")
+    body = int(m.site_bodyid[site.id])
+    tf = [{t["child_frame_id"]: t for t in msg["transforms"]} for msg in log["/tf"][::400]]
+    for frame in tf:
+        g, b = frame["gripper"], frame[f"body/{m.body(body).name}"]
+        p_b = np.array([b["translation"][k] for k in "xyz"])
+        q_b = np.array([b["rotation"][k] for k in "wxyz"])
+        R = np.zeros(9)
+        mujoco.mju_quat2Mat(R, q_b)
+        p_site = p_b + R.reshape(3, 3) @ m.site_pos[site.id]
+        np.testing.assert_allclose(p_site, [g["translation"][k] for k in "xyz"], atol=1e-6)

@@ -142,7 +142,7 @@ def test_checkpoint_round_trip_is_bit_exact(tmp_path):
 def test_pickled_truncated_and_foreign_files_are_refused(tmp_path):
     pkl = tmp_path / "evil.npz"
     pkl.write_bytes(pickle.dumps({"W0": np.zeros(3)}))
-    with pytest.raises(itup.InputError, match="refused|unreadable"):
+    with pytest.raises(itup.InputError, match="not a checkpoint \\(not an .npz archive"):
         checkpoint.load(str(pkl))
     good = tmp_path / "good.npz"
     checkpoint.save(str(good), mlp.init(jax.random.key(4), [3, 4, 1]), {"x": 1})

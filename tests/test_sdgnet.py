@@ -571,4 +571,4 @@ def test_adapting_with_held_outputs_learns_the_changed_label_and_holds_the_rest(
     assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "o.npz"), "--keep", "tau"]) == 2
     assert "it needs --init" in capsys.readouterr().err
     assert main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "o.npz"), "--init", path, "--keep", "torque"]) == 2
-    assert "--keep 'torque'" in capsys.readouterr().err and not (tmp_path / "o.npz").exists()
+    assert "--keep ['torque']" in capsys.readouterr().err and not (tmp_path / "o.npz").exists()
