@@ -470,9 +470,9 @@ def cmd_demo(args) -> int:
     from itup_jax.evaluate import evaluate, feasible_candidates, reduction
     from itup_jax.mcap_log import write_rollout_mcap
     from itup_jax.plotting import plot_picks
-    from itup_jax.task import contact_motion
     from itup_jax.scene import build_scene
     from itup_jax.simulate import induced
+    from itup_jax.task import contact_motion
 
     t_start = time.perf_counter()
     if args.quick:  # a smoke run: few candidates, two draws per pick
