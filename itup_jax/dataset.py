@@ -61,7 +61,7 @@ MANIFEST = "manifest.json"
 #: The version of the labels: what a row's labels mean (scenes, thresholds, measures). It changes only
 #: when labels change (CHANGELOG.md lists each change), not with the package's version. A dataset records
 #: it, and a folder of another label version refuses to resume (its rows would mean something else).
-LABEL_VERSION = "0.8.0"
+LABEL_VERSION = "0.9.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
@@ -576,7 +576,13 @@ def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] 
         parts.append(a)
     if not parts:
         raise InputError(f"dataset {out_dir!r}: no shards{' for ' + ','.join(tasks) if tasks else ''}")
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return _concat_common(parts)
+
+
+def _concat_common(parts: list[dict]) -> dict[str, np.ndarray]:
+    """The rows of several shard tables, concatenated over the arrays every one of them holds (datasets
+    of an older label version lack the label fields added since)."""
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if all(k in p for p in parts)}
 
 
 def split_dataset_arg(arg: str) -> tuple[str, tuple[str, ...] | None]:
@@ -656,4 +662,4 @@ def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
                 ids[key] = int(p["tool_id"][rows][0]) if p is parts[0] else max(ids.values(), default=-1) + 1
             new_ids[rows] = ids[key]
         p["tool_id"] = new_ids
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, manifests
+    return _concat_common(parts), manifests

@@ -2,7 +2,7 @@
 picks are rolled out with the same trajectories, contacts and randomised physics.
 
     res = evaluate(tool, task, methods=("sdgnet", "force_closure", "geometric", "random"), n=256, seeds=5)
-    res["methods"]["sdgnet"]["measured"]["peak_torque_projected"]["mean"]
+    res["methods"]["sdgnet"]["measured"]["peak_torque_induced"]["mean"]   # the headline (HEADLINE)
 
 Candidates are antipodal samples whose task trajectory the arm can reach (closed-form IK,
 `simulate.reachable`): an unreachable grasp is flagged and dropped here before any method sees the set, so no
@@ -34,8 +34,13 @@ from itup_jax.tool import Tool
 from itup_jax.verify import best_grasp_verified
 
 #: Labels summarised per method: mean and std over seeds.
-MEASURED = ("peak_torque", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
-            "alignment_drift", "failed", "success")
+MEASURED = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_induced_approach",
+            "peak_induced_third", "peak_torque_projected", "slip_translation", "slip_rotation", "alignment_drift",
+            "failed", "success")
+#: The headline of a comparison of picks: the full peak induced wrist torque (all three axes, the static
+#: holding torque removed), the paper's measure. The projected torque is the C_tau component a scorer
+#: trained on it can lower by turning the jaw, so it is reported beside it, never ranked on.
+HEADLINE = "peak_torque_induced"
 #: SDG-Net's VERIFY_K best rolled out once more under nominal physics, the best measured kept
 #: (`verify.best_grasp_verified`); its check rollouts are not among the evaluation's draws.
 VERIFIED = "sdgnet_verified"

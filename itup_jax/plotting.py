@@ -168,9 +168,9 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     the contact point, the face's normal and, given `motion` [3] (the contact point's direction of motion
     at contact, tool frame), the direction the tool moves; each pick as the outline of its two pads and
     its approach axis. Middle: the same view zoomed on the picks, in mm, each pick with its own colour and
-    line style. Right: the torque traces, {method: (t [S] s, projected [S] N m, raw [S] N m)}: the
-    projected induced torque (`simulate.induced`'s (x, z) norm, the labels' and C_tau's quantity; solid)
-    and the raw torque norm, holding torque included (dotted).
+    line style. Right: the torque traces, {method: (t [S] s, induced [S] N m, raw [S] N m)}: the full
+    induced torque (`simulate.induced`'s norm, the comparison's headline; solid) and the raw torque
+    norm, holding torque included (dotted).
     grasps: {method: Grasps of one}. Writes a PNG (atomically) and returns the path."""
     from matplotlib.ticker import MaxNLocator
 
@@ -198,7 +198,9 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
         m2 = np.asarray(motion, float)[list(axes)]
         if np.linalg.norm(m2) > 1e-6:
             d = 0.18 * span * m2 / np.linalg.norm(m2)
-            side = 0.08 * span * np.array([d[1], -d[0]]) / np.linalg.norm(d)  # beside the contact, not on it
+            side = 0.08 * span * np.array([d[1], -d[0]]) / np.linalg.norm(d)  # beside the contact, away from the tool
+            if side @ (cp - verts.mean(0)) < 0:
+                side = -side
             start = cp - 1.2 * d + side
             ax.annotate("", xy=start + d, xytext=start, arrowprops=dict(arrowstyle="-|>", color="k", lw=1.5, ls="--"))
             ax.text(*(start + 0.5 * d + 0.8 * side), "motion", fontsize=9, ha="center", va="center")
@@ -245,8 +247,8 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     ax.set_title("the picks, zoomed", fontsize=9)
     if traces:
         ax2 = axs[2]
-        for (name, (t, projected, raw)), c in zip(traces.items(), colours):
-            ax2.plot(t, projected, color=c, lw=1.3, label=f"{name}: projected induced")
+        for (name, (t, induced, raw)), c in zip(traces.items(), colours):
+            ax2.plot(t, induced, color=c, lw=1.3, label=f"{name}: induced |τ - τ_static|")
             ax2.plot(t, raw, color=c, lw=0.8, ls=":", label=f"{name}: raw |τ| (holding torque included)")
         ax2.set_xlabel("time from the start of the motion (s)")
         ax2.set_ylabel("wrist torque (N m)")

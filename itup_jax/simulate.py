@@ -540,7 +540,8 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
 # Labels
 # ---------------------------------------------------------------------------------------------------
 LABEL_FIELDS = (
-    "peak_torque", "peak_torque_induced", "peak_torque_projected", "peak_torque_closure", "static_torque",
+    "peak_torque", "peak_torque_induced", "peak_torque_projected", "peak_torque_closure",
+    "peak_induced_third", "peak_induced_closure", "peak_induced_approach", "static_torque",
     "peak_force_induced", "peak_pad_force", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
     "task_metric", "diverged", "infeasible", "over_speed", "valid",
 )
@@ -554,7 +555,10 @@ class Labels:
 
     peak_torque: max |tau| over the motion.  peak_torque_induced: max |tau - tau_static|.
     peak_torque_projected: max |(I - y y^T)(tau - tau_static)|, y the jaw-closure axis (the cost's
-    projection).  peak_torque_closure: max |(tau - tau_static) . y|.  static_torque: |tau_static|.
+    projection).  peak_torque_closure: max |(tau - tau_static) . y|.  peak_induced_third,
+    peak_induced_closure, peak_induced_approach: the induced torque's components in the grasp frame's
+    axes (x, y the jaw's closure, z the approach), absolute, at the step of its peak norm: they
+    recompose peak_torque_induced.  static_torque: |tau_static|.
     peak_force_induced: max |F - F_static| (N).  peak_pad_force: max normal force of either pad's
     strongest contact during the motion (N).  slip_translation (m): max distance over the motion by
     which the tool's material point at the grasp centre (midway between the pads at the end of the
@@ -572,6 +576,9 @@ class Labels:
     peak_torque_induced: np.ndarray
     peak_torque_projected: np.ndarray
     peak_torque_closure: np.ndarray
+    peak_induced_third: np.ndarray
+    peak_induced_closure: np.ndarray
+    peak_induced_approach: np.ndarray
     static_torque: np.ndarray
     peak_force_induced: np.ndarray
     peak_pad_force: np.ndarray
@@ -595,6 +602,21 @@ class Labels:
         full = {f: np.full(n, np.nan) for f in LABEL_FIELDS}
         full.update({f: np.zeros(n, bool) for f in LABEL_FLAGS})
         return cls(**full)
+
+
+#: The grasp frame's axes as the wrist sensor reads them (its frame is the gripper base's, whose axes are
+#: the grasp frame's): x the third axis, y the jaw's closure, z the approach.
+GRASP_AXES = ("third", "closure", "approach")
+
+
+def induced_components_at_peak(d_tau: np.ndarray) -> dict[str, np.ndarray]:
+    """d_tau [N, S, 3] N m, the induced torque in the grasp frame's axes over the motion ->
+    {"peak_induced_<axis>": [N]}: the absolute components at the step where its norm peaks, so
+    sqrt(third^2 + closure^2 + approach^2) is the peak induced torque."""
+    sq = np.einsum("...i,...i->...", d_tau, d_tau)
+    k = np.argmax(np.nan_to_num(sq, nan=-np.inf), axis=1)
+    at = np.take_along_axis(d_tau, k[:, None, None], axis=1)[:, 0]
+    return {f"peak_induced_{name}": np.abs(at[:, i]) for i, name in enumerate(GRASP_AXES)}
 
 
 def _peak_norm(x: np.ndarray) -> np.ndarray:
@@ -713,6 +735,7 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
         peak_torque_induced=nan0(np.sqrt(d_tau_sq.max(1))),
         peak_torque_projected=nan0(np.sqrt(perp_sq.max(1))),
         peak_torque_closure=nan0(np.abs(closure).max(1)),
+        **{k: nan0(v) for k, v in induced_components_at_peak(d_tau).items()},
         static_torque=np.linalg.norm(tau_static, axis=-1),
         peak_force_induced=nan0(_peak_norm(d_force)),
         peak_pad_force=nan0(pad_peak),

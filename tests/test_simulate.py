@@ -49,6 +49,31 @@ def test_labels_have_the_documented_schema(hammer, hammer_native):
         assert np.all(np.isfinite(getattr(L, f)[L.valid]))
 
 
+def test_the_grasp_frame_components_recompose_the_induced_peak(hammer_native, rng):
+    """At the step of its peak norm, the induced torque's three grasp-frame components recompose the
+    full induced peak; a torque purely about the jaw's closure axis has no projected part and a full
+    closure component."""
+    from itup_jax.simulate import induced_components_at_peak
+
+    _, res = hammer_native
+    L = res.labels
+    v = L.valid
+    norm = np.sqrt(L.peak_induced_third**2 + L.peak_induced_closure**2 + L.peak_induced_approach**2)
+    np.testing.assert_allclose(norm[v], L.peak_torque_induced[v], rtol=1e-12)
+    assert np.all(L.peak_induced_closure[v] <= L.peak_torque_closure[v] + 1e-12)  # a peak over time bounds it
+    d_tau = rng.normal(size=(5, 40, 3))
+    comps = induced_components_at_peak(d_tau)
+    k = np.argmax(np.linalg.norm(d_tau, axis=-1), axis=1)
+    for i, name in enumerate(("third", "closure", "approach")):
+        np.testing.assert_array_equal(comps[f"peak_induced_{name}"], np.abs(d_tau[np.arange(5), k, i]))
+    pure = np.zeros((1, 40, 3))
+    pure[0, :, 1] = np.sin(np.linspace(0, 3, 40))  # about the closure axis only
+    comps = induced_components_at_peak(pure)
+    assert comps["peak_induced_closure"][0] == pytest.approx(np.abs(pure[0, :, 1]).max())
+    assert comps["peak_induced_third"][0] == 0 and comps["peak_induced_approach"][0] == 0
+    assert np.hypot(pure[..., 0], pure[..., 2]).max() == 0  # the projected torque (C_tau's) sees none of it
+
+
 def test_induced_is_the_motion_minus_the_settles_last_window(hammer, hammer_native):
     """`induced` on a synthetic trace: the static value is the mean over the settle's last
     `static_window` s only (earlier settle steps do not count), and the motion's part is the trace minus
