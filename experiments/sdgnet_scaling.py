@@ -10,7 +10,7 @@ task (tool ids in dataset order: the first dataset's built-in tool and variants 
 the held-out tools of --test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau
 and the measured projected peak torque; median over tools, and per task). A straight line of the
 median rho (mean over seeds) against log2(k) gives the gain per doubling of the data and, where it
-rises, the size at which the line would reach the issue's 0.9 goal. That is an extrapolation, and the
+rises, the size at which the line would reach a Spearman of 0.9. That is an extrapolation, and the
 curve bends: the script also fits the three largest sizes alone (the local rate) and names any
 measured size past the line's crossing that is still below the goal; what bounds any prior-blind
 scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of the retest

@@ -35,7 +35,7 @@ from itup_jax.evaluate import reduction
 from itup_jax.stats import binned_rate, failure_threshold
 from itup_jax.task import TASK_KINDS
 
-PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (quoted in issue #5)
+PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (arXiv:2505.01399v3)
 TORQUES = ("peak_torque", "peak_torque_induced")
 
 

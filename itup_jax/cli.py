@@ -587,7 +587,7 @@ def _default(fn, name: str):
 
 def build_parser() -> argparse.ArgumentParser:
     from itup_jax import bench
-    from itup_jax.dataset import GenerateConfig
+    from itup_jax.dataset import GenerateConfig, generate
     from itup_jax.evaluate import DEFAULT_METHODS, METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
     from itup_jax.planning import plan_grasp
     from itup_jax.sdgnet import TrainConfig
@@ -706,10 +706,11 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")
-    gen.add_argument("--mcap-per-shard", type=int, default=2, help="rollouts logged per shard with --mcap")
-    gen.add_argument("--process-index", type=int, default=0, metavar="I",
+    gen.add_argument("--mcap-per-shard", type=int, default=_default(generate, "mcap_per_shard"),
+                     help="rollouts logged per shard with --mcap (default %(default)s)")
+    gen.add_argument("--process-index", type=int, default=_default(generate, "process_index"), metavar="I",
                      help="with --process-count N: this process makes shards I, I+N, I+2N, ... (0-based)")
-    gen.add_argument("--process-count", type=int, default=1, metavar="N",
+    gen.add_argument("--process-count", type=int, default=_default(generate, "process_count"), metavar="N",
                      help="processes that make the dataset together, on one machine or several sharing --out; "
                      "each adds its shards to the one manifest (file lock); start N of them with I = 0..N-1")
     gen.add_argument("--threads", type=int, default=None,
