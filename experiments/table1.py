@@ -74,7 +74,7 @@ def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, 
             res = evaluate(tool, task, methods, n=n, seeds=seeds, seed=seed + v, model=model,
                            scene=build_scene(tool, task, timestep=timestep))
             log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
-                f"{m} {res['methods'][m]['measured']['peak_torque_projected']['mean']:.2f}" for m in methods))
+                f"{m} {res['methods'][m]['measured']['peak_torque_induced']['mean']:.2f}" for m in methods))
             per_tool.append(res)
     table = {}
     for kind in tasks:
@@ -105,7 +105,41 @@ def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, 
             table[kind]["sdgnet_failure_rate_ratio"] = {
                 m: (None if not table[kind][m]["failed"]["mean"] else ours["failed"]["mean"] / table[kind][m]["failed"]["mean"])
                 for m in others}
-    return {"table": table, "per_tool": per_tool}
+    return {"table": table, "paired": paired_reductions(per_tool, tasks, methods), "per_tool": per_tool}
+
+
+#: The interval of the paired reductions: 90 % over tools.
+PAIRED_LEVEL = 0.90
+
+
+def paired_reductions(per_tool: list, tasks, methods, measures=("peak_torque_induced", "peak_torque")) -> dict:
+    """Per task, measure and baseline: SDG-Net's reduction against the baseline, paired tool by tool (each
+    tool's mean over its draws; the same candidates and draws for both), as 100 (1 - geometric-mean ratio)
+    with a PAIRED_LEVEL bootstrap interval over tools (`stats.paired_ratio`), on the unseen variants alone
+    and on every tool."""
+    from itup_jax.stats import paired_ratio
+
+    out = {}
+    if "sdgnet" not in methods:
+        return out
+    for kind in tasks:
+        rows = [r for r in per_tool if r["task"] == kind]
+        out[kind] = {}
+        for meas in measures:
+            out[kind][meas] = {}
+            for m in [m for m in methods if not m.startswith("sdgnet")]:
+                entry = {}
+                for subset, keep in (("unseen", lambda i: i > 0), ("all", lambda i: True)):
+                    sel = [r for i, r in enumerate(rows) if keep(i)]
+                    a = [r["methods"]["sdgnet"]["measured"][meas]["mean"] for r in sel]
+                    b = [r["methods"][m]["measured"][meas]["mean"] for r in sel]
+                    pr = paired_ratio(np.array(a, float), np.array(b, float), level=PAIRED_LEVEL)
+                    pct = lambda x: None if x is None else 100.0 * (1.0 - x)  # noqa: E731
+                    entry[subset] = {"reduction_pct": pct(pr["ratio"]), "n_tools": pr["n"],
+                                     "interval_pct": None if pr["ci"] is None else [pct(pr["ci"][1]), pct(pr["ci"][0])],
+                                     "tools_lower": pr["lower"], "tools_higher": pr["higher"]}
+                out[kind][meas][m] = entry
+    return out
 
 
 def to_csv(table: dict) -> str:
@@ -212,6 +246,17 @@ def main(argv=None) -> dict:
                 f"vs {m} {v:+.0f}%" for m, v in res["table"][kind]["sdgnet_induced_torque_reduction_pct"].items()))
             print(f"{'':7s} SDG-Net projected-torque reduction (C_tau's component): " + ", ".join(
                 f"vs {m} {v:+.0f}%" for m, v in res["table"][kind]["sdgnet_torque_reduction_pct"].items()))
+    for kind, by_meas in res.get("paired", {}).items():
+        for meas, by_m in by_meas.items():
+            cells = []
+            for m, e in by_m.items():
+                u = e["unseen"]
+                if u["reduction_pct"] is None:
+                    continue
+                iv = "" if u["interval_pct"] is None else f" [{u['interval_pct'][0]:+.0f}, {u['interval_pct'][1]:+.0f}]"
+                cells.append(f"vs {m} {u['reduction_pct']:+.0f}%{iv} ({u['tools_lower']}/{u['n_tools']} lower)")
+            if cells:
+                print(f"{kind:7s} paired over unseen tools, {meas} ({int(100 * PAIRED_LEVEL)} % interval): " + ", ".join(cells))
     if "sdgnet" in methods:  # against the two baselines on every task, not the best cell of all
         fc = {k: res["table"][k]["sdgnet_induced_torque_reduction_pct"] for k in tasks}
         for k in tasks:

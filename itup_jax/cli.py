@@ -440,11 +440,14 @@ def cmd_evaluate(args) -> int:
     _check_model_arg(args)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
-    res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=args.model)
+    res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=args.model,
+                   grip_force=args.grip_force)
     res = {"schema": "itup.evaluate/1", **res}
     c = res["candidates"]
+    grip = ("" if args.grip_force is None else f" | grip fixed at {args.grip_force:g} N per pad"
+            + (" (a robustness probe: below the 2F-85's 20 N)" if res["grip_probe"] else ""))
     print(f"task {args.task} | tool {tool.name} | {c.get('used')} reachable candidates of {c.get('sampled')} sampled | "
-          f"{args.seeds} randomised-physics rollouts per pick (native MuJoCo): mean ± std")
+          f"{args.seeds} randomised-physics rollouts per pick (native MuJoCo){grip}: mean ± std")
     _print_eval_table(res)
     if args.json:
         _atomic_write_json(args.json, res)
@@ -790,6 +793,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's "
                     f"{VERIFY_K} best rolled out under nominal physics, the best measured kept; sdgnet_verified_torque: its "
                     f"{VERIFY_TORQUE_K} best by the torque-first total, each under {VERIFY_TORQUE_DRAWS} draws of the priors)")
+    ev.add_argument("--grip-force", type=float, default=None, metavar="N",
+                    help="N per pad, fixed, for the measured rollouts (default: 100, randomised with the priors); "
+                    "below the 2F-85's 20 N a labelled robustness probe")
     ev.add_argument("--json", default=None, help="write the result (schema itup.evaluate/1)")
     ev.set_defaults(fn=cmd_evaluate)
 

@@ -17,18 +17,20 @@ the evaluation's rollouts.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from itup_jax import robot
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import sample_grasps
 from itup_jax.scene import Scene, build_scene
 from itup_jax.scoring import SCORERS, ScoreWeights, score
-from itup_jax.simulate import Randomization, reachable, simulate
+from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.verify import best_grasp_verified
@@ -76,8 +78,14 @@ def _summary(v: np.ndarray) -> dict[str, float]:
 
 def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *, n: int = 256, seeds: int = 5,
              seed: int = 0, scene: Scene | None = None, candidates: Grasps | None = None,
-             randomize: Randomization | None = Randomization(), model: Any = None) -> dict[str, Any]:
+             randomize: Randomization | None = Randomization(), model: Any = None,
+             grip_force: float | None = None) -> dict[str, Any]:
     """Each method's pick among the same candidates and its MuJoCo-measured labels over `seeds` rollouts.
+
+    grip_force: N per pad of the evaluation's rollouts, fixed (not randomised); None: the default
+    (`SimConfig.grip_force`, randomised with the other priors). Below the gripper's 20 N the rollouts
+    are a robustness probe (`stress.probe_scene`) and the result's "grip_probe" says so. The picks
+    themselves (and the verified picks' check rollouts) do not depend on it.
 
     Returns {"candidates": counts, "methods": {name: {"index", "grasp", "score", "p_success", "p_failed", "score_s",
     "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` and
@@ -93,12 +101,22 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     if seeds < 1 or n < 1:
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
     scene = scene or build_scene(tool, task)
+    sim_scene, config, sim_randomize = scene, SimConfig(), randomize
+    if grip_force is not None:
+        from itup_jax import stress
+
+        g = stress._check_grip(grip_force, "evaluate")
+        config = SimConfig(grip_force=g)
+        sim_randomize = None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
+        sim_scene = stress.probe_scene(scene) if stress.is_probe(g) else scene
     if candidates is None:
         candidates, counts = feasible_candidates(tool, task, n, seed=seed)
     else:
         counts = {"given": len(candidates)}
     out: dict[str, Any] = {"task": task.kind, "tool": tool.name, "seeds": seeds, "seed": seed,
-                           "candidates": counts, "methods": {}}
+                           "candidates": counts, "grip_force": config.grip_force, "grip_fixed": grip_force is not None,
+                           "grip_probe": grip_force is not None and config.grip_force < robot.GRIPPER_MIN_GRIP_FORCE,
+                           "methods": {}}
     for name in methods:
         t0 = time.perf_counter()
         sdg = name in ("sdgnet", VERIFIED, VERIFIED_TORQUE)
@@ -123,7 +141,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         g = candidates[i]
         reps = Grasps(*(np.repeat(np.asarray(a)[None], seeds, axis=0) for a in
                         (g.p_tool_grasp, g.q_tool_grasp, g.width)))
-        res = simulate(tool, task, reps, scene=scene, seed=seed, randomize=randomize)
+        res = simulate(tool, task, reps, scene=sim_scene, seed=seed, randomize=sim_randomize, config=config)
         L = res.labels
         rollouts = {f: np.where(L.valid, getattr(L, f).astype(float), np.nan) for f in MEASURED}
         out["methods"][name] = {

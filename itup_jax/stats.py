@@ -120,14 +120,17 @@ def binned_rate(x, flag, bins: int = 10) -> dict:
     return out
 
 
-def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0) -> dict:
+def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0, level: float = 0.95) -> dict:
     """How much smaller a is than b, pair by pair: the geometric mean of a_i / b_i over the pairs where
     both are finite and positive (e.g. two pickers' measured torques on the same tools).
 
     a, b: [N] positive values, paired by index. Returns {"ratio": exp(mean(log(a/b))) (< 1: a is lower),
-    "ci95": [lo, hi] a percentile bootstrap over pairs (None below 3 pairs), "lower": #pairs with a < b,
-    "higher": #pairs with a > b, "n": #pairs used}; ratio None when no pair is usable.
+    "ci95": [lo, hi] a percentile bootstrap over pairs (None below 3 pairs), "ci": the same at `level`
+    (e.g. 0.9), "level", "lower": #pairs with a < b, "higher": #pairs with a > b, "n": #pairs used};
+    ratio None when no pair is usable.
     """
+    if not 0 < level < 1:
+        raise InputError(f"paired_ratio: level must be in (0, 1), got {level!r}")
     a, b = np.asarray(a, float), np.asarray(b, float)
     if a.shape != b.shape or a.ndim != 1:
         raise InputError(f"paired_ratio: a and b must be [N] of one length, got {a.shape}, {b.shape}")
@@ -136,11 +139,14 @@ def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0) -> dict:
     with np.errstate(invalid="ignore", divide="ignore"):
         keep = np.isfinite(a) & np.isfinite(b) & (a > 0) & (b > 0)
     lr = np.log(a[keep]) - np.log(b[keep])
-    out = {"ratio": None, "ci95": None, "lower": int(np.sum(lr < 0)), "higher": int(np.sum(lr > 0)), "n": int(len(lr))}
+    out = {"ratio": None, "ci95": None, "ci": None, "level": level, "lower": int(np.sum(lr < 0)),
+           "higher": int(np.sum(lr > 0)), "n": int(len(lr))}
     if not len(lr):
         return out
     out["ratio"] = float(np.exp(lr.mean()))
     if len(lr) >= 3 and bootstrap:
         means = np.random.default_rng(seed).choice(lr, (bootstrap, len(lr))).mean(1)
         out["ci95"] = [float(np.exp(np.percentile(means, 2.5))), float(np.exp(np.percentile(means, 97.5)))]
+        tail = 100 * (1 - level) / 2
+        out["ci"] = [float(np.exp(np.percentile(means, tail))), float(np.exp(np.percentile(means, 100 - tail)))]
     return out
