@@ -119,8 +119,11 @@ def sample_physics(tool: Tool, n: int, seed: int = 0, *, spread: Randomization |
         mu=nominal.mu * (1.0 + spread.mu * u()),
         restitution=np.clip(nominal.restitution + spread.restitution * u(), 0.05, 0.95),
         contact_duration=nominal.contact_duration * (1.0 + spread.contact_duration * u()),
+        # a randomised grip stays in the gripper's range; a nominal grip outside it (a stress probe,
+        # `stress.py`) is kept as given
         grip_force=np.clip(nominal.grip_force * (1.0 + spread.grip_force * u()),
-                           robot.GRIPPER_MIN_GRIP_FORCE, robot.GRIPPER_MAX_GRIP_FORCE),
+                           min(robot.GRIPPER_MIN_GRIP_FORCE, float(grip_force)),
+                           max(robot.GRIPPER_MAX_GRIP_FORCE, float(grip_force))),
     )
 
 

@@ -1,5 +1,6 @@
 """Stress: the least holding grip by bisection, rollouts at a fixed grip, probes below the gripper's 20 N."""
 
+import numpy as np
 import pytest
 
 import itup_jax as itup
@@ -39,8 +40,15 @@ def test_rollouts_at_a_fixed_grip_share_draws_and_weaker_grips_fail_more(tasks):
     scene = itup.build_scene(tool, task)
     cands, _ = feasible_candidates(tool, task, 2, seed=0)
     weak = stress.rollouts_at_grip(tool, task, cands, 8.0, draws=2, scene=scene)
+    floor = stress.rollouts_at_grip(tool, task, cands, 20.0, draws=2, scene=scene)
     strong = stress.rollouts_at_grip(tool, task, cands, 150.0, draws=2, scene=scene)
     assert weak.valid.all() and strong.valid.all()
+    # the probe's squeeze is its own, not the gripper's 20 N floor: the physics keeps 8 N, and the pads
+    # press less on average than at 20 N (their peaks include the strike's own contact forces)
+    from itup_jax.simulate import Randomization, sample_physics
+
+    np.testing.assert_array_equal(sample_physics(tool, 3, spread=Randomization(grip_force=0.0), grip_force=8.0).grip_force, 8.0)
+    assert weak.peak_pad_force.mean() < floor.peak_pad_force.mean()
     assert stress.holds(strong, 2).all()
     assert weak.peak_pad_force.max() < 0.5 * strong.peak_pad_force.max()
     assert weak.slip_rotation.mean() > strong.slip_rotation.mean()
