@@ -119,6 +119,7 @@ def plot(summary, tasks, methods, grid, path):
             ax.plot(grid, [np.nan if v is None else v for v in y], marker="o", label=m)
         ax.axvspan(0, 20, color="0.9", label="probe (< 20 N)")
         ax.set_xscale("log")
+        ax.set_ylim(-0.05, 1.05)
         ax.set_xlabel("grip force per pad (N)")
         ax.set_title(kind, fontsize=9)
     axs[0][0].set_ylabel("grip failure rate")
