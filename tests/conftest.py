@@ -6,6 +6,9 @@ jax.config.update("jax_enable_x64", True)
 # Persistent compilation cache: a second local run reuses the MJX rollout's compile (tens of seconds).
 jax.config.update("jax_compilation_cache_dir", str(__import__("pathlib").Path(__file__).resolve().parent.parent / ".jax_cache"))
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
+# the CLI's own cache (`compile_cache.enable`, on in `itup`) would redirect the cache above to the user's
+# home and write every compile there for the rest of the session: the tests call `main` with it off
+__import__("os").environ["ITUP_COMPILE_CACHE"] = "0"
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
