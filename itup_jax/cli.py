@@ -701,8 +701,8 @@ def build_parser() -> argparse.ArgumentParser:
                      + ", ".join(f"{k} {v * 1e3:g} ms" for k, v in TASK_TIMESTEP.items())
                      + ": the coarsest whose labels converge, experiments/timestep_convergence.py)")
     gen.add_argument("--variants", default=gen_defaults.variants, choices=["stretch", "parts"],
-                     help="procedural tools: 'stretch' scales the whole built-in tool (every dataset before session "
-                     "16), 'parts' varies the handle and the head independently (dataset.part_variant)")
+                     help="procedural tools: 'stretch' scales the whole built-in tool, 'parts' varies the handle and "
+                     "the head independently (dataset.part_variant)")
     gen.add_argument("--contact", default=gen_defaults.contact, choices=["flat", "point"],
                      help="grasp sampler: 'flat' (the pads lie flat on the tool; grasp_sampler.py) or 'point' (antipodal "
                      "point contacts in the friction cone, every dataset up to code 0.5.0)")

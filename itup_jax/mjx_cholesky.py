@@ -8,7 +8,7 @@ they are done. When as many of these kernels run at once as the pool has threads
 waiting for parts queued behind the others, and the program never returns: all threads idle, the caller
 in `block_until_ready`. On this 2-core CPU that is what happened to the knock's MJX rollout at a batch of
 16 in every run (gdb: both pool threads in `BlockingCounter::Wait` under
-`jax::ParallelBatchMap` in `CholeskyFactorization`), and to the hammer's at 128 . Neither
+`jax::ParallelBatchMap` in `CholeskyFactorization`), and to the hammer's at 128. Neither
 `--xla_cpu_multi_thread_eigen=false`, nor `jax_cpu_enable_async_dispatch=False`, nor turning XNNPACK off
 avoids it (tried).
 

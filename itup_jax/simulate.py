@@ -13,7 +13,7 @@ Backends (same inputs, same outputs):
   * 'native': `mujoco.rollout` with one MjData per thread and one MjModel per rollout (so mass,
     friction, restitution and grip force vary per rollout). The CPU default and the ground truth.
   * 'mjx': `jax.jit(jax.vmap(lax.scan(mjx.step)))` with the varying model fields batched. The default
-    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower , `rollout_mjx` runs
+    when JAX's backend is an accelerator. On a CPU, MJX is 240-430x slower (docs/design.md, "Simulation"), `rollout_mjx` runs
     chunks of at most 64 per CPU device, and MJX's Cholesky is `mjx_cholesky`'s (jaxlib's LAPACK kernel
     deadlocked there: the knock at a batch of 16, the hammer at 128). Capsule-box
     contacts go through `mjx_collision.capsule_box_collider` (MJX's own reverses a pad's contact on long
@@ -52,7 +52,7 @@ from itup_jax.tool import Tool
 
 #: Pads start this much inside the tool's surface so contact exists at step 0 (m).
 INITIAL_SQUEEZE = 3e-4
-#: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128 , a
+#: The largest MJX batch per CPU device. MJX on a CPU hung at a device batch of 128, a
 #: deadlock in jaxlib's LAPACK Cholesky that `mjx_cholesky` now avoids (a hammer batch of 128 has
 #: run); the cap stays until larger batches have run more than once.
 MJX_CPU_MAX_BATCH = 64
@@ -368,7 +368,7 @@ def _rollout_mjx(scene: Scene, p: Plan, physics: Physics, devices: list, float64
     # one compile per batch shape (45-100 s on an H100): the per-device batch is rounded up to a power of
     # two, so batches of 65-128 rollouts share one program, 129-256 the next, ... (padding <= 2x)
     per_device = 1 << max(0, -(-n // nd) - 1).bit_length()
-    # on a CPU a device batch of 128 or more hangs MJX : run chunks of <= 64 per device,
+    # on a CPU a device batch of 128 or more hangs MJX: run chunks of <= 64 per device,
     # every chunk padded to the same shape (one compile)
     if devices[0].platform == "cpu":
         per_device = min(per_device, MJX_CPU_MAX_BATCH)
