@@ -67,13 +67,8 @@ def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print) 
                     rollouts[kind]["torque"] += np.asarray(L.peak_torque_induced)[ok].tolist()
                     rollouts[kind]["failed"] += np.asarray(L.failed)[ok].tolist()
 
-                def holds_at(f, pick=pick, cache=cache, tool=tool, task=task, scene=scene, v=v):
-                    if f not in cache:
-                        L = stress.rollouts_at_grip(tool, task, pick, f, draws=draws, seed=seed + v, scene=scene)
-                        cache[f] = bool(stress.holds(L, draws)[0])
-                    return cache[f]
-
-                mg = stress.min_holding_grip(holds_at, tol=tol, grid=grid)
+                mg = stress.pick_min_holding_grip(tool, task, pick, draws=draws, seed=seed + v, scene=scene, tol=tol,
+                                                  grid=grid, known=cache)  # the grid's answers reused
                 rows.append({"task": kind, "tool": tool.name, "unseen": v > 0, "method": m, "index": i,
                              "min_holding_grip_N": mg.force, "monotone": mg.monotone, "probe": mg.probe,
                              "tried": {f"{f:g}": ok for f, ok in sorted(mg.tried.items())}, "at_grip": at})

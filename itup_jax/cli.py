@@ -75,13 +75,14 @@ def _command_line() -> str | None:
     return "itup " + " ".join(sys.argv[1:]) if sys.argv and "itup" in sys.argv[0] else None
 
 
-def _check_model_arg(args) -> None:
-    """Load a given --model once before any work, so a missing, foreign or corrupt checkpoint is refused
-    before sampling and rollouts."""
+def _check_model_arg(args) -> Any:
+    """A given --model loaded before any work, so a missing, foreign or corrupt checkpoint is refused before
+    sampling and rollouts; the `Model` is what the command scores with (None: the shipped one)."""
     if getattr(args, "model", None):
         from itup_jax.sdgnet import load_model
 
-        load_model(args.model)
+        return load_model(args.model)
+    return None
 
 
 def _load_tool_arg(args) -> Any:
@@ -102,13 +103,12 @@ def cmd_plan(args) -> int:
 
     if args.json:
         _check_out_folder("--json", args.json)
-    if args.scorer == "sdgnet":
-        _check_model_arg(args)
+    model = _check_model_arg(args) if args.scorer == "sdgnet" else args.model
     given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail") if getattr(args, k) is not None}
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     try:
-        plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=args.model, weights=given,
+        plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
                           torque_first=args.torque_first, top=args.top, verify=args.verify,
                           verify_draws=args.verify_draws, verify_physics=args.verify_physics)
     except itup.InputError as exc:  # the library's names for the options, written as the flags that set them
@@ -437,10 +437,10 @@ def cmd_evaluate(args) -> int:
         raise_input(f"--seeds and --n must be >= 1, got --seeds {args.seeds} --n {args.n}")
     if args.json:
         _check_out_folder("--json", args.json)
-    _check_model_arg(args)
+    model = _check_model_arg(args)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
-    res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=args.model,
+    res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=model,
                    grip_force=args.grip_force)
     res = {"schema": "itup.evaluate/1", **res}
     c = res["candidates"]
@@ -495,7 +495,7 @@ def cmd_demo(args) -> int:
     if args.n < 2 or args.seeds < 1:
         raise_input(f"--n must be >= 2 and --seeds >= 1, got --n {args.n} --seeds {args.seeds}")
     _check_out_dir("--out", args.out)
-    _check_model_arg(args)
+    model = _check_model_arg(args)
     os.makedirs(args.out, exist_ok=True)
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
@@ -504,7 +504,7 @@ def cmd_demo(args) -> int:
           "antipodal candidates ...", flush=True)
     cands, counts = feasible_candidates(tool, task, args.n, seed=args.seed)
     methods = ("sdgnet", "force_closure")
-    res = evaluate(tool, task, methods, seeds=args.seeds, seed=args.seed, scene=scene, candidates=cands, model=args.model)
+    res = evaluate(tool, task, methods, seeds=args.seeds, seed=args.seed, scene=scene, candidates=cands, model=model)
     res["candidates"] = counts
     print(f"scored {counts['used']} candidates ({counts['feasible']} of {counts['sampled']} sampled were reachable); "
           f"each pick rolled out {args.seeds}x in native MuJoCo with randomised physics (mean ± std):")

@@ -105,7 +105,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     if grip_force is not None:
         from itup_jax import stress
 
-        g = stress._check_grip(grip_force, "evaluate")
+        g = stress.check_grip(grip_force, "evaluate")
         config = SimConfig(grip_force=g)
         sim_randomize = None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
         sim_scene = stress.probe_scene(scene) if stress.is_probe(g) else scene

@@ -96,8 +96,6 @@ class GraspPlan:
 
     def to_json(self) -> dict[str, Any]:
         """The `itup.plan/4` document."""
-        import dataclasses as dc
-
         s = self.scores
         out = {
             "schema": "itup.plan/4",
@@ -122,7 +120,7 @@ class GraspPlan:
             out["verified"] = {
                 "k": self.verify_k, "draws": self.verify_draws, "tried": len(v.shortlist), "backend": v.backend,
                 "unreachable": [int(i) for i in v.unreachable], "physics": self.physics,
-                "weights": dc.asdict(self.measure_weights),
+                "weights": dataclasses.asdict(self.measure_weights),
                 "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
                                for i, m in zip(v.shortlist, v.measured_total)],
                 "chosen_by": v.chosen_by,
@@ -155,7 +153,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
-      scorer: "sdgnet" (the checkpoint `model`, default the shipped one), "analytic", or a baseline.
+      scorer: "sdgnet" (the checkpoint `model`, a path or a loaded `sdgnet.Model`; default the shipped
+        one), "analytic", or a baseline.
       weights: the total's weights: for "analytic" `CostParams` fields (w_tau, w_slip, w_align), for
         "sdgnet" `ScoreWeights` fields (also w_task, w_fail); each keeps its default when left out.
       torque_first: SDG-Net's total weighs torque alone with the task and grip penalties
@@ -175,7 +174,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
         if not isinstance(v, (int, np.integer)) or v < lowest:
             raise InputError(f"plan_grasp: {flag} must be an integer >= {lowest}, got {v!r}")
-    if scorer not in SCORERS and not (scorer == "sdgnet" or model is not None):
+    if scorer not in SCORERS:
         raise InputError(f"plan_grasp: scorer {scorer!r}: unknown; choose from {', '.join(SCORERS)}")
     physics = verify_physics or ("random" if verify_draws > 1 else "nominal")
     if physics not in ("nominal", "random"):
@@ -208,13 +207,13 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     else:
         sw = ScoreWeights.torque_first(**given) if torque_first else ScoreWeights(**given)
         used = dataclasses.asdict(sw) if scorer == "sdgnet" else None
-        scores = itup.score(tool, task, grasps, model=model if scorer == "sdgnet" and model else scorer, seed=seed,
+        scores = itup.score(tool, task, grasps, model=model if scorer == "sdgnet" and model is not None else scorer, seed=seed,
                             weights=sw)
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))
         raise InputError(f"plan_grasp: the {scorer!r} scorer gave {bad} of {n} candidates a non-finite score"
-                         + (f" (checkpoint {model!r})" if model else ""))
+                         + (f" (checkpoint {model!r})" if isinstance(model, str) else ""))
     ranking = np.argsort(total, kind="stable")
     order = ranking[:top]
     rank_found, reachable = first_reachable(task, grasps, ranking, check_first=len(order))
@@ -231,13 +230,12 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     if verify == 0:
         return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
 
-    from itup_jax.scoring import ScoreWeights as SW
     from itup_jax.simulate import Randomization
     from itup_jax.verify import best_grasp_verified, measured_total
 
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
     # weights, whatever the scorer (the analytic cost's weights are for N, not m)
-    measure_w = sw if scorer == "sdgnet" else SW()
+    measure_w = sw if scorer == "sdgnet" else ScoreWeights()
     v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
                             weights=measure_w, randomize=None if physics == "nominal" else Randomization())
     L = v.labels

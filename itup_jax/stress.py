@@ -47,7 +47,8 @@ def probe_scene(scene: Scene) -> Scene:
     return dataclasses.replace(scene, model=model)
 
 
-def _check_grip(grip_force: float, where: str) -> float:
+def check_grip(grip_force: float, where: str) -> float:
+    """`grip_force` (N per pad) as a float if it lies in (0, the gripper's maximum], else InputError naming `where`."""
     g = float(grip_force)
     if not 0.0 < g <= robot.GRIPPER_MAX_GRIP_FORCE:
         raise InputError(f"{where}: grip force must be in (0, {robot.GRIPPER_MAX_GRIP_FORCE}] N per pad, got {grip_force!r}")
@@ -59,7 +60,7 @@ def rollouts_at_grip(tool, task, grasps: Grasps, grip_force: float, *, draws: in
     """Each grasp rolled out `draws` times at `grip_force` N per pad: labels [len(grasps) * draws], grasp
     i's draws at rows i * draws ... i * draws + draws - 1. Draw d of every grasp is the same physics draw
     (the priors randomised by `randomize` from `seed`, the grip fixed). Native MuJoCo; host side."""
-    g = _check_grip(grip_force, "rollouts_at_grip")
+    g = check_grip(grip_force, "rollouts_at_grip")
     if not isinstance(draws, (int, np.integer)) or draws < 1:
         raise InputError(f"rollouts_at_grip: draws must be an integer >= 1, got {draws!r}")
     scene = scene or build_scene(tool, task)
@@ -99,7 +100,7 @@ class MinGrip:
 
 
 def min_holding_grip(holds_at: Callable[[float], bool], *, lo: float = GRIP_RANGE[0], hi: float = GRIP_RANGE[1],
-                     tol: float = GRIP_TOLERANCE, grid=()) -> MinGrip:
+                     tol: float = GRIP_TOLERANCE, grid=(), known: dict | None = None) -> MinGrip:
     """The smallest grip force in [lo, hi] (N per pad) at which `holds_at(force)` is true, to within `tol`.
 
     `holds_at` is asked at hi, at lo and at the forces of `grid` first; then bisection between the lowest
@@ -108,7 +109,7 @@ def min_holding_grip(holds_at: Callable[[float], bool], *, lo: float = GRIP_RANG
     `grid` finds more of those."""
     if not 0 < lo < hi or not tol > 0:
         raise InputError(f"min_holding_grip: need 0 < lo < hi and tol > 0, got lo={lo}, hi={hi}, tol={tol}")
-    tried: dict[float, bool] = {}
+    tried: dict[float, bool] = {} if known is None else known
 
     def ask(f: float) -> bool:
         f = float(f)
@@ -141,13 +142,15 @@ def min_holding_grip(holds_at: Callable[[float], bool], *, lo: float = GRIP_RANG
 
 def pick_min_holding_grip(tool, task, grasp: Grasps, *, draws: int = 3, seed: int = 0, scene: Scene | None = None,
                           lo: float = GRIP_RANGE[0], hi: float = GRIP_RANGE[1], tol: float = GRIP_TOLERANCE,
-                          grid=(), randomize: Randomization | None = Randomization()) -> MinGrip:
-    """`min_holding_grip` of one grasp (`Grasps` of one), each force tried with `draws` rollouts on the
-    same physics draws (`rollouts_at_grip`)."""
+                          grid=(), known: dict | None = None,
+                          randomize: Randomization | None = Randomization()) -> MinGrip:
+    """`min_holding_grip` of one grasp (one `Grasps` row, or a batch whose first row is taken), each force
+    tried with `draws` rollouts on the same physics draws (`rollouts_at_grip`); `known` as there."""
     scene = scene or build_scene(tool, task)
-    one = Grasps(*(np.asarray(a).reshape((1,) + np.shape(a)[-1:]) if np.ndim(a) == 1 else np.asarray(a).reshape(-1)[:1]
-                   if np.ndim(a) == 0 else np.asarray(a)[:1] for a in (grasp.p_tool_grasp, grasp.q_tool_grasp, grasp.width)))
+    if np.ndim(grasp.width) == 0:  # a single grasp: a batch of one
+        grasp = Grasps(*(np.asarray(a)[None] for a in (grasp.p_tool_grasp, grasp.q_tool_grasp, grasp.width)))
+    one = grasp[:1]
     return min_holding_grip(
         lambda f: bool(holds(rollouts_at_grip(tool, task, one, f, draws=draws, seed=seed, scene=scene,
                                               randomize=randomize), draws)[0]), lo=lo, hi=hi, tol=tol,
-        grid=grid)
+        grid=grid, known=known)
