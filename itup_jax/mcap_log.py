@@ -179,9 +179,9 @@ def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
 
 def _quat_rotate(q_wxyz, v) -> np.ndarray:
     """v [3] rotated by the unit quaternion q (w, x, y, z)."""
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, np.asarray(q_wxyz, float))
-    return R.reshape(3, 3) @ np.asarray(v, float)
+    out = np.zeros(3)
+    mujoco.mju_rotVecQuat(out, np.asarray(v, float), np.asarray(q_wxyz, float))
+    return out
 
 
 def robot_bodies(m: mujoco.MjModel) -> list[int]:
@@ -207,19 +207,13 @@ def robot_link_poses(scene: Scene, p_grasp: np.ndarray, q_grasp: np.ndarray, fin
     from 'home', and the model's forward kinematics with the fingers at `finger_qpos` [2].
     Returns (bodies [L], pos [S, L, 3], quat [S, L, 4]); rows where IK finds no solution are NaN."""
     from itup_jax import ik
-    from itup_jax.robot import FLANGE_TO_GRASP, HOME_Q
+    from itup_jax.robot import HOME_Q
+    from itup_jax.simulate import _grasp_flange_pose, _pose_matrix, _quat_to_matrix
 
     m = scene.model
     S = len(p_grasp)
-    R = np.zeros((S, 9))
-    for k in range(S):
-        mujoco.mju_quat2Mat(R[k], np.asarray(q_grasp[k], float))
-    T = np.tile(np.eye(4), (S, 1, 1))
-    T[:, :3, :3] = R.reshape(S, 3, 3)
-    T[:, :3, 3] = p_grasp
-    T_grasp_flange = np.eye(4)
-    T_grasp_flange[2, 3] = -FLANGE_TO_GRASP
-    q = ik.track(T @ T_grasp_flange, HOME_Q)  # [S, 6]
+    T_world_grasp = _pose_matrix(_quat_to_matrix(np.asarray(q_grasp, float)), np.asarray(p_grasp, float))
+    q = ik.track(T_world_grasp @ _grasp_flange_pose(), HOME_Q)  # [S, 6]
     bodies = robot_bodies(m)
     pos = np.full((S, len(bodies), 3), np.nan)
     quat = np.full((S, len(bodies), 4), np.nan)
@@ -236,7 +230,8 @@ def robot_link_poses(scene: Scene, p_grasp: np.ndarray, q_grasp: np.ndarray, fin
 
 
 def _scene_update(scene: Scene, task: Task, width: float) -> dict:
-    """Frame-locked primitives: the tool's collision primitives, the pads, the task objects' geoms."""
+    """Frame-locked primitives: the tool's collision primitives, the pads, the task objects', the robot links' and
+    the static environment's geoms (`_geom_primitives`)."""
     m = scene.model
     entities = []
     cyls, sphs, cubes = [], [], []
@@ -258,21 +253,9 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
     entities.append({"timestamp": _time(0), "frame_id": "gripper", "id": "pads", "lifetime": _time(0),
                      "frame_locked": True, "cubes": pads})
     for body in target_bodies(task.kind):
-        b = m.body(body).id
-        cubes, cyls = [], []
-        for g in range(m.ngeom):
-            if m.geom_bodyid[g] != b:
-                continue
-            size, pos, quat = m.geom_size[g], m.geom_pos[g], m.geom_quat[g]
-            color = _rgba(*map(float, m.geom_rgba[g]))
-            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
-                cubes.append({"pose": _pose(pos, quat), "size": _v(2 * size), "color": color})
-            elif m.geom_type[g] in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE):
-                d = 2 * float(size[0])
-                cyls.append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": 2 * float(size[1])},
-                             "bottom_scale": 1.0, "top_scale": 1.0, "color": color})
+        prims = _geom_primitives(m, np.nonzero(m.geom_bodyid == m.body(body).id)[0])
         entities.append({"timestamp": _time(0), "frame_id": f"target/{body}", "id": body, "lifetime": _time(0),
-                         "frame_locked": True, "cubes": cubes, "cylinders": cyls})
+                         "frame_locked": True, **prims})
     for b in robot_bodies(m):
         name = m.body(b).name
         prims = _geom_primitives(m, np.nonzero(m.geom_bodyid == b)[0])
