@@ -135,12 +135,15 @@ def _view_axes(tool: Tool) -> tuple[int, int]:
     return (0, 2) if abs(n[0]) >= abs(n[1]) else (1, 2)
 
 
-def _silhouette(ax, tool: Tool, axes: tuple[int, int], colour: str = "0.8") -> None:
-    """The mesh projected on the plane of `axes`: every triangle filled (their union is the outline)."""
+def _silhouette(ax, tool: Tool, axes: tuple[int, int], colour: str = "0.8", origin=(0.0, 0.0),
+                scale: float = 1.0) -> None:
+    """The mesh projected on the plane of `axes`: every triangle filled (their union is the outline),
+    drawn as scale * (point - origin) (e.g. mm about a zoom's centre)."""
     from matplotlib.collections import PolyCollection
 
     tri = np.asarray(tool.mesh.vertices, float)[np.asarray(tool.mesh.faces)][:, :, list(axes)]
-    ax.add_collection(PolyCollection(tri, facecolors=colour, edgecolors=colour, linewidths=0.3))
+    ax.add_collection(PolyCollection(scale * (tri - np.asarray(origin, float)), facecolors=colour, edgecolors=colour,
+                                     linewidths=0.3))
 
 
 def _pad_outlines(g: Grasps, axes: tuple[int, int]) -> list[np.ndarray]:
@@ -184,10 +187,11 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     cp = np.asarray(tool.contact_point, float)[list(axes)]
     n2 = np.asarray(tool.contact_normal, float)[list(axes)]
     span = float(np.ptp(verts, axis=0).max())
+    pads = {name: _pad_outlines(g, axes) for name, g in grasps.items()}
     ax = axs[0]
     _silhouette(ax, tool, axes)
-    for (name, g), c, ls in zip(grasps.items(), colours, styles):
-        for pad in _pad_outlines(g, axes):
+    for name, c, ls in zip(grasps, colours, styles):
+        for pad in pads[name]:
             ax.fill(*pad.T, facecolor=c, alpha=0.35, edgecolor=c, lw=1.2, ls=ls)
     ax.plot(*cp, marker="*", ms=14, color="tab:orange", mec="k", mew=0.5, ls="none", label="contact point")
     if np.linalg.norm(n2) > 1e-6:
@@ -216,14 +220,10 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     ax.legend(fontsize=8, loc="lower right")
     # zoom on the picks, in mm
     ax = axs[1]
-    pads = {name: _pad_outlines(g, axes) for name, g in grasps.items()}
     pts = np.concatenate([np.concatenate(v) for v in pads.values()])
     centre = pts.mean(0)
     half = max(float(np.ptp(pts, axis=0).max()) / 2 + 0.015, 0.03)
-    tri = np.asarray(tool.mesh.vertices, float)[np.asarray(tool.mesh.faces)][:, :, list(axes)]
-    from matplotlib.collections import PolyCollection
-
-    ax.add_collection(PolyCollection(1e3 * (tri - centre), facecolors="0.85", edgecolors="0.85", linewidths=0.3))
+    _silhouette(ax, tool, axes, colour="0.85", origin=centre, scale=1e3)
     for (name, g), c, ls in zip(grasps.items(), colours, styles):
         for k, pad in enumerate(pads[name]):
             ax.fill(*(1e3 * (pad - centre)).T, facecolor="none", edgecolor=c, lw=2, ls=ls,
