@@ -129,12 +129,15 @@ def make_task(kind: str, tool: Tool, **overrides: Any) -> Task:
     if unknown:
         raise InputError(f"make_task({kind!r}): unknown parameter(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
     params = cls(**overrides)
-    _validate_params(kind, params)
-    if spec.validate is not None:
+    if spec.validate is not None:  # the kind's own checks first: their messages say more
         spec.validate(params)
+    _validate_params(kind, params)
     task = spec.build(tool, params)
     _warn_speed_limits(task, tool)
     return task
+
+
+_COUNT = {2: "two", 3: "three"}
 
 
 def _validate_params(kind: str, params: Any) -> None:
@@ -147,13 +150,11 @@ def _validate_params(kind: str, params: Any) -> None:
         elif f.name == "mode":
             if value not in ("pull", "push"):
                 raise InputError(f"{what}: must be 'pull' or 'push', got {value!r}")
-        elif f.name in ("target", "start"):
-            if len(np.shape(value)) == 1 and len(value) == 2 and f.default is not dataclasses.MISSING \
-                    and len(f.default) == 2:
-                continue  # a two-number position (the kind's own `validate` checks it)
+        elif f.name in ("target", "start"):  # a position of as many numbers as the kind's default
+            n = len(f.default)
             a = np.asarray(value, dtype=float)
-            if a.shape != (3,) or not np.all(np.isfinite(a)):
-                raise InputError(f"{what}: expected three finite numbers, got {value!r}")
+            if a.shape != (n,) or not np.all(np.isfinite(a)):
+                raise InputError(f"{what}: expected {_COUNT.get(n, n)} finite numbers, got {value!r}")
         elif f.name == "debris_gaps":
             a = np.asarray(value, dtype=float)
             if a.ndim != 1 or a.size == 0 or np.any(~np.isfinite(a)) or np.any(a <= 0):
