@@ -293,8 +293,13 @@ def cmd_train(args) -> int:
         recipe.setdefault("finetune_epochs", 0)
     cfg = TrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed, patience=args.patience,
                       per_task=args.per_task, **recipe)
-    model = _library_warnings_on_stderr(train_on_datasets, args.data, cfg, teacher=args.teacher,
-                                        progress=not args.quiet, command=_command_line())
+    from itup_jax.errors import InputError
+
+    try:
+        model = _library_warnings_on_stderr(train_on_datasets, args.data, cfg, teacher=args.teacher,
+                                            progress=not args.quiet, command=_command_line())
+    except InputError as exc:
+        raise_input(_as_flags(str(exc), names=("teacher",)))
     save_model(args.out, model)
     print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "

@@ -564,9 +564,8 @@ def _check_assumed_frame(mesh: trimesh.Trimesh, cp: np.ndarray, normal: np.ndarr
     """A spec without `handle_axis` says its mesh is in the tool frame: check the mesh's long axis lies
     along z and the contact normal along its category's direction, else ask for the frame."""
     expected = CATEGORY_CONTACT_NORMAL.get(category)
-    inertia = mesh.moment_inertia  # uniform density: the shape's principal axes
-    w, v = np.linalg.eigh(inertia)
-    long_axis = v[:, int(np.argmin(w))]
+    # uniform density: the shape's principal axes; the long one has the least moment
+    long_axis = np.asarray(mesh.principal_inertia_vectors)[int(np.argmin(mesh.principal_inertia_components))]
     long_axis = long_axis * (1.0 if long_axis @ (cp - mesh.center_mass) >= 0 else -1.0)
     off_axis = math.acos(min(1.0, abs(float(long_axis[2]))))
     off_normal = math.acos(float(np.clip(normal @ np.asarray(expected), -1.0, 1.0))) if expected else 0.0

@@ -50,6 +50,9 @@ def test_rollouts_at_a_fixed_grip_share_draws_and_weaker_grips_fail_more(tasks):
     np.testing.assert_array_equal(sample_physics(tool, 3, spread=Randomization(grip_force=0.0), grip_force=8.0).grip_force, 8.0)
     assert weak.peak_pad_force.mean() < floor.peak_pad_force.mean()
     assert stress.holds(strong, 2).all()
+    # draw d is the same physics for every grasp: the second grasp alone gives its rows of the pair
+    alone = stress.rollouts_at_grip(tool, task, cands[1:2], 150.0, draws=2, scene=scene)
+    np.testing.assert_array_equal(alone.peak_torque_induced, strong.peak_torque_induced[2:])
     assert weak.peak_pad_force.max() < 0.5 * strong.peak_pad_force.max()
     assert weak.slip_rotation.mean() > strong.slip_rotation.mean()
     assert scene.model.actuator_ctrlrange[scene.grip_actuator][0] == robot.GRIPPER_MIN_GRIP_FORCE  # untouched
