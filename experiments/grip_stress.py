@@ -35,7 +35,7 @@ from itup_jax.tool import load_tool
 
 PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (arXiv:2505.01399v3, Fig. 4)
 DEFAULT_GRID = (10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 100.0)
-DEFAULT_METHODS = ("sdgnet", "force_closure", "geometric")
+DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", "force_closure", "geometric")
 
 
 def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print) -> dict:

@@ -62,6 +62,8 @@ def weighted_total(s, w: ScoreWeights) -> np.ndarray:
     """[N] the scorer's total (`scoring.sdgnet_total`) of SDG-Net's scores `s` under weights `w`:
     w_tau C_tau + w_slip C_s + w_align C_alpha + w_task (1 - P(task)) + w_fail P(fail)."""
     total = w.w_tau * np.asarray(s.tau, float) + w.w_slip * np.asarray(s.slip, float) + w.w_align * np.asarray(s.align, float)
+    if s.grip is not None:  # a wrench-objective network's predicted grip demand
+        total = total + w.w_grip * np.asarray(s.grip, float)
     if s.p_success is not None:
         total = total + w.w_task * (1.0 - np.asarray(s.p_success, float))
     if s.p_failed is not None:

@@ -227,7 +227,8 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         p_success = predicted.get("p_success")
         net = model.for_task(entry["task"])
         probs = np.stack([predicted[n] for n in net.head_names], 1) if net.head_names else None
-        total_all = np.asarray(sdgnet_total(np.stack([predicted[c] for c in ("tau", "slip", "align")], 1), probs,
+        cols = [predicted[c] if c in predicted else np.zeros_like(predicted["tau"]) for c in ("tau", "slip", "align", "grip")]
+        total_all = np.asarray(sdgnet_total(np.stack(cols, 1), probs,
                                             np.asarray(weights.costs()), np.asarray(weights.heads(net.class_heads))))
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}

@@ -104,7 +104,8 @@ def cmd_plan(args) -> int:
     if args.json:
         _check_out_folder("--json", args.json)
     model = _check_model_arg(args) if args.scorer == "sdgnet" else args.model
-    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail") if getattr(args, k) is not None}
+    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip")
+             if getattr(args, k) is not None}
     tool = _load_tool_arg(args)
     task = itup.make_task(args.task, tool)
     try:
@@ -122,7 +123,7 @@ def cmd_plan(args) -> int:
 
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
-PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail",
+PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip",
                 "verify", "top", "n")
 
 
@@ -141,10 +142,13 @@ def _print_plan(args, plan) -> None:
           f"{args.n} antipodal candidates (seed {args.seed}) | scorer {args.scorer}")
     # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
     # (N m, m, rad); the baselines' scores are dimensionless
-    units = {"analytic": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad")}.get(args.scorer, ("", "", ""))
+    units = {"analytic": ("N·m", "N", "rad"), "analytic_wrench": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad"),
+             "sdgnet_paper": ("N·m", "m", "rad")}.get(args.scorer, ("", "", ""))
+    grip = getattr(costs, "grip", None) is not None  # a wrench-objective SDG-Net: predicted grip demand (N per pad)
     p_task = getattr(costs, "p_success", None) is not None  # SDG-Net with a success head: P(task achieved)
     p_fail = getattr(costs, "p_failed", None) is not None  # and with a failure head: P(fails in the grip)
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
+          + (f"{'grip N':>7} " if grip else "")
           + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
           + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
     listed = [(rank, int(i)) for rank, i in enumerate(plan.top)]
@@ -157,6 +161,7 @@ def _print_plan(args, plan) -> None:
         if rank > len(plan.top):  # a gap between the listed rows and the pick
             print(f"{'...':>4}")
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
+              + (f"{c['grip']:>7.1f} " if grip else "")
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
               + f"{c['total']:>9.3f} {'yes' if plan.reachable[i] else 'no':>5}  "
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}"
@@ -284,6 +289,7 @@ def cmd_train(args) -> int:
         raise_input(f"--hidden: comma-separated layer widths, e.g. 128,128,128; got {args.hidden!r}")
     # flags left out keep TrainConfig's defaults (the shipped recipe); the config is checked before any data is read
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
+                                    objective=args.objective,
                                     success_weight=args.success_weight,
                                     failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
                                     finetune_lr=args.finetune_lr, rank_weight=args.rank_weight,
@@ -411,7 +417,8 @@ def _print_eval_table(res: dict) -> None:
     approach axis, the third axis), the projected torque (the C_tau component), slip, turn in the pads,
     alignment drift, grip failure and task success."""
     print(f"{'method':>22} {'tau_ind N·m':>12} {'tau_raw N·m':>12} {'closure':>8} {'approach':>8} {'third':>8} "
-          f"{'tau_proj':>9} {'slip mm':>10} {'turn deg':>9} {'drift deg':>9} {'fail':>5} {'task':>5}  grasp (tool frame, m)")
+          f"{'tau_proj':>9} {'grip N':>7} {'slip mm':>10} {'turn deg':>9} {'drift deg':>9} {'fail':>5} {'task':>5}  "
+          "grasp (tool frame, m)")
     for name, r in res["methods"].items():
         m = r["measured"]
 
@@ -422,12 +429,13 @@ def _print_eval_table(res: dict) -> None:
             return f"{scale * m[k]['mean']:>{w}.{p}f}"
         print(f"{name:>22} {ms('peak_torque_induced', w=5)} {ms('peak_torque', w=5)} "
               f"{mean('peak_induced_closure')} {mean('peak_induced_approach')} {mean('peak_induced_third')} "
-              f"{mean('peak_torque_projected', w=9)} {ms('slip_translation', 1e3, 4, 1)} "
+              f"{mean('peak_torque_projected', w=9)} {mean('grip_demand', w=7, p=0)} {ms('slip_translation', 1e3, 4, 1)} "
               f"{mean('slip_rotation', 180 / np.pi, 9, 1)} {mean('alignment_drift', 180 / np.pi, 9, 1)} "
               f"{m['failed']['mean']:>5.2f} {m['success']['mean']:>5.2f}  {r['grasp']['p_tool_grasp_m']}")
     print("tau_ind: full peak induced wrist torque (static holding torque removed, all axes; the headline); "
           "closure/approach/third: its grasp-frame components at that peak (N·m); tau_proj: the part off the "
-          "closure axis, the paper's C_tau component (N·m); turn: the tool's turn in the pads")
+          "closure axis, the paper's C_tau component (N·m); grip: the normal force per pad the induced wrench "
+          "needs (N); turn: the tool's turn in the pads")
 
 
 def cmd_evaluate(args) -> int:
@@ -597,6 +605,7 @@ def build_parser() -> argparse.ArgumentParser:
     from itup_jax import bench
     from itup_jax.dataset import GenerateConfig, generate
     from itup_jax.evaluate import DEFAULT_METHODS, METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
+    from itup_jax.objective import OBJECTIVES
     from itup_jax.planning import plan_grasp
     from itup_jax.sdgnet import TrainConfig
 
@@ -631,6 +640,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet: weight of the predicted probability of missing the task (default scoring.W_TASK)")
     p.add_argument("--w-fail", type=float, default=None,
                    help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
+    p.add_argument("--w-grip", type=float, default=None,
+                   help="sdgnet (wrench objective): weight of the predicted grip demand, N m per N of normal force "
+                   "per pad (default scoring.W_GRIP)")
     p.add_argument("--verify", type=int, default=_default(plan_grasp, "verify"), metavar="K",
                    help="roll the K best grasps out in MuJoCo and pick the lowest measured total (5 is a good choice)")
     p.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
@@ -642,7 +654,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
     p.add_argument("--scorer", default=_default(plan_grasp, "scorer"), choices=SCORERS,
-                   help="sdgnet (the shipped checkpoint, default), analytic, or a baseline")
+                   help="sdgnet (the shipped checkpoint, default), sdgnet_paper (the paper objective's checkpoint), "
+                   "analytic (the paper's cost), analytic_wrench (its grip-demand form), or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
     p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/4)")
     p.set_defaults(fn=cmd_plan)
@@ -734,6 +747,9 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--hidden", default=None, help="hidden layer widths, e.g. 128,128,128 (default: TrainConfig's)")
     tr.add_argument("--weight-decay", type=float, default=None,
                     help="AdamW's decoupled weight decay, per step w -= lr * wd * w (default: TrainConfig's)")
+    tr.add_argument("--objective", default=None, choices=tuple(OBJECTIVES),
+                    help="what the network regresses: wrench (the induced torque's grasp-frame components and the "
+                    "grip demand) or paper (the projected torque) (default: TrainConfig's)")
     tr.add_argument("--torque-scale", type=float, default=None,
                     help="N m; the torque target is log1p(tau / scale) (default: TrainConfig's)")
     tr.add_argument("--success-weight", type=float, default=None,

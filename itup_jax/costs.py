@@ -5,7 +5,11 @@ grasp-independent loads of `wrench.task_loads` (force F and moment M about the t
 grasp must apply, tool frame), at every step t:
 
   tau(t)     = M(t) - (P - O) x F(t)       P = p (default, 'grasp') or the com ('com', the seed's r)
-  C_tau(t)   = || (I - n_f n_f^T) tau ||   ('perp', the seed's choice) or ||tau|| ('full')
+  C_tau(t)   = || (I - n_f n_f^T) tau ||   ('perp', the paper's choice) or ||tau|| ('full') or
+               2 c_t N_grip(F, tau)       ('grip': the grip demand of `grip_demand.py`, the normal force
+                                           per pad that holds (F, tau) by friction, in the grasp frame,
+                                           expressed as the torque about the closure axis that needs
+                                           the same force, c_t the pads' torsional friction length)
   tau_n(t)   = |tau . n_f|                 (about the closure axis: only torsional pad friction holds it)
   F_n(t)     = (F . n_f) n_f,  F_t = F - F_n
   C_s(t)     = max(0, ||F_t|| - mu (||F_n|| + 2 f_grip))   (f_grip = 0: the seed form; > 0: the
@@ -13,6 +17,10 @@ grasp must apply, tool frame), at every step t:
   C_alpha(t) = angle between the lines n_f and n (in [0, pi/2]) while a contact acts, else 0
 
 and each cost is the peak over t. C = w_tau C_tau + w_s C_s + w_alpha C_alpha.
+
+Two named presets: `CostParams.paper()` (the paper's objective: 'perp', the default) and
+`CostParams.wrench()` ('grip': every component of the wrench counts by how hard it loads the grip, so
+turning the jaw to put the torque on the closure axis, which 'perp' discards, costs most instead).
 
 `grasp_cost_trace` and `grasp_costs` are per-example (one grasp); `batched_wrench_costs` vmaps them.
 `wrench_costs` is the public entry point: it validates on the host, then calls one module-level
@@ -31,13 +39,15 @@ import numpy as np
 
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, rotation_matrix, validate_grasps
+from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
+from itup_jax.robot import PAD_TORSION
 from itup_jax.task import Task
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
 
 LEVER_ARMS = ("grasp", "com")
-TORQUE_PROJECTIONS = ("perp", "full")
+TORQUE_PROJECTIONS = ("perp", "full", "grip")
 
 
 @jax.tree_util.register_dataclass
@@ -68,6 +78,17 @@ class CostParams:
 
     def replace(self, **changes: Any) -> "CostParams":
         return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def paper(cls, **changes: Any) -> "CostParams":
+        """The paper's objective: C_tau the torque perpendicular to the jaw's closure axis ('perp')."""
+        return cls(torque_projection="perp", **changes)
+
+    @classmethod
+    def wrench(cls, **changes: Any) -> "CostParams":
+        """The grip-demand objective: C_tau = 2 c_t N_grip, every wrench component weighed by the normal
+        force the pads need to hold it ('grip')."""
+        return cls(torque_projection="grip", **changes)
 
 
 @jax.tree_util.register_dataclass
@@ -107,6 +128,12 @@ def line_angle(u: jax.Array, v: jax.Array) -> jax.Array:
     return jnp.arctan2(_safe_norm(jnp.cross(u, v)), jnp.abs(jnp.sum(u * v, axis=-1)))
 
 
+def _grip_torque_sq(F: jax.Array, tau: jax.Array, R: jax.Array, mu, width) -> jax.Array:
+    """(2 c_t N_grip)^2 [T] of the wrench (F, tau about the grasp point) [T, 3] in the tool frame, turned
+    into the grasp frame (R = R_tool_grasp): the 'grip' C_tau before its square root."""
+    return (2.0 * PAD_TORSION) ** 2 * grip_demand_sq(F @ R, tau @ R, mu, width, xp=jnp)
+
+
 def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParams) -> Costs:
     """Per-step costs [T] of ONE grasp (shapes [3], [4], []). Not jitted; see `wrench_costs`."""
     R = rotation_matrix(grasp.q_tool_grasp)
@@ -115,8 +142,13 @@ def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: Cost
     tau = loads.moment_tool - jnp.cross(pivot, loads.force_tool)  # [T, 3]
     tau_n = tau @ n_f
     tau_perp = tau - tau_n[:, None] * n_f
-    c_tau = _safe_norm(tau_perp if params.torque_projection == "perp" else tau)
     F = loads.force_tool
+    if params.torque_projection == "grip":
+        sq = _grip_torque_sq(F, tau, R, tool.mu, grasp.width)
+        pos = sq > 0
+        c_tau = jnp.where(pos, jnp.sqrt(jnp.where(pos, sq, 1.0)), 0.0)
+    else:
+        c_tau = _safe_norm(tau_perp if params.torque_projection == "perp" else tau)
     F_n = F @ n_f
     F_t = _safe_norm(F - F_n[:, None] * n_f)
     c_slip = jnp.maximum(F_t - tool.mu * (jnp.abs(F_n) + 2.0 * params.grip_force), 0.0)
@@ -139,7 +171,10 @@ def grasp_costs(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParam
     tau = loads.moment_tool - jnp.cross(pivot, F)  # [T, 3]
     tau_n = tau @ n_f
     tau_sq = jnp.sum(tau * tau, axis=-1)
-    c_tau_sq = tau_sq - tau_n**2 if params.torque_projection == "perp" else tau_sq
+    if params.torque_projection == "grip":
+        c_tau_sq = _grip_torque_sq(F, tau, R, tool.mu, grasp.width)
+    else:
+        c_tau_sq = tau_sq - tau_n**2 if params.torque_projection == "perp" else tau_sq
     tau = jnp.sqrt(jnp.maximum(jnp.max(c_tau_sq), 0.0) + _TINY) - _SQRT_TINY
     F_n = F @ n_f
     F_t_sq = jnp.maximum(jnp.sum(F * F, axis=-1) - F_n**2, 0.0)

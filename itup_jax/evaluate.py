@@ -37,8 +37,8 @@ from itup_jax.verify import best_grasp_verified
 
 #: Labels summarised per method: mean and std over seeds.
 MEASURED = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_induced_approach",
-            "peak_induced_third", "peak_torque_projected", "slip_translation", "slip_rotation", "alignment_drift",
-            "failed", "success")
+            "peak_induced_third", "peak_torque_projected", "grip_demand", "slip_translation", "slip_rotation",
+            "alignment_drift", "failed", "success")
 #: The headline of a comparison of picks: the full peak induced wrist torque (all three axes, the static
 #: holding torque removed), the paper's measure. The projected torque is the C_tau component a scorer
 #: trained on it can lower by turning the jaw, so it is reported beside it, never ranked on.
@@ -56,7 +56,8 @@ VERIFY_TORQUE_K = 10
 VERIFY_TORQUE_DRAWS = 3
 #: Every method `evaluate` takes: the scorers and the verified picks.
 METHODS = SCORERS + (VERIFIED, VERIFIED_TORQUE)
-DEFAULT_METHODS = ("sdgnet", VERIFIED, VERIFIED_TORQUE, "analytic", "static", "force_closure", "geometric", "random")
+DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", VERIFIED, VERIFIED_TORQUE, "analytic", "analytic_wrench", "static",
+                   "force_closure", "geometric", "random")
 
 
 def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0,

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from itup_jax.grip_demand import MIN_COUPLE_WIDTH
+from itup_jax.robot import PAD_TORSION, PAD_WIDTH
+
 
 def _norm(x: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum(x * x, axis=-1))
@@ -23,7 +26,7 @@ def numpy_wrench_costs(tool: dict, task: dict, grasps: dict, *, w_tau=1.0, w_sli
       tool: mass, com [3], inertia [3, 3], restitution, mu, contact_duration (NumPy).
       task: c_tool [K, 3], n_world [K, 3], inv_mass_obj [K], drag_force [K], impact [T, K], drag [T, K],
         gravity_world [3], slip_velocity, and the trajectory p, R [T, 3, 3], v, w, a, alpha [T, 3].
-      grasps: p [N, 3] (tool frame), R [N, 3, 3] (R_tool_grasp).
+      grasps: p [N, 3] (tool frame), R [N, 3, 3] (R_tool_grasp), width [N] (m).
     Returns:
       dict of tau, slip, align, total, tau_closure, each [N].
     """
@@ -60,7 +63,18 @@ def numpy_wrench_costs(tool: dict, task: dict, grasps: dict, *, w_tau=1.0, w_sli
     tau = M[None] - np.cross(pivot[:, None, :], F[None])  # [N, T, 3]
     tau_n = np.einsum("ntj,nj->nt", tau, n_f)
     tau_perp = tau - tau_n[..., None] * n_f[:, None, :]
-    c_tau = _norm(tau_perp if torque_projection == "perp" else tau).max(1)
+    if torque_projection == "grip":
+        # the wrench in each grasp's frame (x third, y closure, z approach), then the pads' limit surface
+        Fg = np.einsum("tj,nji->nti", F, grasps["R"])
+        tg = np.einsum("ntj,nji->nti", tau, grasps["R"])
+        mu = tool["mu"]
+        arm = mu * np.maximum(grasps["width"], MIN_COUPLE_WIDTH)[:, None]
+        need = np.sqrt((Fg[..., 0] ** 2 + Fg[..., 2] ** 2) / (2 * mu) ** 2 + Fg[..., 1] ** 2 / 4
+                       + (tg[..., 1] / (2 * PAD_TORSION)) ** 2 + (tg[..., 2] / (arm + PAD_WIDTH)) ** 2
+                       + (tg[..., 0] / arm) ** 2)
+        c_tau = (2 * PAD_TORSION * need).max(1)
+    else:
+        c_tau = _norm(tau_perp if torque_projection == "perp" else tau).max(1)
     F_n = np.einsum("tj,nj->nt", F, n_f)
     F_t = _norm(F[None] - F_n[..., None] * n_f[:, None, :])
     c_slip = np.maximum(F_t - tool["mu"] * (np.abs(F_n) + 2.0 * grip_force), 0.0).max(1)
@@ -79,4 +93,4 @@ def to_numpy_inputs(tool_params, task, grasps) -> tuple[dict, dict, dict]:
     tk = {k: a(getattr(task, k)) for k in ("c_tool", "n_world", "inv_mass_obj", "drag_force", "impact", "drag",
                                           "gravity_world", "slip_velocity")}
     tk.update(R=a(tr.R_world_tool), v=a(tr.v_world), w=a(tr.w_world), a=a(tr.a_world), alpha=a(tr.alpha_world))
-    return tool, tk, {"p": a(grasps.p_tool_grasp), "R": a(grasps.rotation)}
+    return tool, tk, {"p": a(grasps.p_tool_grasp), "R": a(grasps.rotation), "width": a(grasps.width)}

@@ -27,7 +27,7 @@ DEFAULT_TOP = 5
 #: Statuses of a plan (`GraspPlan.status`).
 STATUSES = ("ok", "no_reachable_candidate", "no_verified_success")
 #: The measured labels reported per verification rollout.
-VERIFY_FIELDS = ("valid", "peak_torque_induced", "peak_torque_projected", "slip_translation", "slip_rotation",
+VERIFY_FIELDS = ("valid", "peak_torque_induced", "peak_torque_projected", "grip_demand", "slip_translation", "slip_rotation",
                  "alignment_drift", "failed", "success", "infeasible", "task_metric")
 
 
@@ -90,7 +90,7 @@ class GraspPlan:
             "reachable": self.reachable.get(int(i)),
             "graspnet_rotation_matrix": np.asarray(self.graspnet_rotation[i], float).round(6).tolist(),
             "costs": {k: round(float(getattr(s, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
-                                                                      "p_success", "p_failed")
+                                                                      "grip", "p_success", "p_failed")
                       if getattr(s, k, None) is not None},
         }
 
@@ -154,9 +154,11 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
 
     Args:
       scorer: "sdgnet" (the checkpoint `model`, a path or a loaded `sdgnet.Model`; default the shipped
-        one), "analytic", or a baseline.
-      weights: the total's weights: for "analytic" `CostParams` fields (w_tau, w_slip, w_align), for
-        "sdgnet" `ScoreWeights` fields (also w_task, w_fail); each keeps its default when left out.
+        one), "sdgnet_paper" (the paper objective's shipped checkpoint), "analytic" (the paper's form),
+        "analytic_wrench" (the grip-demand form), or a baseline.
+      weights: the total's weights: for the analytic scorers `CostParams` fields (w_tau, w_slip,
+        w_align), for the SDG-Net ones `ScoreWeights` fields (also w_task, w_fail, w_grip); each keeps
+        its default when left out.
       torque_first: SDG-Net's total weighs torque alone with the task and grip penalties
         (`ScoreWeights.torque_first`).
       top: ranking rows to report (their reachability is checked too).
@@ -169,7 +171,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       InputError: an invalid option or combination, before any work.
     """
     import itup_jax as itup
-    from itup_jax.scoring import SCORERS, ScoreWeights
+    from itup_jax.scoring import ANALYTIC_SCORERS, SCORERS, SDGNET_SCORERS, ScoreWeights
 
     for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
         if not isinstance(v, (int, np.integer)) or v < lowest:
@@ -187,26 +189,26 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     given = dict(weights or {})
     if torque_first:
         clash = [k for k in ("w_tau", "w_slip", "w_align") if k in given]
-        if clash or scorer != "sdgnet":
+        if clash or scorer not in SDGNET_SCORERS:
             raise InputError("plan_grasp: torque_first sets SDG-Net's weights (torque alone, the task and grip "
                              "penalties kept); " + (f"it cannot be combined with {', '.join(clash)}" if clash
                                                     else f"not the {scorer!r} scorer's"))
-    if given and scorer not in ("analytic", "sdgnet"):
+    if given and scorer not in ANALYTIC_SCORERS + SDGNET_SCORERS:
         raise InputError(f"plan_grasp: weights {sorted(given)}: the {scorer!r} scorer has no weights (they apply "
                          "to the analytic and sdgnet scorers)")
-    if {"w_task", "w_fail"} & set(given) and scorer == "analytic":
-        raise InputError("plan_grasp: w_task/w_fail weigh SDG-Net's predicted probabilities; the analytic cost "
-                         "has no such terms")
+    if {"w_task", "w_fail", "w_grip"} & set(given) and scorer in ANALYTIC_SCORERS:
+        raise InputError("plan_grasp: w_task/w_fail/w_grip weigh SDG-Net's predictions; the analytic cost "
+                         "has no such terms (its grip-demand form is the analytic_wrench scorer)")
 
     grasps = itup.sample_grasps(tool, n, seed=seed)
     sw = None
-    if scorer == "analytic":
-        params = itup.CostParams(**given)
+    if scorer in ANALYTIC_SCORERS:
+        params = (itup.CostParams.wrench if scorer == "analytic_wrench" else itup.CostParams.paper)(**given)
         used = {k: float(getattr(params, k)) for k in ("w_tau", "w_slip", "w_align")}
         scores = itup.wrench_costs(tool, task, grasps, params)
     else:
         sw = ScoreWeights.torque_first(**given) if torque_first else ScoreWeights(**given)
-        used = dataclasses.asdict(sw) if scorer == "sdgnet" else None
+        used = dataclasses.asdict(sw) if scorer in SDGNET_SCORERS else None
         scores = itup.score(tool, task, grasps, model=model if scorer == "sdgnet" and model is not None else scorer, seed=seed,
                             weights=sw)
     total = np.asarray(scores.total)
@@ -235,11 +237,11 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
 
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
     # weights, whatever the scorer (the analytic cost's weights are for N, not m)
-    measure_w = sw if scorer == "sdgnet" else ScoreWeights()
+    measure_w = sw if scorer in SDGNET_SCORERS else ScoreWeights()
     v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
                             weights=measure_w, randomize=None if physics == "nominal" else Randomization())
     L = v.labels
-    per_rollout = measured_total(L, measure_w)
+    per_rollout = measured_total(L, measure_w, "wrench" if getattr(scores, "grip", None) is not None else "paper")
     rows = []
     for r, i in enumerate(v.shortlist):
         for d in range(verify_draws):

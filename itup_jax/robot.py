@@ -32,6 +32,11 @@ UR5E_MAX_JOINT_SPEED = math.pi
 #: m/s, typical maximum tool (TCP) speed.
 UR5E_MAX_TCP_SPEED = 1.0
 
+# --- UR5e joint torques: Universal Robots' joint sizes (size 3: base, shoulder, elbow; size 1: wrists) ---
+#: N m, the most torque each joint's actuators exert in all (servos and gravity compensation together;
+#: `actuatorfrcrange` in the MJCF).
+JOINT_TORQUE_LIMITS = np.array([150.0, 150.0, 150.0, 28.0, 28.0, 28.0])
+
 # --- Robotiq 2F-85 class parallel-jaw gripper ---------------------------------------------------------
 # Stroke and force range: Robotiq 2F-85 product specifications (85 mm stroke, 20-235 N grip force,
 # 0.925 kg). Pad size: MuJoCo Menagerie's robotiq_2f85 model, whose two stacked pad boxes per finger

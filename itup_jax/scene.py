@@ -11,11 +11,11 @@ elliptic cones. The arm has no collision geometry: IK keeps its elbow and wrist 
 
 Physics of the tool's contacts, from the tool's priors:
   * pads-tool friction: mu (torsional 0.005 m, an assumed pad patch);
-  * tool-target: MuJoCo's soft contact as a damped spring whose damping ratio gives the restitution,
-    zeta = -ln e / sqrt(pi^2 + ln^2 e), and whose half period is the contact duration,
-    timeconst = dt_c sqrt(1 - zeta^2) / (pi zeta), floored at CONTACT_MIN_TIMECONST = 4 ms at any step
-    (the 2 timesteps MuJoCo clamps to at the 2 ms step every dataset used before per-task steps; one
-    contact model at every step, so that steps compare: experiments/timestep_convergence.py).
+  * tool-target: MuJoCo's soft contact as a damped spring whose half period is about the contact
+    duration, timeconst = dt_c sqrt(1 - zeta_0^2) / (pi zeta_0), zeta_0 = -ln e / sqrt(pi^2 + ln^2 e),
+    floored at CONTACT_MIN_TIMECONST = 4 ms at any step (the 2 timesteps MuJoCo clamps to at 2 ms; one
+    contact model at every step, so that steps compare: experiments/timestep_convergence.py), and
+    whose damping ratio is calibrated so that MuJoCo delivers the restitution e (`restitution.py`).
 
 Everything kind-specific (the environment's MJCF, its targets, where they are placed, the integration
 step) comes from the task registry, `itup_jax.tasks`. Each kind's step is the coarsest of 2, 1 and
@@ -37,6 +37,7 @@ import numpy as np
 
 from itup_jax import tasks
 from itup_jax.errors import InputError
+from itup_jax.restitution import calibrated_dampratio, textbook_dampratio
 from itup_jax.robot import ARM_JOINTS, PAD_TORSION
 from itup_jax.task import Task
 from itup_jax.tool import Tool
@@ -96,22 +97,30 @@ def scene_xml(kind: str) -> Path:
 
 
 def restitution_solref(restitution: float, contact_duration: float, timestep: float = TIMESTEP) -> tuple[float, float]:
-    """MuJoCo solref (timeconst s, dampratio) whose spring-damper bounces with `restitution` over
-    half a period of `contact_duration` seconds.
+    """MuJoCo solref (timeconst s, dampratio) of a contact that lasts about `contact_duration` seconds
+    and delivers `restitution` in MuJoCo.
 
-    The time constant is floored at CONTACT_MIN_TIMECONST (the same contact at every step up to 2 ms)
-    and at 2 timesteps, as native MuJoCo would clamp it silently, so that MJX and native MuJoCo
-    integrate the same contact at coarser steps too.
+    The time constant is the textbook spring-damper's whose half period is the contact duration,
+    timeconst = dt_c sqrt(1 - zeta_0^2) / (pi zeta_0) with zeta_0 = `restitution.textbook_dampratio`,
+    rounded to two significant digits (one calibration table per value) and floored at
+    CONTACT_MIN_TIMECONST (the same contact at every step up to 2 ms) and at 2 timesteps, as native
+    MuJoCo would clamp it silently, so that MJX and native MuJoCo integrate the same contact at coarser
+    steps too. The damping ratio is the one at which MuJoCo's drop delivers `restitution`
+    (`restitution.calibrated_dampratio`): the textbook ratio delivers more (0.49 for e = 0.4 at 0.5 ms,
+    more than 1 at 2 ms) because MuJoCo's contact lets go when its force, not its penetration, returns
+    to zero.
     """
     e = min(max(float(restitution), 1e-3), 0.999)
-    zeta = -math.log(e) / math.sqrt(math.pi**2 + math.log(e) ** 2)
+    zeta0 = textbook_dampratio(e)
     floor = max(CONTACT_MIN_TIMECONST, 2 * timestep)
-    return max(contact_duration * math.sqrt(1 - zeta**2) / (math.pi * zeta), floor), zeta
+    timeconst = max(float(f"{contact_duration * math.sqrt(1 - zeta0**2) / (math.pi * zeta0):.2g}"), floor)
+    return timeconst, calibrated_dampratio(e, timeconst, timestep)
 
 
 def target_solref(kind: str, restitution: float, contact_duration: float, timestep: float = TIMESTEP) -> tuple[float, float]:
     """solref of the tool-target pairs of a `kind` scene: `restitution_solref`, with dampratio 1 for a
-    kind whose target gives way under the blow (`TaskKind.plastic_target`: a nail driven into wood).
+    kind whose target gives way under the blow (`TaskKind.plastic_target`: a nail driven into wood; a
+    critically damped contact still delivers e = 0.13 in MuJoCo's drop, `restitution.py`).
     With the restitution's under-damped spring (e = 0.4), a block dropped on the nail drove it 1.1-1.5x
     as far as its kinetic energy can at the hammer's 0.5 ms step, 3-5x at 2 ms: the soft contact and the
     nail's friction constraint together add energy."""

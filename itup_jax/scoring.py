@@ -24,8 +24,9 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, check_seed
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.objective import costs_of
 from itup_jax.precision import full_precision
-from itup_jax.sdgnet import Model, load_model, predict_from_features
+from itup_jax.sdgnet import PAPER_MODEL, Model, load_model, predict_from_features
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
@@ -34,6 +35,10 @@ from itup_jax.wrench import task_loads
 #: misses the task (1 - p_success) and that it fails in the grip (p_failed).
 W_TASK = 10.0
 W_FAIL = 10.0
+#: Weight of the predicted grip demand (N per pad) in the total, N m per N (objective.WRENCH's models):
+#: 100 N per pad weighs like 5 N m of torque. Chosen on validation tools by the rule fixed in
+#: `experiments/objective_selection.py` among 0, 0.005, 0.01, 0.02, 0.05 (and grip alone).
+W_GRIP = 0.05
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +59,8 @@ class ScoreWeights:
     w_align: float = 1.0  # 1/rad
     w_task: float = W_TASK  # per unit of probability of missing the task
     w_fail: float = W_FAIL  # per unit of probability of failing in the grip
+    # N m per N of grip demand (a model of the wrench objective; the paper's predicts none)
+    w_grip: float = W_GRIP
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -64,15 +71,15 @@ class ScoreWeights:
 
     @classmethod
     def torque_first(cls, w_task: float = W_TASK, w_fail: float = W_FAIL) -> "ScoreWeights":
-        """The planner objective of the paper's headline measure: wrist torque alone (slip and drift weigh
-        nothing), with the task and grip penalties kept, so a grasp is judged by its torque among the
+        """The planner objective of the paper's headline measure: wrist torque alone (slip, drift and the
+        grip demand weigh nothing), with the task and grip penalties kept, so a grasp is judged by its torque among the
         grasps that do the task and hold. Its picks slip further than the default's (3.5-4.0
         against 1.9-2.3 mm), within the failure threshold of 1 cm."""
-        return cls(w_tau=1.0, w_slip=0.0, w_align=0.0, w_task=w_task, w_fail=w_fail)
+        return cls(w_tau=1.0, w_slip=0.0, w_align=0.0, w_grip=0.0, w_task=w_task, w_fail=w_fail)
 
     def costs(self, dtype=jnp.float32) -> jax.Array:
-        """[3] weights of (C_tau, C_s, C_alpha)."""
-        return jnp.asarray([self.w_tau, self.w_slip, self.w_align], dtype)
+        """[4] weights of the cost columns (tau, slip, align, grip: `objective.COST_COLUMNS`)."""
+        return jnp.asarray([self.w_tau, self.w_slip, self.w_align, self.w_grip], dtype)
 
     def heads(self, class_heads, dtype=jnp.float32) -> jax.Array:
         """[K, 2] (a, b) per binary head of a model (`Model.class_heads`): its term is a + b p. Success:
@@ -82,7 +89,7 @@ class ScoreWeights:
 
 
 def sdgnet_total(costs, probs, w_costs, head_coef):
-    """[N] total of SDG-Net's predictions: costs [N, 3] (N m, m, rad) . w_costs [3], plus, per binary
+    """[N] total of SDG-Net's predictions: costs [N, 4] (N m, m, rad, N) . w_costs [4], plus, per binary
     head k, head_coef[k, 0] + head_coef[k, 1] x probs[:, k] (probs [N, K]; None: no heads). Pure."""
     total = costs @ w_costs
     if probs is None:
@@ -104,18 +111,20 @@ class Scores:
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
     p_success: jax.Array | None = None
     p_failed: jax.Array | None = None
+    grip: jax.Array | None = None  # predicted grip demand, N per pad (a wrench-objective SDG-Net)
 
 
 def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, w_costs,
-                   head_coef, spec):
+                   head_coef, spec, objective):
     loads = task_loads(tool_params, task)
     feats = _batched(field, loads, tool_params, grasps, spec)
     y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
-    return y[:, 0], y[:, 1], y[:, 2], sdgnet_total(y, p, w_costs, head_coef), p
+    c = costs_of(y, objective)
+    return c[:, 0], c[:, 1], c[:, 2], c[:, 3], sdgnet_total(c, p, w_costs, head_coef), p
 
 
 #: The one jit of SDG-Net scoring (the outer call).
-sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("spec",))
+sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("spec", "objective"))
 _FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
 
 
@@ -134,22 +143,29 @@ def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: 
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
             jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.costs(dt),
             weights.heads(model.class_heads, dt))
-    return args, {"spec": spec}
+    return args, {"spec": spec, "objective": model.objective}
 
 
 def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
           weights: ScoreWeights = ScoreWeights(), cost_params: CostParams | None = None, seed: int = 0) -> Scores:
     """Scores [N] of `grasps` (lower is better).
 
-    model: None or 'sdgnet' (the shipped checkpoint), a checkpoint path, a `Model`, 'analytic' (the
-    foundation's wrench costs), or a baseline of `baselines.py`: 'force_closure' (Ferrari-Canny),
-    'geometric', 'static', 'random' (seeded by `seed`).
+    model: None or 'sdgnet' (the shipped checkpoint), 'sdgnet_paper' (the paper objective's shipped
+    checkpoint), a checkpoint path, a `Model`, 'analytic' (the wrench costs, `cost_params` or the
+    paper's form), 'analytic_wrench' (the same in the grip-demand form, `CostParams.wrench()`), or a
+    baseline of `baselines.py`: 'force_closure' (Ferrari-Canny), 'geometric', 'static', 'random'
+    (seeded by `seed`).
     """
     validate_grasps(grasps)
     if isinstance(model, str) and model in BASELINES:
         return _baseline(model, tool, task, grasps, seed)
     if isinstance(model, str) and model == "sdgnet":
         model = None
+    if isinstance(model, str) and model == "sdgnet_paper":
+        model = PAPER_MODEL
+    if isinstance(model, str) and model == "analytic_wrench":
+        c = wrench_costs(tool, task, grasps, cost_params or CostParams.wrench())
+        return Scores(tau=c.tau, slip=c.slip, align=c.align, total=c.total, scorer="analytic_wrench")
     if isinstance(model, str) and model == "analytic":
         c = wrench_costs(tool, task, grasps, cost_params)
         return Scores(tau=c.tau, slip=c.slip, align=c.align, total=c.total, scorer="analytic")
@@ -158,9 +174,10 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
     args, kw = _sdgnet_args(tool, task, grasps, model, weights)
-    tau, slip, align, total, p = sdgnet_scores_jit(*args, **kw)
+    tau, slip, align, grip, total, p = sdgnet_scores_jit(*args, **kw)
     probs = {name: p[:, j] for j, name in enumerate(model.for_task(task.kind).head_names)}
-    return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet", **probs)
+    return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet",
+                  grip=None if model.objective == "paper" else grip, **probs)
 
 
 def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> Scores:
@@ -183,7 +200,11 @@ def _baseline(name: str, tool: Tool, task: Task, grasps: Grasps, seed: int) -> S
 
 
 #: Every name `score` accepts as `model` (besides a path or a Model).
-SCORERS = ("sdgnet", "analytic") + BASELINES
+SCORERS = ("sdgnet", "sdgnet_paper", "analytic", "analytic_wrench") + BASELINES
+#: The scorers that are SDG-Net checkpoints (their weights are `ScoreWeights`).
+SDGNET_SCORERS = ("sdgnet", "sdgnet_paper")
+#: The analytic scorers (their weights are `CostParams` fields).
+ANALYTIC_SCORERS = ("analytic", "analytic_wrench")
 
 
 def best_grasp(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, reachable_only: bool = False,

@@ -30,18 +30,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from itup_jax import checkpoint, mlp
+from itup_jax import checkpoint, mlp, objective
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.features import FeatureSpec
 from itup_jax.optim import AdamConfig, adam_init, adam_update
 from itup_jax.precision import full_precision
 
-TARGETS = ("label_peak_torque_projected", "label_slip_translation", "label_alignment_drift")
+#: The paper objective's targets (`objective.PAPER`; the wrench objective's: `objective.WRENCH`).
+TARGETS = objective.PAPER.targets
 #: Targets are learned as log1p(y / scale): slip is heavy-tailed (a lost tool "slips" metres), torque
-#: spans decades; the scales are 0.02 N m (`TrainConfig.torque_scale`), 1 mm, 0.1 rad. The scales are
-#: stored in the checkpoint and its predictions are mapped back with them by scale * expm1.
-TARGET_SCALES = (0.02, 1e-3, 0.1)
-COST_NAMES = ("tau", "slip", "align")
+#: spans decades; the scales are 0.02 N m (`TrainConfig.torque_scale`), 1 mm, 0.1 rad (the wrench
+#: objective's grip demand: 1 N). The scales are stored in the checkpoint and its predictions are
+#: mapped back with them by scale * expm1.
+TARGET_SCALES = objective.PAPER.scales
+COST_NAMES = objective.PAPER.outputs
 #: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`), in the order
 #: of their outputs after the three costs, and the names their probabilities go by.
 CLASS_TARGETS = ("label_success", "label_failed")
@@ -49,6 +51,9 @@ CLASS_NAMES = ("p_success", "p_failed")
 SUCCESS_TARGET = CLASS_TARGETS[0]
 #: The shipped checkpoint, inside the installed package (model card: `itup_jax/models/MODEL_CARD.md`).
 DEFAULT_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_default.npz")
+#: The paper objective's checkpoint, trained on the same data (`itup train --objective paper`): the
+#: paper's model reproduced, one option away (scorer "sdgnet_paper").
+PAPER_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_paper.npz")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,6 +94,10 @@ class TrainConfig:
     rank_temperature: float = 0.3  # on the normalised log-torque scale (1 = the training rows' spread)
     rank_tools: int = 8
     rank_group: int = 32
+    # what the network regresses (`objective.OBJECTIVES`): 'wrench' (the induced torque's three
+    # grasp-frame components, the grip demand, slip, drift; the default, chosen on validation tools,
+    # experiments/objective_selection.py) or 'paper' (projected torque, slip, drift)
+    objective: str = "wrench"
     # in [0, 1): > 0 keeps an exponential moving average of the weights, updated after every Adam step
     # (w_avg <- ema w_avg + (1 - ema) w, starting from the first weights), and validates, early-stops and
     # stores the average instead of the last step's weights: Polyak averaging, a cheap ensemble over the
@@ -131,6 +140,7 @@ class TrainConfig:
                 raise InputError(f"train: {name} must be an integer >= {least}, got {getattr(self, name)!r}")
         if not (isinstance(self.ema, (float, int)) and not isinstance(self.ema, bool) and 0 <= self.ema < 1):
             raise InputError(f"train: ema (the weight average's decay per step) must be in [0, 1), got {self.ema!r}")
+        objective.get(self.objective, what="train")
         if self.per_task and self.finetune_epochs:
             raise InputError("train: per_task trains each task's network from scratch and finetune_epochs "
                              "fine-tunes a shared one per task; set finetune_epochs=0 with per_task")
@@ -142,8 +152,13 @@ class TrainConfig:
         return {k: v for k, v in w.items() if v > 0}
 
     @property
+    def targets(self) -> tuple:
+        """The label columns the network regresses, in output order (its objective's)."""
+        return objective.get(self.objective).targets
+
+    @property
     def target_scales(self) -> tuple:
-        return (self.torque_scale,) + TARGET_SCALES[1:]
+        return objective.get(self.objective).target_scales(self.torque_scale)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,6 +171,17 @@ class Model:
     @property
     def feature_spec(self) -> FeatureSpec:
         return FeatureSpec(**self.spec["feature_spec"])
+
+    @property
+    def objective(self) -> str:
+        """The objective it was trained on (`objective.OBJECTIVES`; checkpoints that predate the choice:
+        'paper')."""
+        return str(self.spec.get("objective", "paper"))
+
+    @property
+    def output_names(self) -> list[str]:
+        """The names of its regression outputs, in order (`objective.Objective.outputs`)."""
+        return list(objective.get(self.objective).outputs)
 
     @property
     def class_heads(self) -> list[str]:
@@ -181,6 +207,7 @@ class Model:
         TrainConfig's defaults): what `train` needs to make it again on other data."""
         fields = {f.name for f in dataclasses.fields(TrainConfig)}
         cfg = {k: v for k, v in self.spec["config"].items() if k in fields}
+        cfg["objective"] = self.objective  # a checkpoint that predates the choice was trained on the paper's
         if "hidden" in cfg:
             cfg["hidden"] = tuple(int(h) for h in cfg["hidden"])
         return TrainConfig(**cfg)
@@ -360,7 +387,13 @@ def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np
     """Features X [N, F], targets Y [N, 3] = log1p(y / scale), and keep [N] bool: the rows a network is
     trained on (finite features and targets)."""
     X = np.asarray(data["features"], np.float64)
-    Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in TARGETS], axis=1) / np.array(config.target_scales))
+    missing = [t for t in config.targets if t not in data]
+    if missing:
+        raise InputError(f"train: the data has no {', '.join(missing)}, which the {config.objective!r} objective "
+                         "regresses (labels older than that field; make the data again, or train "
+                         f"--objective {'paper' if config.objective != 'paper' else 'wrench'})")
+    Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in config.targets], axis=1)
+                 / np.array(config.target_scales))
     return X, Y, np.isfinite(X).all(1) & np.isfinite(Y).all(1)
 
 
@@ -391,7 +424,8 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
         params += m.params
     n_val = sum(e["n_val"] for e in by_task.values())
     spec = {
-        "feature_spec": feature_spec or {}, "targets": list(TARGETS), "cost_names": list(COST_NAMES),
+        "feature_spec": feature_spec or {}, "objective": config.objective, "targets": list(config.targets),
+        "cost_names": list(objective.get(config.objective).outputs),
         "target_scales": list(config.target_scales), "config": dataclasses.asdict(config), "by_task": by_task,
         **_head_spec(config),
         # the validation rows' mean loss over all tasks (each task's best epoch), comparable to a shared model's
@@ -440,7 +474,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     steps_per_epoch = max(1, n_tr // batch)
     key = jax.random.key(config.seed)
     key, k_init = jax.random.split(key)
-    params = jax.tree_util.tree_map(f32, mlp.init(k_init, [X.shape[1], *config.hidden, len(TARGETS) + len(heads)])
+    params = jax.tree_util.tree_map(f32, mlp.init(k_init, [X.shape[1], *config.hidden, len(config.targets) + len(heads)])
                                     if init is None else init.params)
     adam = AdamConfig(lr=config.lr, weight_decay=config.weight_decay, warmup_steps=min(100, 5 * steps_per_epoch),
                       total_steps=config.epochs * steps_per_epoch)
@@ -513,12 +547,13 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     if bar is not None:
         bar.close()
     wall = time.perf_counter() - t0
-    val_metrics = _validation_metrics(best[1], Xva, Yva, S[va], list(heads))
+    val_metrics = _validation_metrics(best[1], Xva, Yva, S[va], list(heads), objective.get(config.objective).outputs)
     log(f"train: {len(history)} epochs in {wall:.1f} s, best val loss {best[0]:.4f} at epoch {best[2]} "
         f"({int(tr.sum())} train / {int(va.sum())} validation examples, held-out tools)"
         + ("; validation " + ", ".join(f"{k} {v:.3f}" for k, v in val_metrics.items()) if val_metrics else ""))
     spec = {
-        "feature_spec": feature_spec or {}, "targets": list(TARGETS), "cost_names": list(COST_NAMES),
+        "feature_spec": feature_spec or {}, "objective": config.objective, "targets": list(config.targets),
+        "cost_names": list(objective.get(config.objective).outputs),
         "target_scales": list(config.target_scales), **_head_spec(config),
         "x_mean": x_mean.tolist(), "x_std": x_std.tolist(), "y_mean": y_mean.tolist(), "y_std": y_std.tolist(),
         "config": dataclasses.asdict(config), "best_epoch": best[2], "best_val_loss": best[0],
@@ -528,7 +563,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     return Model(params=[(np.asarray(W), np.asarray(b)) for W, b in best[1]], spec=spec)
 
 
-def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list) -> dict:
+def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list, names: tuple) -> dict:
     """The best network on the held-out-tool rows: each target's mean squared error on the normalised
     scale (`mse_tau`, ...; 1.0 = predicting the training mean) and each binary head's AUC (`auc_success`,
     `auc_failed`; NaN when one class is missing)."""
@@ -537,10 +572,10 @@ def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list) -> dict
     from itup_jax.stats import roc_auc
 
     pred = np.asarray(jax.vmap(mlp.apply, in_axes=(None, 0))(params, Xva), float)
-    err = ((pred[:, : len(TARGETS)] - np.asarray(Yva, float)) ** 2).mean(0)
-    out = {f"mse_{name}": float(e) for name, e in zip(COST_NAMES, err)}
+    err = ((pred[:, : len(names)] - np.asarray(Yva, float)) ** 2).mean(0)
+    out = {f"mse_{name}": float(e) for name, e in zip(names, err)}
     for k, label in enumerate(heads):
-        out[f"auc_{label.removeprefix('label_')}"] = roc_auc(pred[:, len(TARGETS) + k], s_va[:, k] > 0.5)
+        out[f"auc_{label.removeprefix('label_')}"] = roc_auc(pred[:, len(names) + k], s_va[:, k] > 0.5)
     return out
 
 
@@ -577,7 +612,7 @@ def ensemble(models) -> Model:
         if m.ensemble_size != 1:
             raise InputError(f"ensemble: member {k} is itself an ensemble of {m.ensemble_size}; combine the trained "
                              "models it was made of instead")
-        for key in ("feature_spec", "targets", "target_scales", "class_heads"):
+        for key in ("feature_spec", "objective", "targets", "target_scales", "class_heads"):
             if m.spec.get(key) != first.spec.get(key):
                 raise InputError(f"ensemble: member {k}'s {key} {m.spec.get(key)!r} differs from member 0's "
                                  f"{first.spec.get(key)!r}; members must take the same inputs and give the same outputs")
@@ -605,7 +640,7 @@ def ensemble(models) -> Model:
 
 
 def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None = None) -> dict:
-    """A copy of `data` (as from `dataset.load_datasets`) whose cost targets (`TARGETS`, SI units) and
+    """A copy of `data` (as from `dataset.load_datasets`) whose regression targets (the teacher objective's, SI units) and
     binary labels (`CLASS_TARGETS` the teacher has a head for) are `teacher`'s predictions for each row,
     by task: the targets to distil a model (typically an `ensemble`, M times slower to score) into one
     network that scores at one network's cost (`itup train --teacher E.npz`). The probabilities are
@@ -613,10 +648,11 @@ def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None 
     own (not copied). The rows' features must be of the teacher's `FeatureSpec` (the caller checks the
     datasets' manifests).
 
-    outputs: only these of `COST_NAMES` + `CLASS_NAMES` (e.g. ("tau", "align")) are the teacher's, the
+    outputs: only these of `Model.output_names` + `CLASS_NAMES` (e.g. ("tau", "align")) are the teacher's, the
     rest stay the labels: adapting a checkpoint to a changed label while holding its other outputs
     where they were (`itup train --init M.npz --keep tau,align,p_success`). None: all of them."""
-    known = COST_NAMES + CLASS_NAMES
+    names = tuple(teacher.output_names)
+    known = names + CLASS_NAMES
     if outputs is not None and (not outputs or set(outputs) - set(known)):
         raise InputError(f"teacher_targets: outputs must be some of {', '.join(known)}, got {list(outputs)}")
     tasks = np.asarray(data["task"])
@@ -626,11 +662,12 @@ def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None 
         raise InputError(f"teacher_targets: the rows have {X.shape[-1]} features, the teacher's networks take {n_in}")
     out = dict(data)
     heads = [(CLASS_NAMES[CLASS_TARGETS.index(h)], h) for h in teacher.class_heads]
-    pairs = [(name, key) for name, key in list(zip(COST_NAMES, TARGETS)) + heads if outputs is None or name in outputs]
+    pairs = [(name, key) for name, key in list(zip(names, objective.get(teacher.objective).targets)) + heads
+             if outputs is None or name in outputs]
     missing = [] if outputs is None else sorted(set(outputs) - {name for name, _ in pairs})
     if missing:
         raise InputError(f"teacher_targets: the teacher has no {', '.join(missing)} head (its heads: "
-                         f"{', '.join(COST_NAMES + tuple(teacher.head_names))})")
+                         f"{', '.join(names + tuple(teacher.head_names))})")
     cols = {key: np.full(len(tasks), np.nan) for _, key in pairs}
     for kind in np.unique(tasks):
         rows = tasks == kind
@@ -644,21 +681,26 @@ def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None 
 def load_model(path: str | None = None) -> Model:
     """A saved model; None: the default checkpoint shipped in the package."""
     layers, spec = checkpoint.load(path or DEFAULT_MODEL)
-    if spec.get("targets") != list(TARGETS):
-        raise InputError(f"model {path!r}: trained for targets {spec.get('targets')}, expected {list(TARGETS)}")
+    if not isinstance(spec.get("objective", "paper"), str) or spec.get("objective", "paper") not in objective.OBJECTIVES:
+        raise InputError(f"model {path!r}: unknown objective {spec.get('objective')!r}; known: "
+                         f"{', '.join(objective.OBJECTIVES)}")
+    targets = list(objective.get(spec.get("objective", "paper")).targets)
+    if spec.get("targets") != targets:
+        raise InputError(f"model {path!r}: trained for targets {spec.get('targets')}, expected {targets} "
+                         f"(objective {spec.get('objective', 'paper')!r})")
     scales = spec.get("target_scales")
-    if not (isinstance(scales, list) and len(scales) == len(TARGETS) and all(isinstance(v, (int, float)) and v > 0 for v in scales)):
-        raise InputError(f"model {path!r}: target_scales must be {len(TARGETS)} positive numbers (the log1p(y / scale) "
+    if not (isinstance(scales, list) and len(scales) == len(targets) and all(isinstance(v, (int, float)) and v > 0 for v in scales)):
+        raise InputError(f"model {path!r}: target_scales must be {len(targets)} positive numbers (the log1p(y / scale) "
                          f"of training), got {scales!r}")
     model = Model(params=layers, spec=spec)
     heads = model.class_heads
     if not set(heads) <= set(CLASS_TARGETS) or len(set(heads)) != len(heads):
         raise InputError(f"model {path!r}: class_heads must be distinct labels among {list(CLASS_TARGETS)}, got {heads}")
-    n_out = len(TARGETS) + len(heads)
+    n_out = len(targets) + len(heads)
     outs = [layers[hi - 1][0].shape[-1] for hi in
             ([e["layers"][1] for e in spec["by_task"].values()] if "by_task" in spec else [len(layers)])]
     if any(o != n_out for o in outs):
-        raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec (3 costs + binary heads "
+        raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec ({len(targets)} costs + binary heads "
                          f"{heads}) says {n_out}")
     m = model.ensemble_size
     if any(W.ndim != (2 if m == 1 else 3) or (m > 1 and (W.shape[0] != m or b.shape[0] != m)) for W, b in layers):
@@ -668,16 +710,16 @@ def load_model(path: str | None = None) -> Model:
 
 
 def _network_outputs(params, x_mean, x_std, y_mean, y_std, feats):
-    """One network: [N, F] features -> ([N, 3] log1p(y / scale) of the costs, [N, K] head logits)."""
+    """One network: [N, F] features -> ([N, C] log1p(y / scale) of the regression targets, [N, K] head logits)."""
     out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, (feats - x_mean) / x_std)
     k = y_mean.shape[-1]
     return out[:, :k] * y_std + y_mean, out[:, k:]
 
 
 def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
-    """[N, F] features -> ([N, 3] costs in SI units, [N, K] probabilities of the binary heads or None):
-    normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales `y_scale` [3]
-    (N m, m, rad); the probabilities are the sigmoids of the outputs after the costs (which label each
+    """[N, F] features -> ([N, C] regression outputs in SI units, [N, K] probabilities of the binary heads
+    or None): normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales
+    `y_scale` [C] (the objective's units; `objective.costs_of` makes the scorer's costs of them); the probabilities are the sigmoids of the outputs after the costs (which label each
     is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
     shape). An ensemble (`ensemble`: every array with a leading member axis M, x_mean [M, F]) runs its
     M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Pure;
@@ -697,13 +739,19 @@ predict = jax.jit(full_precision(predict_from_features))
 
 
 def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:
-    """{tau, slip, align} and each binary head's probability (p_success, p_failed): each [N], from
-    features [N, F] of grasps for `task` (required by a per-task model)."""
+    """Each regression output (`Model.output_names`), the scorer's costs tau, slip, align (and grip,
+    for the wrench objective: tau is then the norm of the three torque components) and each binary
+    head's probability (p_success, p_failed): each [N], from features [N, F] of grasps for `task`
+    (required by a per-task model)."""
     model = model.for_task(task)
     s = model.spec
     dt = jnp.asarray(model.params[0][0]).dtype
     out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                      jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
                      jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt))
-    return {name: out[:, i] for i, name in enumerate(COST_NAMES)} | {n: p[:, j] for j, n in enumerate(model.head_names)}
+    costs = objective.costs_of(out, model.objective)
+    derived = {name: costs[:, i] for i, name in enumerate(objective.COST_COLUMNS)
+               if name != "grip" or model.objective != "paper"}
+    return ({name: out[:, i] for i, name in enumerate(model.output_names)} | derived
+            | {n: p[:, j] for j, n in enumerate(model.head_names)})
 

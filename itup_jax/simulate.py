@@ -42,6 +42,7 @@ from mujoco import rollout as mj_rollout
 from itup_jax import ik, robot, tasks
 from itup_jax.errors import InputError, check_seed, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.grip_demand import grip_demand, torque_about_grasp
 from itup_jax.mjx_cholesky import jax_cholesky
 from itup_jax.mjx_collision import native_capsule_box
 from itup_jax.precision import full_precision
@@ -140,13 +141,16 @@ class Plan:
     n_settle: int
     sim_t: np.ndarray  # [nstep] s, time of each recorded step from the start of the motion
     traj_index: np.ndarray  # [nstep] nearest trajectory sample of each step (-1 during settling)
+    width: np.ndarray  # [N] m, the grasp's jaw opening
+    mu: np.ndarray  # [N] -, the rollout's pad friction
 
 
 def _concat_plans(plans: list[Plan]) -> Plan:
     first = plans[0]
     cat = lambda f: np.concatenate([getattr(q, f) for q in plans])  # noqa: E731
     return dataclasses.replace(first, qpos0=cat("qpos0"), ctrl=cat("ctrl"), q_traj=cat("q_traj"),
-                               infeasible=cat("infeasible"), over_speed=cat("over_speed"))
+                               infeasible=cat("infeasible"), over_speed=cat("over_speed"), width=cat("width"),
+                               mu=cat("mu"))
 
 
 def _slice_physics(physics: Physics, sl: slice) -> Physics:
@@ -270,7 +274,8 @@ def plan(scene: Scene, task: Task, grasps: Grasps, physics: Physics, config: Sim
     qpos0[:, scene.tool_qpos:scene.tool_qpos + 3] = T_world_tool0[:, :3, 3]
     qpos0[:, scene.tool_qpos + 3:scene.tool_qpos + 7] = [_quat_from_matrix(T[:3, :3]) for T in T_world_tool0]
     return Plan(qpos0=qpos0, ctrl=ctrl, q_traj=q_traj, infeasible=infeasible, over_speed=over_speed, nstep=nstep,
-                n_settle=n_settle, sim_t=sim_t, traj_index=traj_index)
+                n_settle=n_settle, sim_t=sim_t, traj_index=traj_index,
+                width=np.asarray(grasps.width, float).copy(), mu=np.asarray(physics.mu, float).copy())
 
 
 def randomized_model(scene: Scene, physics: Physics, i: int) -> mujoco.MjModel:
@@ -544,7 +549,7 @@ def _mjx_rollout_fn(scene: Scene, float64: bool | None = None):
 # ---------------------------------------------------------------------------------------------------
 LABEL_FIELDS = (
     "peak_torque", "peak_torque_induced", "peak_torque_projected", "peak_torque_closure",
-    "peak_induced_third", "peak_induced_closure", "peak_induced_approach", "static_torque",
+    "peak_induced_third", "peak_induced_closure", "peak_induced_approach", "grip_demand", "static_torque",
     "peak_force_induced", "peak_pad_force", "slip_translation", "slip_rotation", "alignment_drift", "failed", "success",
     "task_metric", "diverged", "infeasible", "over_speed", "valid",
 )
@@ -561,7 +566,11 @@ class Labels:
     projection).  peak_torque_closure: max |(tau - tau_static) . y|.  peak_induced_third,
     peak_induced_closure, peak_induced_approach: the induced torque's components in the grasp frame's
     axes (x, y the jaw's closure, z the approach), absolute, at the step of its peak norm: they
-    recompose peak_torque_induced.  static_torque: |tau_static|.
+    recompose peak_torque_induced.  grip_demand (N per pad): max over the motion of the normal force
+    each pad needs to hold the induced wrench by friction (`grip_demand.grip_demand`: the wrist's
+    induced force and its torque moved to the grasp centre, the rollout's pad friction, the grasp's
+    jaw opening; the hold at rest is not in it; the gripper's own inertia is, as in every wrist
+    label).  static_torque: |tau_static|.
     peak_force_induced: max |F - F_static| (N).  peak_pad_force: max normal force of either pad's
     strongest contact during the motion (N).  slip_translation (m): max distance over the motion by
     which the tool's material point at the grasp centre (midway between the pads at the end of the
@@ -582,6 +591,7 @@ class Labels:
     peak_induced_third: np.ndarray
     peak_induced_closure: np.ndarray
     peak_induced_approach: np.ndarray
+    grip_demand: np.ndarray
     static_torque: np.ndarray
     peak_force_induced: np.ndarray
     peak_pad_force: np.ndarray
@@ -739,6 +749,8 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
         peak_torque_projected=nan0(np.sqrt(perp_sq.max(1))),
         peak_torque_closure=nan0(np.abs(closure).max(1)),
         **{k: nan0(v) for k, v in induced_components_at_peak(d_tau).items()},
+        grip_demand=nan0(grip_demand(d_force, torque_about_grasp(d_force, d_tau), p.mu[:, None],
+                                     p.width[:, None]).max(1)),
         static_torque=np.linalg.norm(tau_static, axis=-1),
         peak_force_induced=nan0(_peak_norm(d_force)),
         peak_pad_force=nan0(pad_peak),
@@ -780,7 +792,8 @@ NATIVE_BLOCK = 256
 def _take_plan(p: Plan, idx: np.ndarray) -> Plan:
     """The plan of rollouts `idx` only."""
     return dataclasses.replace(p, qpos0=p.qpos0[idx], ctrl=p.ctrl[idx], q_traj=p.q_traj[idx],
-                               infeasible=p.infeasible[idx], over_speed=p.over_speed[idx])
+                               infeasible=p.infeasible[idx], over_speed=p.over_speed[idx], width=p.width[idx],
+                               mu=p.mu[idx])
 
 
 def _feasible_labels(scene: Scene, task: Task, p: Plan, run: np.ndarray, run_plan: Plan, qvel_peak: np.ndarray | None,

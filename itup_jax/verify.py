@@ -79,12 +79,21 @@ class Verified:
         return np.asarray(getattr(self.labels, field)).reshape(len(self.shortlist), self.draws)
 
 
-def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights()) -> np.ndarray:
+#: The measured torque that stands for the predicted tau, per objective (`objective.OBJECTIVES`).
+MEASURED_TAU = {"paper": "peak_torque_projected", "wrench": "peak_torque_induced"}
+
+
+def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objective: str = "paper") -> np.ndarray:
     """[N] the `ScoreWeights` total of measured labels: SDG-Net's total (`sdgnet_total`) with each
     prediction replaced by its measurement, success and failure counting as probabilities 1 or 0
-    (w_tau tau + w_slip slip + w_align drift + w_task (1 - success) + w_fail failed); inf where the
-    rollout is not valid."""
-    total = (weights.w_tau * np.asarray(labels.peak_torque_projected, np.float64)
+    (w_tau tau + w_slip slip + w_align drift + w_grip grip + w_task (1 - success) + w_fail failed; tau
+    the projected peak torque for the paper's objective, the full induced one for the wrench
+    objective, which alone also counts the grip demand); inf where the rollout is not valid."""
+    if objective not in MEASURED_TAU:
+        raise InputError(f"measured_total: objective must be one of {list(MEASURED_TAU)}, got {objective!r}")
+    grip = (weights.w_grip * np.asarray(labels.grip_demand, np.float64) if objective == "wrench"
+            else np.zeros(len(labels.valid)))
+    total = grip + (weights.w_tau * np.asarray(getattr(labels, MEASURED_TAU[objective]), np.float64)
              + weights.w_slip * np.asarray(labels.slip_translation, np.float64)
              + weights.w_align * np.asarray(labels.alignment_drift, np.float64)
              + weights.w_task * (1.0 - np.asarray(labels.success, np.float64))
@@ -113,7 +122,8 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         mean.
       seed, randomize: the rollouts' physics: nominal priors by default (`randomize=None`); with a
         `Randomization`, one draw per rollout (round r of replacements draws from seed + r).
-      weights: the total that both the scorer's ranking and the measured pick use.
+      weights: the total that both the scorer's ranking and the measured pick use (measured with the
+        scorer's objective: the wrench objective's when the scores carry a grip demand).
       scores: precomputed scores of these grasps (`score(...)`, `wrench_costs(...)`, any object with a
         `total` [N], lower is better); skips scoring.
       scene, backend, nthread: passed to `simulate` (scene: a prebuilt `build_scene(tool, task)`).
@@ -162,7 +172,8 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     else:
         labels = Labels.unmeasured(0)
     # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
-    m = measured_total(labels, weights).reshape(len(tried), draws).mean(axis=1)
+    objective = "wrench" if getattr(scores, "grip", None) is not None else "paper"
+    m = measured_total(labels, weights, objective).reshape(len(tried), draws).mean(axis=1)
     if np.isfinite(m).any():
         i, chosen_by = tried[int(np.argmin(m))], "measured"
     else:

@@ -74,7 +74,8 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     assert runs["align"]["weights"]["w_fail"] == 0
     for r in runs["align"]["top"]:  # the total is the weighted sum with the given weights
         c = r["costs"]
-        assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"], rel=1e-4, abs=1e-4)
+        grip = ScoreWeights().w_grip * c["grip"]  # the shipped network predicts the grip demand too
+        assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"] + grip, rel=1e-4, abs=1e-4)
     out = tmp_path / "a.json"
     assert main(["plan", "--task", "knock", "--n", "8", "--scorer", "analytic", "--w-slip", "3", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["weights"] == {"w_tau": 1.0, "w_slip": 3.0, "w_align": 1.0}
@@ -103,7 +104,8 @@ def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
 @pytest.mark.filterwarnings("ignore:.*joint-speed limit")
 def test_plan_verifies_over_draws_with_the_torque_first_weights(tmp_path, capsys):
     """--verify 2 --verify-draws 2 --torque-first: random physics, two rollouts per grasp, and the pick is the
-    grasp with the lowest mean measured total (torque, task and grip penalties)."""
+    grasp with the lowest mean measured total (torque, task and grip penalties; the shipped network's
+    objective measures the full induced torque, and torque-first weighs no grip demand)."""
     out = tmp_path / "v.json"
     assert main(["plan", "--task", "sweep", "--n", "30", "--verify", "2", "--verify-draws", "2", "--torque-first",
                  "--json", str(out)]) == 0
@@ -111,10 +113,11 @@ def test_plan_verifies_over_draws_with_the_torque_first_weights(tmp_path, capsys
     ver = res["verified"]
     assert ver["physics"] == "random" and ver["draws"] == 2 and res["weights"]["w_slip"] == 0.0
     assert res["weights"]["w_align"] == 0.0 and res["weights"]["w_task"] > 0 and ver["weights"] == res["weights"]
+    assert res["weights"]["w_grip"] == 0.0
     assert len(ver["labels"]) == 2 * len(ver["candidates"]) and [r["draw"] for r in ver["labels"][:2]] == [0, 1]
     for c in ver["candidates"]:
         rows = [r for r in ver["labels"] if r["index"] == c["index"]]
-        mean = sum(r["peak_torque_projected"] + 10.0 * (not r["success"]) + 10.0 * r["failed"] for r in rows) / 2
+        mean = sum(r["peak_torque_induced"] + 10.0 * (not r["success"]) + 10.0 * r["failed"] for r in rows) / 2
         assert c["measured_total"] == pytest.approx(mean, rel=1e-9)
     assert ver["pick"]["index"] == min(ver["candidates"], key=lambda c: c["measured_total"])["index"]
     assert "2 draws per grasp" in capsys.readouterr().out

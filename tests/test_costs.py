@@ -29,6 +29,7 @@ VARIANTS = [
     CostParams(lever_arm="com"),
     CostParams(torque_projection="full"),
     CostParams(include_gravity=True, grip_force=15.0, w_tau=0.5, w_slip=0.1, w_align=2.0),
+    CostParams.wrench(),
 ]
 
 
@@ -135,23 +136,27 @@ def test_c4_torque_cost_ignores_the_closure_axis_and_slip_cost_the_normal_force(
 
 # ------------------------------------------------------------------------------------------- gradients
 @pytest.mark.parametrize("kind", ["hammer", "sweep", "reach"])
-def test_gradients_match_central_finite_differences(tasks, grasps_by_kind, kind):
-    """d(C_tau, C_s, C_alpha, C) / d(grasp position, grasp rotation tangent, mu, mass, e)."""
+@pytest.mark.parametrize("preset", ["paper", "wrench"])
+def test_gradients_match_central_finite_differences(tasks, grasps_by_kind, kind, preset):
+    """d(C_tau, C_s, C_alpha, C) / d(grasp position, grasp rotation tangent, mu, mass, e, jaw opening),
+    for the paper's objective and the grip-demand one."""
     tool, task = tasks[kind]
     g = grasps_by_kind[kind][3]
     R0 = jaxlie.SO3(g.q_tool_grasp)
-    params = CostParams(w_slip=0.3)
+    params = getattr(CostParams, preset)(w_slip=0.3)
 
     @jax.jit
-    def f(x):  # x = [position (3), rotation tangent (3), mu, mass, restitution]
+    def f(x):  # x = [position (3), rotation tangent (3), mu, mass, restitution, width]
         tp = tool.params.replace(mu=x[6], mass=x[7], restitution=x[8])
-        grasp = dataclasses.replace(g, p_tool_grasp=x[:3], q_tool_grasp=(jaxlie.SO3.exp(x[3:6]) @ R0).wxyz)
+        grasp = dataclasses.replace(g, p_tool_grasp=x[:3], q_tool_grasp=(jaxlie.SO3.exp(x[3:6]) @ R0).wxyz,
+                                    width=x[9])
         c = grasp_costs(task_loads(tp, task), grasp, tp, params)
         return jnp.stack([c.tau, c.slip, c.align, c.total])
 
     x0 = np.concatenate([np.asarray(g.p_tool_grasp), np.zeros(3),
-                         [float(tool.params.mu), float(tool.params.mass), float(tool.params.restitution)]])
-    jac = np.asarray(jax.jit(jax.jacfwd(f))(jnp.asarray(x0)))  # [4 costs, 9 inputs]
+                         [float(tool.params.mu), float(tool.params.mass), float(tool.params.restitution),
+                          float(g.width)]])
+    jac = np.asarray(jax.jit(jax.jacfwd(f))(jnp.asarray(x0)))  # [4 costs, 10 inputs]
     fd = np.zeros_like(jac)
     for i in range(len(x0)):
         e = np.zeros_like(x0)

@@ -199,6 +199,22 @@ def test_table1_quick(tmp_path, monkeypatch):
     assert len(tor["verified"]["tried"]) > len(ver["verified"]["tried"])
 
 
+def test_objective_selection_quick(tmp_path, monkeypatch):
+    """Every method picks among the same rolled-out candidates; the rule chooses among the qualifying
+    scorers, and the fidelity of the SDG-Net checkpoint is a Spearman rho per tool."""
+    _run_experiment("objective_selection.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "objective.json").read_text())
+    assert doc["per_tool"] and all(set(t["picks"]) == set(doc["methods"]) for t in doc["per_tool"])
+    for t in doc["per_tool"]:
+        for p in t["picks"].values():  # a pick is one of the tool's own rolled-out rows
+            assert doc["per_tool"][0]["candidates"] >= 2 and p["row"] >= 0
+    assert {"force_closure", "geometric", "analytic/paper", "analytic/wrench", "sdgnet/shipped"} <= set(doc["methods"]) or \
+        any(m.startswith("sdgnet/shipped/") for m in doc["methods"])
+    assert doc["chosen"] is None or doc["chosen"] in doc["verdict"]
+    fid = doc["fidelity"]["shipped"]
+    assert all(-1 <= v["all"] <= 1 for v in fid.values())
+
+
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     _run_experiment("sdgnet_fidelity.py", ["--quick", "--verify-draws", "2", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "fidelity.json").read_text())

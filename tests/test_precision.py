@@ -44,7 +44,7 @@ def test_costs_features_scoring_and_prediction_trace_float32_products(tasks):
     args, kw = _sdgnet_args(tool, task, grasps, load_model(None), ScoreWeights())
     assert_full_precision(sdgnet_scores_jit.lower(*args, **kw))
     field, params, stats = args[0], args[4], args[5:10]
-    assert_full_precision(batched_features.lower(field, task_loads(tool.params, task), tool.params, grasps, **kw))
+    assert_full_precision(batched_features.lower(field, task_loads(tool.params, task), tool.params, grasps, spec=kw["spec"]))
     feats = jnp.zeros((8, stats[0].shape[-1]), jnp.float32)
     assert_full_precision(predict.lower(params, *stats, feats))
 

@@ -30,11 +30,20 @@ def test_measured_total_closed_form_and_sdgnet_total():
     assert m[1] == pytest.approx(2 * 0.2 + 100 * 0.004 + 0.05 + 10.0 + 5.0)  # missed the task and failed
     assert m[2] == np.inf  # not a valid rollout: it cannot be picked
     # SDG-Net's total with every prediction replaced by its measurement (outcomes as probabilities 1/0)
-    costs = np.stack([L.peak_torque_projected, L.slip_translation, L.alignment_drift], 1)
+    costs = np.stack([L.peak_torque_projected, L.slip_translation, L.alignment_drift, np.zeros(3)], 1)
     probs = np.stack([L.success, L.failed], 1).astype(float)
     ref = sdgnet_total(jnp.asarray(costs), jnp.asarray(probs), w.costs(jnp.float64),
                        w.heads(("label_success", "label_failed"), jnp.float64))
     np.testing.assert_allclose(m[:2], np.asarray(ref)[:2], rtol=1e-12)
+    # the wrench objective: the full induced torque stands for tau, and the grip demand counts
+    Lw = _labels(peak_torque_induced=[0.7, 0.3, 1.0], grip_demand=[50.0, 120.0, 10.0], slip_translation=[0.001, 0.004, 0.0],
+                 alignment_drift=[0.1, 0.05, 0.0], success=[True, False, True], failed=[False, True, False],
+                 valid=[True, True, False])
+    w = ScoreWeights(w_tau=2.0, w_slip=100.0, w_align=1.0, w_task=10.0, w_fail=5.0, w_grip=0.01)
+    mw = measured_total(Lw, w, "wrench")
+    assert mw[0] == pytest.approx(2 * 0.7 + 100 * 0.001 + 0.1 + 0.5)
+    assert mw[1] == pytest.approx(2 * 0.3 + 100 * 0.004 + 0.05 + 1.2 + 10.0 + 5.0)
+    assert measured_total(Lw, w, "paper")[0] != mw[0]
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,235 @@
+"""Which objective should SDG-Net learn and the planner minimise? Candidate objectives judged by their picks.
+
+    python experiments/objective_selection.py --data /tmp/d10/eval_s6 \
+        --model paper=/tmp/m/paper.npz --model wrench=/tmp/m/wrench.npz --out results/objective_val
+    python experiments/objective_selection.py --data /tmp/d10/eval_s1 --model ... --only CHOSEN --out ...
+    python experiments/objective_selection.py --quick --out /tmp/objective     # a tiny dataset made here (tests)
+
+Per tool of --data (a labelled dataset of tools no model was trained on), every candidate that was
+rolled out (the reachable ones, one randomised MuJoCo rollout each) is scored by every method, each
+method picks its lowest total, and the pick's measured labels are read from the dataset. Methods:
+force closure and geometric ranking (the baselines), the analytic cost in its paper and wrench forms
+(`CostParams.paper()`, `.wrench()`), and each SDG-Net checkpoint given: a paper-objective one with the
+shipped weights, a wrench-objective one under every weight setting of the grid (w_tau x w_grip, the
+other weights the shipped ones).
+
+Per task and method: paired ratios over tools (geometric mean of pick / baseline pick, 90 % bootstrap
+interval) against force closure, against geometric ranking and against the better of the two per tool,
+of the full induced peak wrist torque (the headline), the raw peak, the induced torque's closure-axis
+component and the grip demand; the task success and grip failure rates of the picks. Per SDG-Net
+checkpoint, its fidelity: the Spearman rho over each tool's candidates between its predicted tau and
+the measured counterpart (the full induced peak for the wrench objective, the projected one for the
+paper's) and between its predicted and measured grip demand, median per task and over every tool.
+
+The selection rule, fixed before the test tools are opened: a setting qualifies when its picks do the
+task in at least 95 % of the tools of every task and fail in the grip no more often than the worse
+baseline's picks on any task. Its score is the mean over tasks of log(ratio of the full induced peak
+torque against the better baseline) + log(ratio of the grip demand against the better baseline): the
+two acceptance measures, weighed alike. The choice is the qualifying setting with the lowest score.
+Choose on the validation set (seed 6); then run the test set (seed 1) with the choice fixed (--only).
+Writes objective.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import itup_jax as itup
+from itup_jax.atomic import atomic_write_json
+from itup_jax.costs import CostParams
+from itup_jax.dataset import GenerateConfig, generate, load_dataset, read_manifest, unit_tool
+from itup_jax.grasp import make_grasps
+from itup_jax.scoring import ScoreWeights
+from itup_jax.sdgnet import load_model
+from itup_jax.stats import paired_ratio, spearman
+
+MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
+BASELINES = ("force_closure", "geometric")
+LEVEL = 0.90
+MIN_SUCCESS = 0.95
+PAD = 64
+#: the wrench objective's weight grid: (w_tau 1/(N m), w_grip N m per N)
+GRID = ((1.0, 0.0), (1.0, 0.005), (1.0, 0.01), (1.0, 0.02), (1.0, 0.05), (0.0, 0.01))
+
+
+def settings_of(models: dict) -> dict:
+    """{method name: (scorer, ScoreWeights or CostParams)} for the models given and the fixed methods."""
+    out = {b: (b, None) for b in BASELINES}
+    out["analytic/paper"] = ("analytic", CostParams.paper())
+    out["analytic/wrench"] = ("analytic", CostParams.wrench())
+    for name, path in models.items():
+        m = load_model(path)
+        if m.objective == "paper":
+            out[f"sdgnet/{name}"] = (m, ScoreWeights())
+        else:
+            for w_tau, w_grip in GRID:
+                out[f"sdgnet/{name}/tau{w_tau:g}_grip{w_grip:g}"] = (m, ScoreWeights(w_tau=w_tau, w_grip=w_grip))
+    return out
+
+
+def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, methods: dict) -> dict | None:
+    """Every method's pick among one tool's rolled-out candidates, with the pick's measured labels."""
+    rows = np.nonzero((np.asarray(data["task"]) == task) & (np.asarray(data["tool_id"]) == variant))[0]
+    if len(rows) < 2:
+        return None
+    tool, tk = unit_tool(config, task, variant)
+    # padded (with the first candidate) to a multiple of PAD rows, so that the scorers' jits compile once
+    # per size, not once per tool; the padding is never picked (only the first len(rows) count)
+    pad = np.concatenate([rows, np.full(-len(rows) % PAD, rows[0])])
+    g = make_grasps(np.asarray(data["grasp_p"])[pad], width=np.asarray(data["grasp_width"])[pad],
+                    q_tool_grasp=np.asarray(data["grasp_q"])[pad])
+    out = {"task": task, "variant": int(variant), "candidates": int(len(rows)), "picks": {}, "fidelity": {}}
+    for name, (scorer, w) in methods.items():
+        if isinstance(w, CostParams):
+            s = itup.score(tool, tk, g, scorer, cost_params=w)
+        elif w is None:
+            s = itup.score(tool, tk, g, scorer)
+        else:
+            s = itup.score(tool, tk, g, scorer, weights=w)
+        i = int(np.argmin(np.asarray(s.total)[: len(rows)]))
+        model = scorer.objective if hasattr(scorer, "objective") else None
+        if model is not None and name.split("/")[1] not in out["fidelity"]:
+            # fidelity: Spearman of the prediction against the measured counterpart over the tool's candidates
+            tau_label = "peak_torque_induced" if model == "wrench" else "peak_torque_projected"
+            fid = {"tau_vs_" + tau_label: spearman(np.asarray(s.tau)[: len(rows)], data[f"label_{tau_label}"][rows])}
+            if s.grip is not None:
+                fid["grip_vs_grip_demand"] = spearman(np.asarray(s.grip)[: len(rows)], data["label_grip_demand"][rows])
+            out["fidelity"][name.split("/")[1]] = fid
+        r = rows[i]
+        out["picks"][name] = {"row": int(r), **{m: float(data[f"label_{m}"][r]) for m in MEASURES},
+                              "success": bool(data["label_success"][r]), "failed": bool(data["label_failed"][r])}
+    return out
+
+
+def summarise(per_tool: list, methods) -> dict:
+    """Per task and method: paired ratios against each baseline and the better one, success and failure."""
+    out = {}
+    for task in sorted({t["task"] for t in per_tool}):
+        tt = [t for t in per_tool if t["task"] == task]
+        out[task] = {}
+        for name in methods:
+            e = {"tools": len(tt), "success": float(np.mean([t["picks"][name]["success"] for t in tt])),
+                 "failed": float(np.mean([t["picks"][name]["failed"] for t in tt]))}
+            for m in MEASURES:
+                a = np.array([t["picks"][name][m] for t in tt])
+                base = {b: np.array([t["picks"][b][m] for t in tt]) for b in BASELINES}
+                base["better_baseline"] = np.minimum(*base.values())
+                e[m] = {"median": float(np.median(a)),
+                        **{f"vs_{b}": paired_ratio(a, v, level=LEVEL) for b, v in base.items()}}
+            out[task][name] = e
+    return out
+
+
+def fidelity_summary(per_tool: list) -> dict:
+    """{model: {measure: {task: median Spearman over its tools, "all": median over every tool}}}."""
+    out = {}
+    for t in per_tool:
+        for model, fid in t["fidelity"].items():
+            for k, v in fid.items():
+                out.setdefault(model, {}).setdefault(k, {}).setdefault(t["task"], []).append(v)
+    return {m: {k: {**{t: float(np.nanmedian(v)) for t, v in by.items()},
+                    "all": float(np.nanmedian([x for v in by.values() for x in v]))} for k, by in d.items()}
+            for m, d in out.items()}
+
+
+def choose(summary: dict, candidates: list) -> tuple[str | None, dict]:
+    """(the chosen setting or None, {setting: score or the reason it does not qualify}) by the docstring's rule."""
+    verdict = {}
+    for name in candidates:
+        why = []
+        score = 0.0
+        for task, e in summary.items():
+            worst_fail = max(e[b]["failed"] for b in BASELINES)
+            if e[name]["success"] < MIN_SUCCESS:
+                why.append(f"{task}: success {e[name]['success']:.2f} < {MIN_SUCCESS}")
+            if e[name]["failed"] > worst_fail:
+                why.append(f"{task}: grip failures {e[name]['failed']:.2f} > the baselines' {worst_fail:.2f}")
+            for m in ("peak_torque_induced", "grip_demand"):
+                r = e[name][m]["vs_better_baseline"]["ratio"]
+                score += np.log(r) / len(summary) if r else np.inf
+        verdict[name] = "; ".join(why) if why else float(score)
+    ok = {k: v for k, v in verdict.items() if not isinstance(v, str)}
+    return (min(ok, key=ok.get) if ok else None), verdict
+
+
+def report(summary: dict, methods, log=print) -> None:
+    log(f"{'task':7s} {'method':38s} {'succ':>5s} {'fail':>5s}  " + "  ".join(
+        f"{m[:22]:>22s}" for m in MEASURES) + "   (ratio vs the better baseline per tool, 90 % CI)")
+    for task, e in summary.items():
+        for name in methods:
+            cells = []
+            for m in MEASURES:
+                p = e[name][m]["vs_better_baseline"]
+                ci = p["ci"] or [np.nan, np.nan]
+                cells.append(f"{p['ratio'] or np.nan:6.2f} [{ci[0]:.2f},{ci[1]:.2f}]".rjust(22))
+            log(f"{task:7s} {name:38s} {e[name]['success']:5.2f} {e[name]['failed']:5.2f}  " + "  ".join(cells))
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", help="labelled dataset of unseen tools")
+    ap.add_argument("--model", action="append", default=[], metavar="NAME=PATH",
+                    help="an SDG-Net checkpoint to compare (repeatable)")
+    ap.add_argument("--only", default=None, help="score only these methods (comma-separated; the baselines always)")
+    ap.add_argument("--out", required=True, help="output folder (objective.json)")
+    ap.add_argument("--quick", action="store_true", help="a tiny dataset made here, the shipped model (tests)")
+    a = ap.parse_args(argv)
+    models = {}
+    for spec in a.model:
+        if "=" not in spec:
+            print(f"objective_selection: --model must be NAME=PATH, got {spec!r}", file=sys.stderr)
+            raise SystemExit(2)
+        k, v = spec.split("=", 1)
+        models[k] = v
+    if os.path.exists(a.out) and not os.path.isdir(a.out):
+        print(f"objective_selection: --out {a.out!r} is a file, not a folder", file=sys.stderr)
+        raise SystemExit(2)
+    t0 = time.time()
+    tmp = None
+    if a.quick:
+        tmp = tempfile.mkdtemp(prefix="objective_quick_")
+        generate(tmp, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=6), progress=False)
+        a.data = tmp
+        models = models or {"shipped": None}
+    if not a.data:
+        print("objective_selection: --data (or --quick) is required", file=sys.stderr)
+        raise SystemExit(2)
+    data = load_dataset(a.data)
+    config = GenerateConfig.from_json(read_manifest(a.data)["config"])
+    methods = settings_of(models)
+    if a.only:
+        keep = set(a.only.split(",")) | set(BASELINES)
+        methods = {k: v for k, v in methods.items() if k in keep}
+    units = sorted({(str(t), int(v)) for t, v in zip(data["task"], data["tool_id"]) if int(v) >= 1})
+    per_tool = [p for t, v in units if (p := tool_picks(data, config, t, v, methods)) is not None]
+    summary = summarise(per_tool, list(methods))
+    report(summary, list(methods))
+    candidates = [k for k in methods if k.startswith("sdgnet/") or k.startswith("analytic/")]
+    chosen, verdict = choose(summary, candidates)
+    fidelity = fidelity_summary(per_tool)
+    for model, by in fidelity.items():
+        for k, v in by.items():
+            print(f"fidelity {model} {k}: median over tools {v['all']:.3f} (" + ", ".join(
+                f"{t} {x:.2f}" for t, x in v.items() if t != "all") + ")")
+    print(f"\nchosen by the rule: {chosen}")
+    for k, v in verdict.items():
+        print(f"  {k:38s} {v if isinstance(v, str) else f'score {v:+.3f}'}")
+    out = {"schema": "itup.objective/1", "data": os.path.abspath(a.data), "models": models,
+           "methods": list(methods), "level": LEVEL, "rule": {"min_success": MIN_SUCCESS, "measures":
+           ["peak_torque_induced", "grip_demand"], "against": "better_baseline"},
+           "per_tool": per_tool, "summary": summary, "fidelity": fidelity, "verdict": verdict, "chosen": chosen,
+           "seconds": time.time() - t0, "version": itup.__version__}
+    os.makedirs(a.out, exist_ok=True)
+    atomic_write_json(os.path.join(a.out, "objective.json"), out)
+    print(f"wrote {os.path.join(a.out, 'objective.json')} ({time.time() - t0:.0f} s)")
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,92 @@
+"""Objectives: what SDG-Net regresses and how its outputs make the scorer's costs (`itup_jax.objective`)."""
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import itup_jax as itup
+from itup_jax import objective
+from itup_jax.sdgnet import CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
+
+
+def test_the_wrench_objective_recomposes_the_full_torque_and_keeps_the_grip_demand():
+    y = jnp.asarray([[3.0, 4.0, 12.0, 50.0, 0.002, 0.1],   # third, closure, approach, grip, slip, align
+                     [0.0, 2.0, 0.0, 200.0, 0.0, 0.0]])
+    c = np.asarray(objective.costs_of(y, "wrench"))
+    np.testing.assert_allclose(c[:, 0], [13.0, 2.0])  # |(3, 4, 12)| = 13: no component is discarded
+    np.testing.assert_allclose(c[:, 1:], [[0.002, 0.1, 50.0], [0.0, 0.0, 200.0]])
+    p = np.asarray(objective.costs_of(jnp.asarray([[1.5, 0.002, 0.1]]), "paper"))
+    np.testing.assert_allclose(p, [[1.5, 0.002, 0.1, 0.0]])  # the paper's objective predicts no grip demand
+    with pytest.raises(itup.InputError, match="objective"):
+        objective.costs_of(y, "projected")
+
+
+def test_a_torque_moved_onto_the_closure_axis_keeps_tau_and_raises_the_demand_and_the_total():
+    """The gaming the paper's objective allows: the same torque turned onto the closure axis. The paper's
+    C_tau drops to zero; the wrench objective's tau stays and the grip demand grows."""
+    from itup_jax.grip_demand import grip_demand
+
+    off = np.array([2.0, 0.0, 0.0])  # about the third axis
+    on = np.array([0.0, 2.0, 0.0])  # the same magnitude, about the closure axis
+    assert np.linalg.norm(on[[0, 2]]) == 0 < np.linalg.norm(off[[0, 2]])  # the projection sees none of it
+    d_off, d_on = (grip_demand(np.zeros(3), t, 0.7, 0.03) for t in (off, on))
+    assert d_on > d_off
+    y_on = jnp.asarray([[on[0], on[1], on[2], d_on, 0.0, 0.0]])
+    y_off = jnp.asarray([[off[0], off[1], off[2], d_off, 0.0, 0.0]])
+    assert float(objective.costs_of(y_on, "wrench")[0, 0]) == pytest.approx(float(objective.costs_of(y_off, "wrench")[0, 0]))
+    w = itup.ScoreWeights()
+    tot = lambda y: float((objective.costs_of(y, "wrench") @ w.costs(jnp.float32))[0])  # noqa: E731
+    assert tot(y_on) > tot(y_off)
+
+
+def _synthetic_wrench(n=400, f=10, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, f))
+    cols = {"label_peak_induced_third": np.exp(0.3 * X[:, 0]), "label_peak_induced_closure": np.exp(0.3 * X[:, 1]),
+            "label_peak_induced_approach": np.exp(0.3 * X[:, 2]), "label_grip_demand": 50 * np.exp(0.5 * X[:, 3]),
+            "label_slip_translation": 1e-3 * np.exp(X[:, 4]), "label_alignment_drift": 0.1 * (1 + np.tanh(X[:, 5]))}
+    data = {"features": X, "task": np.array(["hammer"] * n), "tool_id": np.arange(n) % 8, **cols,
+            CLASS_TARGETS[0]: X[:, 6] > 0, CLASS_TARGETS[1]: X[:, 7] > 0.5}
+    return data
+
+
+def test_a_wrench_model_trains_saves_loads_and_scores_its_own_targets(tmp_path, tasks):
+    data = _synthetic_wrench()
+    model = train(data, TrainConfig(objective="wrench", hidden=(32,), epochs=40, patience=40), progress=False,
+                  log=lambda *a: None)
+    assert model.objective == "wrench" and model.spec["targets"] == list(objective.WRENCH.targets)
+    assert model.spec["target_scales"] == [0.02, 0.02, 0.02, 1.0, 1e-3, 0.1]
+    path = str(tmp_path / "w.npz")
+    save_model(path, model)
+    back = load_model(path)
+    out = {k: np.asarray(v) for k, v in predict_costs(back, data["features"][:20]).items()}
+    np.testing.assert_allclose(out["tau"], np.sqrt(out["tau_third"] ** 2 + out["tau_closure"] ** 2
+                                                   + out["tau_approach"] ** 2), rtol=1e-5)
+    assert np.all(out["grip"] > 0)
+    # a checkpoint whose targets do not match its objective is refused
+    save_model(path, dataclasses.replace(back, spec=dict(back.spec, objective="paper")))
+    with pytest.raises(itup.InputError, match="targets"):
+        load_model(path)
+    with pytest.raises(itup.InputError, match="objective"):
+        TrainConfig(objective="projected")
+
+
+def test_an_old_checkpoint_without_an_objective_reads_as_the_papers(tmp_path):
+    from itup_jax.sdgnet import TARGETS
+
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=(200, 6))
+    data = {"features": X, "task": np.array(["reach"] * 200), "tool_id": np.arange(200) % 8,
+            **{t: np.exp(0.2 * X[:, i]) * s for i, (t, s) in enumerate(zip(TARGETS, (1.0, 1e-3, 0.1)))},
+            CLASS_TARGETS[0]: X[:, 3] > 0, CLASS_TARGETS[1]: X[:, 4] > 0}
+    m = train(data, TrainConfig(objective="paper", hidden=(8,), epochs=3), progress=False, log=lambda *a: None)
+    with pytest.raises(itup.InputError, match="label_grip_demand"):  # the wrench objective needs its labels
+        train(data, TrainConfig(objective="wrench", hidden=(8,), epochs=1), progress=False, log=lambda *a: None)
+    spec = {k: v for k, v in m.spec.items() if k not in ("objective",)}
+    path = str(tmp_path / "old.npz")
+    save_model(path, dataclasses.replace(m, spec=spec))
+    back = load_model(path)
+    assert back.objective == "paper" and set(predict_costs(back, X[:3])) == {"tau", "slip", "align", "p_success",
+                                                                             "p_failed"}
