@@ -792,7 +792,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "recipe's) at --finetune-lr, kept unless an epoch beats it on the data's held-out tools; "
                          "--epochs, --lr and --batch (training from scratch) do not apply")
     tr.add_argument("--keep", default=None, metavar="OUT,OUT",
-                    help="with --init: train these outputs (tau, slip, align, p_success, p_failed) towards the "
+                    help="with --init: train these outputs of the checkpoint (its objective's: tau, slip, align for paper; "
+                         "tau_third, tau_closure, tau_approach, grip, slip, align for wrench; and p_success, p_failed) towards the "
                          "checkpoint's own predictions of the rows instead of their labels, so that the others "
                          "adapt to a changed label while these stay where they were (e.g. tau,align,p_success "
                          "after the slip label changed)")

@@ -82,11 +82,12 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
     from its weights and normalisation for `epochs` (default: its recipe's fine-tuning epochs, or 60)
     and is kept unless an epoch beats it on the data's held-out tools.
 
-    keep: outputs (tau, slip, align, p_success, p_failed) trained towards the checkpoint's own
-      predictions of the rows, so the others adapt to a changed label while these stay.
+    keep: outputs of the checkpoint (`Model.output_names`, e.g. tau, slip, align for the paper's
+      objective, tau_third ... grip for the wrench objective; and p_success, p_failed) trained towards
+      its own predictions of the rows, so the others adapt to a changed label while these stay.
     teacher: a checkpoint whose predictions replace every label (distil while adapting).
     """
-    from itup_jax.sdgnet import COST_NAMES, adapt, load_model
+    from itup_jax.sdgnet import adapt, load_model
 
     model = load_model(init)  # checked before any data is read
     if teacher is not None and keep is not None:
@@ -95,7 +96,7 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
     teacher_model = load_model(teacher) if teacher is not None else None
     if keep is not None:
         keep = tuple(keep)
-        heads = COST_NAMES + tuple(model.head_names)
+        heads = tuple(model.output_names) + tuple(model.head_names)
         if not keep or set(keep) - set(heads):
             raise InputError(f"adapt: keep {list(keep)}: outputs of {init!r}, some of {', '.join(heads)}")
     epochs = epochs if epochs is not None else (model.train_config.finetune_epochs or 60)

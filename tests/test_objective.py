@@ -73,6 +73,23 @@ def test_a_wrench_model_trains_saves_loads_and_scores_its_own_targets(tmp_path, 
         TrainConfig(objective="projected")
 
 
+def test_adapting_a_wrench_checkpoint_keeps_its_own_outputs(tmp_path):
+    """`--keep` names the checkpoint's own outputs: a wrench model's torque components pass the check (the
+    run then stops at the missing data), the paper objective's tau, which it does not regress, does not."""
+    from itup_jax.training import adapt_on_datasets
+
+    model = train(_synthetic_wrench(), TrainConfig(objective="wrench", hidden=(8,), epochs=2), progress=False,
+                  log=lambda *a: None)
+    path = str(tmp_path / "w.npz")
+    save_model(path, model)
+    missing = str(tmp_path / "no_data")
+    with pytest.raises(itup.InputError, match="keep"):
+        adapt_on_datasets(path, [missing], keep=("tau",))
+    with pytest.raises(itup.InputError) as exc:
+        adapt_on_datasets(path, [missing], keep=("tau_closure", "grip", "p_success"))
+    assert "keep" not in str(exc.value) and "no_data" in str(exc.value)
+
+
 def test_an_old_checkpoint_without_an_objective_reads_as_the_papers(tmp_path):
     from itup_jax.sdgnet import TARGETS
 
