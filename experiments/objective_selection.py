@@ -45,6 +45,8 @@ from itup_jax.atomic import atomic_write_json
 from itup_jax.costs import CostParams
 from itup_jax.dataset import GenerateConfig, generate, load_dataset, read_manifest, unit_tool
 from itup_jax.grasp import make_grasps
+from itup_jax.objective import PAPER, WRENCH
+from itup_jax.objective import get as get_objective
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet import load_model
 from itup_jax.stats import paired_ratio, spearman
@@ -61,8 +63,8 @@ GRID = ((1.0, 0.0), (1.0, 0.005), (1.0, 0.01), (1.0, 0.02), (1.0, 0.05), (0.0, 0
 def settings_of(models: dict) -> dict:
     """{method name: (scorer, ScoreWeights or CostParams)} for the models given and the fixed methods."""
     out = {b: (b, None) for b in BASELINES}
-    out["analytic/paper"] = ("analytic", CostParams.paper())
-    out["analytic/wrench"] = ("analytic", CostParams.wrench())
+    out["analytic/paper"] = ("analytic", PAPER.analytic)
+    out["analytic/wrench"] = ("analytic", WRENCH.analytic)
     for name, path in models.items():
         m = load_model(path)
         if m.objective == "paper":
@@ -96,7 +98,7 @@ def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, meth
         model = scorer.objective if hasattr(scorer, "objective") else None
         if model is not None and name.split("/")[1] not in out["fidelity"]:
             # fidelity: Spearman of the prediction against the measured counterpart over the tool's candidates
-            tau_label = "peak_torque_induced" if model == "wrench" else "peak_torque_projected"
+            tau_label = get_objective(model).measured_tau
             fid = {"tau_vs_" + tau_label: spearman(np.asarray(s.tau)[: len(rows)], data[f"label_{tau_label}"][rows])}
             if s.grip is not None:
                 fid["grip_vs_grip_demand"] = spearman(np.asarray(s.grip)[: len(rows)], data["label_grip_demand"][rows])

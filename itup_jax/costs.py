@@ -116,11 +116,15 @@ _TINY = 1e-30
 _SQRT_TINY = 1e-15
 
 
-def _safe_norm(x: jax.Array) -> jax.Array:
-    """Euclidean norm over the last axis with a zero (not NaN) gradient at x = 0."""
-    sq = jnp.sum(x * x, axis=-1)
+def _safe_sqrt(sq: jax.Array) -> jax.Array:
+    """sqrt(sq) for sq >= 0 with a zero (not NaN) gradient at sq = 0."""
     pos = sq > 0
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, sq, 1.0)), 0.0)
+
+
+def _safe_norm(x: jax.Array) -> jax.Array:
+    """Euclidean norm over the last axis with a zero (not NaN) gradient at x = 0."""
+    return _safe_sqrt(jnp.sum(x * x, axis=-1))
 
 
 def line_angle(u: jax.Array, v: jax.Array) -> jax.Array:
@@ -144,9 +148,7 @@ def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: Cost
     tau_perp = tau - tau_n[:, None] * n_f
     F = loads.force_tool
     if params.torque_projection == "grip":
-        sq = _grip_torque_sq(F, tau, R, tool.mu, grasp.width)
-        pos = sq > 0
-        c_tau = jnp.where(pos, jnp.sqrt(jnp.where(pos, sq, 1.0)), 0.0)
+        c_tau = _safe_sqrt(_grip_torque_sq(F, tau, R, tool.mu, grasp.width))
     else:
         c_tau = _safe_norm(tau_perp if params.torque_projection == "perp" else tau)
     F_n = F @ n_f

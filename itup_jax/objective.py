@@ -37,8 +37,9 @@ COST_COLUMNS = ("tau", "slip", "align", "grip")
 class Objective:
     """A named objective: `targets` (label columns, the network's regression outputs in order), their
     output names `outputs`, their default log1p scales `scales` (SI units; the ones named in
-    `torque_outputs` take `TrainConfig.torque_scale` instead), and `analytic`, the analytic cost of the
-    same form."""
+    `torque_outputs` take `TrainConfig.torque_scale` instead), `analytic`, the analytic cost of the
+    same form, and `measured_tau`, the label that the scorer's tau predicts (what a verified pick's
+    measured total weighs)."""
 
     name: str
     targets: tuple
@@ -46,6 +47,7 @@ class Objective:
     scales: tuple
     torque_outputs: tuple
     analytic: CostParams
+    measured_tau: str
 
     def target_scales(self, torque_scale: float) -> tuple:
         """Each target's log1p scale, the torque targets' at `torque_scale` (N m)."""
@@ -59,6 +61,7 @@ PAPER = Objective(
     scales=(0.02, 1e-3, 0.1),
     torque_outputs=("tau",),
     analytic=CostParams.paper(),
+    measured_tau="peak_torque_projected",
 )
 WRENCH = Objective(
     name="wrench",
@@ -69,6 +72,7 @@ WRENCH = Objective(
     scales=(0.02, 0.02, 0.02, 1.0, 1e-3, 0.1),
     torque_outputs=("tau_third", "tau_closure", "tau_approach"),
     analytic=CostParams.wrench(),
+    measured_tau="peak_torque_induced",
 )
 OBJECTIVES = {o.name: o for o in (PAPER, WRENCH)}
 

@@ -171,6 +171,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       InputError: an invalid option or combination, before any work.
     """
     import itup_jax as itup
+    from itup_jax.objective import OBJECTIVES
     from itup_jax.scoring import ANALYTIC_SCORERS, SCORERS, SDGNET_SCORERS, ScoreWeights
 
     for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
@@ -203,7 +204,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     grasps = itup.sample_grasps(tool, n, seed=seed)
     sw = None
     if scorer in ANALYTIC_SCORERS:
-        params = (itup.CostParams.wrench if scorer == "analytic_wrench" else itup.CostParams.paper)(**given)
+        params = OBJECTIVES["wrench" if scorer == "analytic_wrench" else "paper"].analytic.replace(**given)
         used = {k: float(getattr(params, k)) for k in ("w_tau", "w_slip", "w_align")}
         scores = itup.wrench_costs(tool, task, grasps, params)
     else:
@@ -233,7 +234,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
 
     from itup_jax.simulate import Randomization
-    from itup_jax.verify import best_grasp_verified, measured_total
+    from itup_jax.verify import best_grasp_verified, measured_total, objective_of
 
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
     # weights, whatever the scorer (the analytic cost's weights are for N, not m)
@@ -241,7 +242,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
                             weights=measure_w, randomize=None if physics == "nominal" else Randomization())
     L = v.labels
-    per_rollout = measured_total(L, measure_w, "wrench" if getattr(scores, "grip", None) is not None else "paper")
+    per_rollout = measured_total(L, measure_w, objective_of(scores))
     rows = []
     for r, i in enumerate(v.shortlist):
         for d in range(verify_draws):

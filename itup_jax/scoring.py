@@ -24,7 +24,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, check_seed
 from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.objective import costs_of
+from itup_jax.objective import WRENCH, costs_of
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet import PAPER_MODEL, Model, load_model, predict_from_features
 from itup_jax.task import Task
@@ -164,7 +164,7 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
     if isinstance(model, str) and model == "sdgnet_paper":
         model = PAPER_MODEL
     if isinstance(model, str) and model == "analytic_wrench":
-        c = wrench_costs(tool, task, grasps, cost_params or CostParams.wrench())
+        c = wrench_costs(tool, task, grasps, cost_params or WRENCH.analytic)
         return Scores(tau=c.tau, slip=c.slip, align=c.align, total=c.total, scorer="analytic_wrench")
     if isinstance(model, str) and model == "analytic":
         c = wrench_costs(tool, task, grasps, cost_params)

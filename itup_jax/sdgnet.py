@@ -39,11 +39,9 @@ from itup_jax.precision import full_precision
 #: The paper objective's targets (`objective.PAPER`; the wrench objective's: `objective.WRENCH`).
 TARGETS = objective.PAPER.targets
 #: Targets are learned as log1p(y / scale): slip is heavy-tailed (a lost tool "slips" metres), torque
-#: spans decades; the scales are 0.02 N m (`TrainConfig.torque_scale`), 1 mm, 0.1 rad (the wrench
-#: objective's grip demand: 1 N). The scales are stored in the checkpoint and its predictions are
-#: mapped back with them by scale * expm1.
-TARGET_SCALES = objective.PAPER.scales
-COST_NAMES = objective.PAPER.outputs
+#: spans decades; the scales (`objective.Objective.scales`) are 0.02 N m (`TrainConfig.torque_scale`),
+#: 1 mm, 0.1 rad, and the wrench objective's grip demand 1 N. They are stored in the checkpoint and its
+#: predictions are mapped back with them by scale * expm1.
 #: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`), in the order
 #: of their outputs after the three costs, and the names their probabilities go by.
 CLASS_TARGETS = ("label_success", "label_failed")

@@ -37,6 +37,7 @@ import numpy as np
 
 from itup_jax.errors import InputError, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.objective import get as get_objective
 from itup_jax.scene import Scene, build_scene
 from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.simulate import LABEL_FIELDS, Labels, Randomization, default_backend, reachability_in_order, simulate
@@ -79,8 +80,10 @@ class Verified:
         return np.asarray(getattr(self.labels, field)).reshape(len(self.shortlist), self.draws)
 
 
-#: The measured torque that stands for the predicted tau, per objective (`objective.OBJECTIVES`).
-MEASURED_TAU = {"paper": "peak_torque_projected", "wrench": "peak_torque_induced"}
+def objective_of(scores: Any) -> str:
+    """The objective a set of scores was made under: 'wrench' when they carry a predicted grip demand
+    (a wrench-objective SDG-Net), else 'paper'."""
+    return "wrench" if getattr(scores, "grip", None) is not None else "paper"
 
 
 def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objective: str = "paper") -> np.ndarray:
@@ -89,11 +92,10 @@ def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objec
     (w_tau tau + w_slip slip + w_align drift + w_grip grip + w_task (1 - success) + w_fail failed; tau
     the projected peak torque for the paper's objective, the full induced one for the wrench
     objective, which alone also counts the grip demand); inf where the rollout is not valid."""
-    if objective not in MEASURED_TAU:
-        raise InputError(f"measured_total: objective must be one of {list(MEASURED_TAU)}, got {objective!r}")
+    tau = get_objective(objective, what="measured_total").measured_tau
     grip = (weights.w_grip * np.asarray(labels.grip_demand, np.float64) if objective == "wrench"
             else np.zeros(len(labels.valid)))
-    total = grip + (weights.w_tau * np.asarray(getattr(labels, MEASURED_TAU[objective]), np.float64)
+    total = grip + (weights.w_tau * np.asarray(getattr(labels, tau), np.float64)
              + weights.w_slip * np.asarray(labels.slip_translation, np.float64)
              + weights.w_align * np.asarray(labels.alignment_drift, np.float64)
              + weights.w_task * (1.0 - np.asarray(labels.success, np.float64))
@@ -172,8 +174,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     else:
         labels = Labels.unmeasured(0)
     # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
-    objective = "wrench" if getattr(scores, "grip", None) is not None else "paper"
-    m = measured_total(labels, weights, objective).reshape(len(tried), draws).mean(axis=1)
+    m = measured_total(labels, weights, objective_of(scores)).reshape(len(tried), draws).mean(axis=1)
     if np.isfinite(m).any():
         i, chosen_by = tried[int(np.argmin(m))], "measured"
     else:
