@@ -370,3 +370,28 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
                      "kernel_speedup": round(times["dot_kernel"] / times["kernel"], 1), "kernels_agree": agree})
     return {"benchmark": "sample", "n": n, "chunk": _CHUNK, "repeats": repeats, "tasks": rows,
             "machine": machine_info()}
+
+
+def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0) -> dict[str, Any]:
+    """Per tool family and task it can do (the family's default tool): the wall time of
+    `sample_reachable(tool, task, n)` warm (median of `repeats`; the first call, which compiles the
+    sampler's kernels, apart), the candidates it drew and the reachable share, beside plain
+    `sample_grasps` of as many candidates as it drew (the reference: the IK's share of the cost)."""
+    from itup_jax import families
+    from itup_jax.grasp_sampler import sample_grasps, sample_reachable
+
+    rows = []
+    for name in families.names():
+        for kind in families.get(name).tasks:
+            tool = load_tool(name)
+            task = make_task(kind, tool)
+            t0 = time.perf_counter()
+            r = sample_reachable(tool, task, n, seed=seed)
+            first_s = time.perf_counter() - t0
+            warm_s = statistics.median(_timed(lambda: sample_reachable(tool, task, n, seed=seed), repeats))
+            plain_s = statistics.median(_timed(lambda: sample_grasps(tool, r.drawn, seed=seed), repeats))
+            rows.append({"family": name, "task": kind, "reachable": len(r.grasps), "drawn": r.drawn,
+                         "reachable_share": round(len(r.grasps) / r.drawn, 3), "first_call_s": round(first_s, 3),
+                         "warm_s": round(warm_s, 3), "sample_only_s": round(plain_s, 3),
+                         "ik_share": round(max(0.0, 1.0 - plain_s / warm_s), 2)})
+    return {"benchmark": "reachable", "n": n, "repeats": repeats, "families": rows, "machine": machine_info()}

@@ -111,7 +111,8 @@ def cmd_plan(args) -> int:
     try:
         plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
                           torque_first=args.torque_first, top=args.top, verify=args.verify,
-                          verify_draws=args.verify_draws, verify_physics=args.verify_physics)
+                          verify_draws=args.verify_draws, verify_physics=args.verify_physics, sampling=args.sampling,
+                          budget=args.budget)
     except itup.InputError as exc:  # the library's names for the options, written as the flags that set them
         raise_input(_as_flags(str(exc).replace("plan_grasp: ", "")))
     _print_plan(args, plan)
@@ -124,7 +125,7 @@ def cmd_plan(args) -> int:
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
 PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip",
-                "verify", "top", "n")
+                "verify", "top", "sampling", "budget", "n")
 
 
 def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
@@ -138,8 +139,18 @@ def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
 def _print_plan(args, plan) -> None:
     """The ranking, the pick, the verification rollouts and what to try when there is no pick."""
     tool, grasps, costs = plan.tool, plan.grasps, plan.scores
+    sm = plan.sampling
+    drawn = (f"{sm['reachable']} reachable of {sm['drawn']} drawn" if sm["mode"] == "reachable"
+             else f"{args.n} drawn")
     print(f"task {args.task} | tool {tool.name} ({tool.mass:.3f} kg) | regime {plan.regime} | "
-          f"{args.n} antipodal candidates (seed {args.seed}) | scorer {args.scorer}")
+          f"{plan.n} antipodal candidates ({drawn}, seed {args.seed}) | scorer {args.scorer}")
+    if sm["mode"] == "reachable" and not sm["complete"]:
+        print(f"warning: the arm can carry {sm['reachable']} of {sm['drawn']} drawn candidates through the task, "
+              f"fewer than the {sm['requested']} asked for (--budget {sm['budget']} spent)")
+    if costs is None:  # the reachable sampler found none: nothing was scored
+        print(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
+              "(closed-form IK); " + "; ".join(plan.advice))
+        return
     # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
     # (N m, m, rad); the baselines' scores are dimensionless
     units = {"analytic": ("N·m", "N", "rad"), "analytic_wrench": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad"),
@@ -167,7 +178,7 @@ def _print_plan(args, plan) -> None:
               f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}"
               f"{' <- pick' if i == best and marked else ''}")
     if plan.status == "no_reachable_candidate":
-        print(f"no pick: none of the {args.n} candidates is reachable for the arm along the task (closed-form IK); "
+        print(f"no pick: none of the {plan.n} candidates is reachable for the arm along the task (closed-form IK); "
               + "; ".join(plan.advice))
     elif pick_rank > 0:
         print(f"reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); the pick is "
@@ -411,6 +422,19 @@ def cmd_bench_sample(args) -> int:
     return 0
 
 
+def cmd_bench_reachable(args) -> int:
+    from itup_jax.bench import bench_reachable
+
+    if args.n < 1 or args.repeats < 1:
+        raise_input(f"bench reachable: --n and --repeats must be >= 1, got --n {args.n} --repeats {args.repeats}")
+    res = bench_reachable(n=args.n, repeats=args.repeats)
+    print(json.dumps(res) if args.json else "\n".join(
+        f"reachable {r['family']:11s} {r['task']:6s}: {r['reachable']} reachable of {r['drawn']} drawn "
+        f"({r['reachable_share']:.0%}) in {r['warm_s']:.2f} s warm (first call {r['first_call_s']:.2f} s; sampling "
+        f"alone {r['sample_only_s']:.2f} s, IK {r['ik_share']:.0%})" for r in res["families"]))
+    return 0
+
+
 def _print_eval_table(res: dict) -> None:
     """Per method, mean ± std over its rollouts: the full induced peak wrist torque (the headline), the raw
     peak, the induced torque's grasp-frame components at its peak (about the jaw's closure axis, the
@@ -605,8 +629,9 @@ def build_parser() -> argparse.ArgumentParser:
     from itup_jax import bench
     from itup_jax.dataset import GenerateConfig, generate
     from itup_jax.evaluate import DEFAULT_METHODS, METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
+    from itup_jax.grasp_sampler import REACHABLE_BUDGET_FACTOR
     from itup_jax.objective import OBJECTIVES
-    from itup_jax.planning import plan_grasp
+    from itup_jax.planning import SAMPLING_MODES, plan_grasp
     from itup_jax.sdgnet import TrainConfig
 
     gen_defaults, train_defaults = GenerateConfig(), TrainConfig()
@@ -627,7 +652,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--task", default=TASK_KINDS[0], choices=TASK_KINDS)
     p.add_argument("--tool", default=None, help="built-in tool name, or a mesh file (with --tool-spec)")
     p.add_argument("--tool-spec", default=None, help="TOML spec of a mesh tool")
-    p.add_argument("--n", type=int, default=_default(plan_grasp, "n"), help="grasp candidates (default %(default)s)")
+    p.add_argument("--n", type=int, default=_default(plan_grasp, "n"),
+                   help="grasp candidates scored: with --sampling reachable, grasps the arm can carry through the task "
+                   "(default %(default)s)")
+    p.add_argument("--sampling", choices=SAMPLING_MODES, default=_default(plan_grasp, "sampling"),
+                   help="reachable: draw until --n candidates the arm can carry through the task are found (closed-form "
+                   "IK along the trajectory) or --budget are drawn; all: draw --n and walk the ranking to the best "
+                   "reachable one (default %(default)s)")
+    p.add_argument("--budget", type=int, default=None,
+                   help="--sampling reachable: the most candidates drawn (default "
+                   f"{REACHABLE_BUDGET_FACTOR} x --n)")
     p.add_argument("--seed", type=int, default=_default(plan_grasp, "seed"))
     p.add_argument("--top", type=int, default=_default(plan_grasp, "top"), help="rows of the ranking to print (the pick, the best-scored reachable "
                    "grasp, is printed too when it lies below them)")
@@ -657,7 +691,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet (the shipped checkpoint, default), sdgnet_paper (the paper objective's checkpoint), "
                    "analytic (the paper's cost), analytic_wrench (its grip-demand form), or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/4)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/5)")
     p.set_defaults(fn=cmd_plan)
 
     b = sub.add_parser("bench", help="benchmarks, each with its own flags: costs, rollout, score, verify, sample")
@@ -702,6 +736,11 @@ def build_parser() -> argparse.ArgumentParser:
     bp = bench_parser("sample", bench.bench_sample, cmd_bench_sample, "the flat-pad sampler and its collision kernel")
     bp.add_argument("--n", type=int, default=_default(bench.bench_sample, "n"), help="grasps (default %(default)s)")
     bp.add_argument("--repeats", type=int, default=_default(bench.bench_sample, "repeats"))
+    bp = bench_parser("reachable", bench.bench_reachable, cmd_bench_reachable,
+                      "reachable candidates per tool family: sampling with the arm's IK")
+    bp.add_argument("--n", type=int, default=_default(bench.bench_reachable, "n"),
+                    help="reachable candidates per tool (default %(default)s)")
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_reachable, "repeats"))
 
     gen = sub.add_parser("generate", help="label dataset: shards + manifest; resumes after a kill")
     gen.add_argument("--out", required=True, help="dataset folder (created; resumed if it holds a manifest)")

@@ -315,3 +315,78 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
         f"samples; check its grasp_region {region.lo.tolist()}..{region.hi.tolist()} and that the "
         f"graspable part is at most {max_width * 1000:.0f} mm thick"
     )
+
+
+#: Candidates drawn per reachable one requested, at most, when no budget is given (`sample_reachable`):
+#: a tool of which under 1 in 40 sampled grasps the arm can carry is reported, not sampled further.
+REACHABLE_BUDGET_FACTOR = 40
+
+
+@dataclasses.dataclass(frozen=True)
+class ReachableGrasps:
+    """What `sample_reachable` found (host side).
+
+    Attributes:
+      grasps: [M] the reachable candidates, M <= requested, in the order they were drawn.
+      requested: the count asked for.  drawn: candidates sampled and checked.  budget: the most that
+      could be drawn.  rounds: sampling rounds.
+    """
+
+    grasps: Grasps
+    requested: int
+    drawn: int
+    budget: int
+    rounds: int
+
+    @property
+    def complete(self) -> bool:
+        """Whether the requested count was met within the budget."""
+        return len(self.grasps) >= self.requested
+
+    def to_json(self) -> dict:
+        """The plan document's `sampling` record."""
+        return {"requested": self.requested, "reachable": len(self.grasps), "drawn": self.drawn,
+                "budget": self.budget, "complete": self.complete}
+
+
+def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | None = None,
+                     config: SamplerConfig = SamplerConfig()) -> ReachableGrasps:
+    """Sample grasps (`sample_grasps`) until `n` of them are ones the arm can carry through the whole task
+    (closed-form IK at every trajectory sample, joint limits, the arm above the table:
+    `simulate.reachable`), or until `budget` candidates have been drawn.
+
+    Each round draws about as many as the reachable share so far says it needs (at least 256), so a tool of
+    which the arm reaches a third of the grasps costs ~3n candidates. Deterministic for a seed.
+
+    Args:
+      n: reachable candidates wanted (>= 1).
+      budget: the most candidates drawn (>= n); default REACHABLE_BUDGET_FACTOR x n.
+    Returns:
+      `ReachableGrasps`; `complete` is False when the budget ran out first (it may hold none).
+    Raises:
+      InputError for a bad n, budget or seed; SamplingError when the grasp region yields too few grasps.
+    """
+    from itup_jax.simulate import reachable  # the arm's kinematics: imported only when asked
+
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
+        raise InputError(f"sample_reachable: n must be a positive integer, got {n!r}")
+    budget = REACHABLE_BUDGET_FACTOR * int(n) if budget is None else budget
+    if not isinstance(budget, (int, np.integer)) or isinstance(budget, bool) or budget < n:
+        raise InputError(f"sample_reachable: budget must be an integer >= n ({n}), got {budget!r}")
+    rng = _rng_from(seed)
+    found: list[Grasps] = []
+    have = drawn = rounds = 0
+    while have < n and drawn < budget:
+        share = have / drawn if drawn else 0.0
+        want = int(math.ceil((n - have) / max(share, 0.05) * 1.2)) if drawn else 2 * (n - have)
+        size = int(min(max(want, 256), budget - drawn))
+        g = sample_grasps(tool, size, seed=int(rng.integers(2**31)), config=config)
+        ok = np.asarray(reachable(task, g))
+        drawn += size
+        rounds += 1
+        if ok.any():
+            found.append(g[np.nonzero(ok)[0]])
+            have += int(ok.sum())
+    parts = found or [Grasps(jnp.zeros((0, 3)), jnp.zeros((0, 4)), jnp.zeros((0,)))]
+    cat = jax.tree_util.tree_map(lambda *a: jnp.concatenate(a)[:n], *parts)
+    return ReachableGrasps(grasps=cat, requested=int(n), drawn=drawn, budget=int(budget), rounds=rounds)

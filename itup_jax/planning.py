@@ -2,9 +2,11 @@
 and optionally check the best ones in MuJoCo. `itup plan` is this function and a printout.
 
     plan = plan_grasp(tool, task, n=1000, verify=5)
+    plan.sampling          # {"requested", "reachable", "drawn", "budget", "complete"}: every candidate is one
+                           # the arm can carry through the task (sampling="all": n drawn, reachability walked)
     plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
     plan.pick              # index into plan.grasps of the recommended grasp (None unless status is "ok")
-    plan.to_json()         # the `itup.plan/4` document (itup_jax/schemas/plan.schema.json)
+    plan.to_json()         # the `itup.plan/5` document (itup_jax/schemas/plan.schema.json)
 
 Host-side orchestration: the scorers and the rollouts it calls jit themselves at their outer calls.
 """
@@ -24,6 +26,10 @@ from itup_jax.tool import Tool
 DEFAULT_N = 1000
 #: Ranking rows reported by default.
 DEFAULT_TOP = 5
+#: How candidates are drawn (`plan_grasp(sampling=...)`): "reachable" draws until n of them are grasps the
+#: arm can carry through the task (`grasp_sampler.sample_reachable`); "all" draws n and walks the ranking to
+#: the first reachable one.
+SAMPLING_MODES = ("reachable", "all")
 #: Statuses of a plan (`GraspPlan.status`).
 STATUSES = ("ok", "no_reachable_candidate", "no_verified_success")
 #: The measured labels reported per verification rollout.
@@ -36,7 +42,9 @@ class GraspPlan:
     """What `plan_grasp` found (host side).
 
     Attributes:
-      grasps: the N sampled candidates.  scores: the scorer's `Scores` of them ([N] arrays).
+      grasps: the N candidates.  scores: the scorer's `Scores` of them ([N] arrays).
+      sampling: how they were drawn: {"mode", "requested", "reachable", "drawn", "budget", "complete"}
+        (mode "all": drawn = requested, and reachable counts only the candidates checked).
       ranking: [N] candidate indices by increasing total.  top: the first `top` of them.
       reachable: {index: bool} for every candidate whose reachability was checked (closed-form IK).
       pick_rank: 0-based rank of the best-scored reachable candidate (0 when none is).
@@ -73,6 +81,7 @@ class GraspPlan:
     verify_draws: int = 1
     measure_weights: Any = None
     physics: str = "nominal"
+    sampling: dict = dataclasses.field(default_factory=dict)
 
     @property
     def best_index(self) -> int:
@@ -95,21 +104,23 @@ class GraspPlan:
         }
 
     def to_json(self) -> dict[str, Any]:
-        """The `itup.plan/4` document."""
+        """The `itup.plan/5` document."""
         s = self.scores
         out = {
-            "schema": "itup.plan/4",
+            "schema": "itup.plan/5",
             "task": self.task.kind,
             "tool": {"name": self.tool.name, "category": self.tool.category, "mass_kg": round(self.tool.mass, 6)},
             "regime": self.regime,
             "n_candidates": int(self.n),
+            "sampling": dict(self.sampling),
             "seed": self.seed,
             "scorer": self.scorer,
             "weights": self.weights,
             "best": {**self.row(self.best_index), "rank": self.pick_rank + 1} if self.status == "ok" else None,
             "top": [self.row(i) for i in self.top],
-            "summary": {k: {"min": float(np.min(getattr(s, k))), "median": float(np.median(getattr(s, k))),
-                            "max": float(np.max(getattr(s, k)))} for k in ("tau", "slip", "align", "total")},
+            "summary": None if s is None else {
+                k: {"min": float(np.min(getattr(s, k))), "median": float(np.median(getattr(s, k))),
+                    "max": float(np.max(getattr(s, k)))} for k in ("tau", "slip", "align", "total")},
             "status": self.status,
         }
         if self.advice:
@@ -149,10 +160,16 @@ def first_reachable(task, grasps: Grasps, ranking: np.ndarray, *, check_first: i
 
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
                weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
-               verify_draws: int = 1, verify_physics: str | None = None) -> GraspPlan:
+               verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
+               budget: int | None = None) -> GraspPlan:
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
+      n: candidates to score. sampling "reachable" (default): n grasps the arm can carry through the task
+        (closed-form IK along the trajectory, joint limits, the arm above the table), drawn until n are
+        found or `budget` candidates are spent (`grasp_sampler.sample_reachable`; fewer are scored when
+        the budget runs out, none: status "no_reachable_candidate"). "all": n drawn, scored, and the
+        ranking walked to the best reachable one.
       scorer: "sdgnet" (the checkpoint `model`, a path or a loaded `sdgnet.Model`; default the shipped
         one), "sdgnet_paper" (the paper objective's shipped checkpoint), "analytic" (the paper's form),
         "analytic_wrench" (the grip-demand form), or a baseline.
@@ -187,6 +204,12 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                          "physics every draw of a grasp rolls out the same")
     if verify_draws > 1 and verify == 0:
         raise InputError("plan_grasp: verify_draws applies to the verified pick: give verify K too")
+    if sampling not in SAMPLING_MODES:
+        raise InputError(f"plan_grasp: sampling must be one of {', '.join(SAMPLING_MODES)}, got {sampling!r}")
+    if budget is not None and (sampling != "reachable" or not isinstance(budget, (int, np.integer))
+                               or isinstance(budget, bool) or budget < n):
+        raise InputError(f"plan_grasp: budget (the most candidates drawn) applies to sampling 'reachable' and must "
+                         f"be an integer >= n ({n}), got {budget!r}")
     given = dict(weights or {})
     if torque_first:
         clash = [k for k in ("w_tau", "w_slip", "w_align") if k in given]
@@ -201,7 +224,18 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         raise InputError("plan_grasp: w_task/w_fail/w_grip weigh SDG-Net's predictions; the analytic cost "
                          "has no such terms (its grip-demand form is the analytic_wrench scorer)")
 
-    grasps = itup.sample_grasps(tool, n, seed=seed)
+    if sampling == "reachable":
+        from itup_jax.grasp_sampler import sample_reachable
+
+        found = sample_reachable(tool, task, n, seed=seed, budget=budget)
+        sampled = {"mode": "reachable", **found.to_json()}
+        if len(found.grasps) == 0:
+            return _unreachable_plan(tool, task, found.grasps, n, seed, scorer, sampled)
+        grasps = found.grasps
+    else:
+        grasps = itup.sample_grasps(tool, n, seed=seed)
+        sampled = None
+    n_scored = len(grasps)
     sw = None
     if scorer in ANALYTIC_SCORERS:
         params = OBJECTIVES["wrench" if scorer == "analytic_wrench" else "paper"].analytic.replace(**given)
@@ -215,20 +249,23 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))
-        raise InputError(f"plan_grasp: the {scorer!r} scorer gave {bad} of {n} candidates a non-finite score"
+        raise InputError(f"plan_grasp: the {scorer!r} scorer gave {bad} of {n_scored} candidates a non-finite score"
                          + (f" (checkpoint {model!r})" if isinstance(model, str) else ""))
     ranking = np.argsort(total, kind="stable")
     order = ranking[:top]
-    rank_found, reachable = first_reachable(task, grasps, ranking, check_first=len(order))
+    if sampled is not None:  # every candidate is reachable
+        rank_found, reachable = 0, {int(i): True for i in order}
+    else:
+        rank_found, reachable = first_reachable(task, grasps, ranking, check_first=len(order))
+        sampled = {"mode": "all", "requested": n, "reachable": sum(reachable.values()), "drawn": n, "budget": n,
+                   "complete": rank_found is not None}
     regime = itup.classify_regime(tool, task).name.lower()
     base = dict(tool=tool, task=task, grasps=grasps, scores=scores, ranking=ranking, top=order, reachable=reachable,
-                n=n, seed=seed, scorer=scorer, weights=used, regime=regime,
-                graspnet_rotation=np.asarray(to_graspnet(grasps)["rotation_matrix"]))
+                n=n_scored, seed=seed, scorer=scorer, weights=used, regime=regime,
+                graspnet_rotation=np.asarray(to_graspnet(grasps)["rotation_matrix"]), sampling=sampled)
     if rank_found is None:
-        advice = (f"sample more candidates (n, now {n}) or another seed",
-                  "widen the spec's grasp_region, or check the tool's size and frame",
-                  "the task's placement may put the tool out of the arm's reach: another task parameter")
-        return GraspPlan(**base, pick_rank=0, pick=None, status="no_reachable_candidate", advice=advice)
+        return GraspPlan(**base, pick_rank=0, pick=None, status="no_reachable_candidate",
+                         advice=_unreachable_advice(n))
     pick = int(ranking[rank_found])
     if verify == 0:
         return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
@@ -262,3 +299,20 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     return GraspPlan(**base, pick_rank=rank_found, pick=int(v.index) if status == "ok" else None, status=status,
                      advice=advice, verified=v, verify_rows=tuple(rows), verify_k=verify, verify_draws=verify_draws,
                      measure_weights=measure_w, physics=physics)
+
+
+def _unreachable_advice(n: int) -> tuple[str, ...]:
+    return (f"sample more candidates (n, now {n}; with sampling 'reachable', a larger budget) or another seed",
+            "widen the spec's grasp_region, or check the tool's size and frame",
+            "the task's placement may put the tool out of the arm's reach: another task parameter")
+
+
+def _unreachable_plan(tool: Tool, task, grasps: Grasps, n: int, seed: int, scorer: str, sampled: dict) -> GraspPlan:
+    """The plan when the reachable sampler found no candidate within its budget: nothing to score."""
+    import itup_jax as itup
+
+    empty = np.zeros(0, np.int64)
+    return GraspPlan(tool=tool, task=task, grasps=grasps, scores=None, ranking=empty, top=empty, reachable={},
+                     pick_rank=0, pick=None, status="no_reachable_candidate", advice=_unreachable_advice(n), n=0,
+                     seed=seed, scorer=scorer, weights=None, regime=itup.classify_regime(tool, task).name.lower(),
+                     graspnet_rotation=np.zeros((0, 3, 3)), sampling=sampled)

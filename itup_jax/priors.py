@@ -4,8 +4,10 @@ Every number carries its unit and either a source or the reason it was chosen. T
 read by `itup_jax.tool` when a tool is built or loaded; domain randomisation (simulation issue) draws
 around these values.
 
-Categories are the tool kinds iTuP knows: one per task family (hammer -> hammer task, broom -> sweep,
-mallet -> knock, l_stick -> reach).
+Categories are the tool kinds iTuP knows: the four the built-in tools belong to (hammer -> hammer task,
+broom -> sweep, mallet -> knock, l_stick -> reach) and the further procedural families of
+`itup_jax.families` (screwdriver, spanner, pry_bar, hatchet, squeegee). A user's mesh names one of them
+in its spec and takes its defaults from here.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ class Quantity:
 #   hickory ~ 800 kg/m^3 (specific gravity ~0.72-0.75 on green volume), beech ~ 700 kg/m^3.
 # Polypropylene ~ 905 kg/m^3, nylon 6,6 ~ 1140 kg/m^3, aluminium ~ 2700 kg/m^3 (handbook values).
 # Nylon bristle pack: nylon at an assumed packing fraction of 0.3 (bristles with air between them).
+# Cellulose acetate (screwdriver handles) ~ 1300 kg/m^3 (handbook range 1270-1340); polychloroprene
+# (neoprene, squeegee blades) ~ 1230 kg/m^3 (handbook value).
 MATERIAL_DENSITY = MappingProxyType(
     {
         "steel": 7850.0,
@@ -40,6 +44,8 @@ MATERIAL_DENSITY = MappingProxyType(
         "nylon": 1140.0,
         "bristle_pack": 0.3 * 1140.0,
         "aluminium": 2700.0,
+        "cellulose_acetate": 1300.0,
+        "neoprene": 1230.0,
     }
 )
 
@@ -120,6 +126,68 @@ CATEGORY_PRIORS = MappingProxyType(
             mu=Quantity(0.6, "-", _PAD_FRICTION_SOURCE.format("an anodised aluminium rod")),
             contact_duration=Quantity(
                 50e-3, "s", "assumed: a gentle, quasi-static push builds up over tens of ms"
+            ),
+        ),
+        "screwdriver": CategoryPrior(
+            density=Quantity(
+                1600.0, "kg/m^3",
+                "effective density of a cellulose-acetate handle and a steel shaft: ~0.1 kg over ~6e-5 "
+                "m^3 of closed volume (the family's default, `families.screwdriver`)",
+            ),
+            restitution=Quantity(
+                0.5, "-", "assumed: a steel shaft tapping a wooden block, as wood on wood (0.4-0.6)"
+            ),
+            mu=Quantity(0.5, "-", _PAD_FRICTION_SOURCE.format("a smooth cellulose-acetate handle")),
+            contact_duration=Quantity(
+                2e-3, "s", "assumed: a stiff steel shaft on wood; between metal-on-metal and wood-on-wood"
+            ),
+        ),
+        "spanner": CategoryPrior(
+            density=Quantity(7850.0, "kg/m^3", "solid steel (see MATERIAL_DENSITY)"),
+            restitution=Quantity(
+                0.4, "-", "assumed as the hammer's: steel on a nail or a wooden block, energy lost into the wood"
+            ),
+            mu=Quantity(0.5, "-", _PAD_FRICTION_SOURCE.format("a chrome-plated steel bar")),
+            contact_duration=Quantity(
+                2e-3, "s", "assumed as the hammer's: a steel head on a nail driven into wood"
+            ),
+        ),
+        "pry_bar": CategoryPrior(
+            density=Quantity(7850.0, "kg/m^3", "solid steel (see MATERIAL_DENSITY)"),
+            restitution=Quantity(
+                0.3, "-", "assumed as the L-stick's: a slow push against a block; little rebound"
+            ),
+            mu=Quantity(0.5, "-", _PAD_FRICTION_SOURCE.format("a painted steel bar")),
+            contact_duration=Quantity(
+                50e-3, "s", "assumed as the L-stick's: a quasi-static push builds up over tens of ms"
+            ),
+        ),
+        "hatchet": CategoryPrior(
+            density=Quantity(
+                2750.0, "kg/m^3",
+                "effective density of a hickory handle and a steel head: ~0.8 kg over ~2.9e-4 m^3 of "
+                "closed volume (the family's default, `families.hatchet`)",
+            ),
+            restitution=Quantity(
+                0.4, "-", "assumed as the hammer's: the steel poll on a nail backed by wood"
+            ),
+            mu=Quantity(0.7, "-", _PAD_FRICTION_SOURCE.format("a varnished wood handle")),
+            contact_duration=Quantity(
+                2e-3, "s", "assumed as the hammer's: a steel poll on a nail driven into wood"
+            ),
+        ),
+        "squeegee": CategoryPrior(
+            density=Quantity(
+                730.0, "kg/m^3",
+                "effective density of a neoprene blade, a polypropylene holder and a hollow aluminium "
+                "handle: ~0.23 kg over ~3.1e-4 m^3 of closed volume (the family's default, `families.squeegee`)",
+            ),
+            restitution=Quantity(
+                0.1, "-", "assumed: a rubber blade absorbs nearly all of an impact's energy"
+            ),
+            mu=Quantity(0.5, "-", _PAD_FRICTION_SOURCE.format("an anodised aluminium tube")),
+            contact_duration=Quantity(
+                20e-3, "s", "assumed as the broom's: a compliant blade deflects over tens of milliseconds"
             ),
         ),
     }

@@ -191,13 +191,35 @@ def rot(axis: np.ndarray, angle: jax.Array) -> jax.Array:
     return jaxlie.SO3.exp(jnp.asarray(axis) * angle).as_matrix()
 
 
+#: The share of the UR5e's joint-speed limit a swing may reach at impact (`swing_pivot_offset`).
+SWING_SPEED_SHARE = 0.9
+#: m, the farthest behind the handle's butt a swing's pivot moves for a short tool: beyond it the arc
+#: leaves the arm's workspace, and a swing that still needs more speed is warned about.
+SWING_MAX_PIVOT_OFFSET = 0.35
+
+
+def swing_pivot_offset(c_tool: np.ndarray, impact_speed: float, pivot_offset: float) -> float:
+    """m, how far behind the handle's butt (along the handle) a swing's pivot lies: `pivot_offset`, or more
+    for a tool so short that the contact's lever about that pivot would need an angular speed above
+    SWING_SPEED_SHARE of the UR5e's joint-speed limit to reach `impact_speed` (a screwdriver's 0.2 m):
+    then the pivot moves back until the lever |c_tool + offset z| is impact_speed / (share x limit), at most
+    to SWING_MAX_PIVOT_OFFSET."""
+    lever_min = impact_speed / (SWING_SPEED_SHARE * robot.UR5E_MAX_JOINT_SPEED)
+    c = np.asarray(c_tool, float)
+    if np.linalg.norm(c + np.array([0.0, 0.0, pivot_offset])) >= lever_min:
+        return float(pivot_offset)
+    return min(float(-c[2] + math.sqrt(max(lever_min**2 - c[0] ** 2 - c[1] ** 2, 0.0))),
+               max(SWING_MAX_PIVOT_OFFSET, float(pivot_offset)))
+
+
 def swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray, kind: str, t_hold: float = 0.0) -> Task:
     """Shared by hammer and knock: a rotation about a fixed world `axis` through a pivot, then `t_hold` s
     held at the follow-through pose (the knock's follow-through is long enough without one)."""
     c_tool = np.asarray(tool.contact_point, float)
     target = np.asarray(prm.target, float)
     p_impact = target - R_impact @ c_tool  # tool origin at impact
-    pivot = p_impact + R_impact @ np.array([0.0, 0.0, -prm.pivot_offset])
+    offset = swing_pivot_offset(c_tool, prm.impact_speed, prm.pivot_offset)
+    pivot = p_impact + R_impact @ np.array([0.0, 0.0, -offset])
     lever = float(np.linalg.norm(target - pivot))
     omega_impact = prm.impact_speed / lever
     # A quintic from rest to rate w over angle A peaks above w unless it lasts >= ~1.8 A / w; with

@@ -374,11 +374,13 @@ TOOL_EXTENT_RANGE = (0.02, 2.0)
 #: m, how far a contact point may lie from the mesh's surface.
 CONTACT_SURFACE_TOL = 0.005
 #: The tool frame of each category: the contact normal's direction in it. Every category has the handle
-#: along z; hammer and mallet strike with a face whose normal is +x, the broom pushes with its bristles'
-#: +y side (its head is wide along x), the L-stick pulls with the hook's inner face, which faces back
-#: along the handle (-z; the hook itself extends along +x).
+#: along z; hammer, mallet, hatchet, spanner and screwdriver strike with a face (or side) whose normal is
+#: +x, the broom and the squeegee push with their head's +y side (the head is wide along x), the L-stick
+#: and the pry bar pull with the hook's inner face, which faces back along the handle (-z; the hook itself
+#: extends along +x).
 CATEGORY_CONTACT_NORMAL = {"hammer": (1.0, 0.0, 0.0), "mallet": (1.0, 0.0, 0.0), "broom": (0.0, 1.0, 0.0),
-                           "l_stick": (0.0, 0.0, -1.0)}
+                           "l_stick": (0.0, 0.0, -1.0), "screwdriver": (1.0, 0.0, 0.0), "spanner": (1.0, 0.0, 0.0),
+                           "pry_bar": (0.0, 0.0, -1.0), "hatchet": (1.0, 0.0, 0.0), "squeegee": (0.0, 1.0, 0.0)}
 #: rad: a mesh given without `handle_axis` must have its long axis within this of z and its contact
 #: normal within FRAME_NORMAL_TOLERANCE of its category's direction, else the spec must state the frame.
 FRAME_AXIS_TOLERANCE = math.radians(30.0)
@@ -389,8 +391,9 @@ def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping
     """Load a built-in tool by name, or a user's tool from a mesh file plus a TOML spec.
 
     Args:
-      name_or_path: a built-in name (`hammer`, `broom`, `mallet`, `l_stick`) or the path of a mesh
-        file (STL/OBJ/PLY, metres).
+      name_or_path: a built-in name (`hammer`, `broom`, `mallet`, `l_stick`), a tool family's name
+        (`screwdriver`, ...: its default dimensions) or '<family>@<seed>' (a tool drawn from the family,
+        `families.draw`), or the path of a mesh file (STL/OBJ/PLY, metres).
       spec: for a mesh file, the path of its TOML spec (or an already-parsed mapping). Fields:
         `name`, `category`, `contact_point` [3], `grasp_region = {min = [3], max = [3]}` (required);
         `contact_normal` [3], `contact_points` [[3], ...], `mass` kg, `density` kg/m^3, `mu`,
@@ -400,7 +403,7 @@ def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping
         tool frame; the docs' "Your own tool" has the frame of each category).
 
     Returns:
-      A `Tool`. Built-in tools are built once per process and shared.
+      A `Tool`. Built-in and family tools are built once per process and shared.
 
     Raises:
       InputError: unknown built-in, unreadable/empty/open mesh, a mesh whose size is implausible for
@@ -409,13 +412,19 @@ def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping
     """
     key = os.fspath(name_or_path)
     if spec is None:
-        if key in BUILTIN_TOOLS:
+        from itup_jax import families  # families build on this module
+
+        parsed = families.parse_name(key)
+        if parsed is not None:
             if key not in _BUILTIN_CACHE:
-                _BUILTIN_CACHE[key] = BUILTIN_TOOLS[key]()
+                family, seed = parsed
+                _BUILTIN_CACHE[key] = (BUILTIN_TOOLS[key]() if key in BUILTIN_TOOLS else families.get(family).build()
+                                       if seed is None else families.draw(family, seed))
             return _BUILTIN_CACHE[key]
         if os.path.splitext(key)[1]:
             raise InputError(f"tool mesh {key!r}: a mesh file needs a TOML spec (spec=...)")
-        raise InputError(f"tool {key!r}: not a built-in tool; built-ins: {', '.join(BUILTIN_TOOLS)}")
+        raise InputError(f"tool {key!r}: not a built-in tool; built-ins: {', '.join(BUILTIN_TOOLS)}; tool families "
+                         f"(their default, or '<family>@<seed>' for a drawn one): {', '.join(families.names())}")
     return _load_mesh_tool(key, spec)
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from itup_jax.cli import main
 
-PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "seed", "scorer", "weights", "best", "top", "summary",
+PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "sampling", "seed", "scorer", "weights", "best", "top", "summary",
              "status"}
 GRASP_KEYS = {"reachable", "index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
 BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", "machine", "max_rel_diff_vs_numpy"}
@@ -20,10 +20,11 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     out = tmp_path / "best.json"
     # the seeded random scorer: its ranking has no ties and does not move when the shipped checkpoint is
     # retrained, so the premise below (the scorer's first grasp is unreachable) holds whatever the checkpoint
-    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random",
+    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random", "--sampling", "all",
                  "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/4" and res["status"] == "ok"
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/5" and res["status"] == "ok"
+    assert res["sampling"]["mode"] == "all" and res["sampling"]["drawn"] == res["n_candidates"] == 40
     assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
     totals = [r["costs"]["total"] for r in res["top"]]
     assert totals == sorted(totals) and res["regime"] == "quasi_static"
@@ -46,17 +47,52 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     assert "<- pick" in out_text and f"the pick is the best-scored reachable grasp (rank {best['rank']})" in out_text
 
 
+def test_plan_scores_only_reachable_candidates_by_default(tmp_path, capsys):
+    """The default sampling draws until --n candidates are ones the arm can carry: the scorer's first is
+    the pick, every listed row is reachable, and the JSON says how many were drawn for them."""
+    out = tmp_path / "best.json"
+    assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random", "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    sm = res["sampling"]
+    assert sm["mode"] == "reachable" and sm["requested"] == sm["reachable"] == res["n_candidates"] == 40
+    assert sm["complete"] and sm["drawn"] > 40 and sm["budget"] == 40 * 40
+    assert res["best"]["rank"] == 1 and all(r["reachable"] for r in res["top"])
+    assert f"40 reachable of {sm['drawn']} drawn" in capsys.readouterr().out
+    # a budget that cannot be met: a warning, what was found is scored
+    assert main(["plan", "--task", "reach", "--n", "200", "--budget", "256", "--scorer", "random",
+                 "--json", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert not res["sampling"]["complete"] and res["n_candidates"] == res["sampling"]["reachable"] < 200
+    assert "fewer than the 200 asked for (--budget 256 spent)" in capsys.readouterr().out
+    assert main(["plan", "--task", "reach", "--n", "40", "--budget", "10"]) == 2
+    assert "--budget (the most candidates drawn)" in capsys.readouterr().err
+
+
 def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, monkeypatch):
     import importlib
 
     sim = importlib.import_module("itup_jax.simulate")
     monkeypatch.setattr(sim, "reachable", lambda task, g: np.zeros(len(g), bool))
     out = tmp_path / "none.json"
-    assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--json", str(out)]) == 3
+    assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--sampling", "all", "--json", str(out)]) == 3
     res = json.loads(out.read_text())
     assert res["best"] is None and res["status"] == "no_reachable_candidate" and res["advice"]
     text = capsys.readouterr().out
     assert "no pick: none of the 20 candidates is reachable" in text and "<- pick" not in text
+    # the default sampling draws its whole budget, scores nothing and says so
+    assert main(["plan", "--task", "knock", "--n", "20", "--json", str(out)]) == 3
+    res = json.loads(out.read_text())
+    assert res["status"] == "no_reachable_candidate" and res["best"] is None and res["n_candidates"] == 0
+    assert res["sampling"] == {"mode": "reachable", "requested": 20, "reachable": 0, "drawn": 800, "budget": 800,
+                               "complete": False}
+    assert res["summary"] is None and res["top"] == []
+    from jsonschema import validate
+
+    from itup_jax.schemas import load_schema
+
+    validate(res, load_schema("plan"))
+    text = capsys.readouterr().out
+    assert "no pick: none of the 800 drawn candidates is reachable" in text and "<- pick" not in text
 
 
 def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):

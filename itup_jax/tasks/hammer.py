@@ -57,7 +57,7 @@ class HammerParams:
     t_hold: float = 0.2  # s held after the follow-through: the arm lags its reference by ~30 ms, and without
     # a hold the 0.015 rad follow-through would land the blow in the rollout's last 2 ms
     rest_angle: float = 0.15  # rad short of the impact pose at the start (the face clear of the nail)
-    pivot_offset: float = 0.10  # m, pivot behind the handle butt along the handle
+    pivot_offset: float = 0.10  # m, pivot behind the handle butt along the handle (more for a short tool: task.swing_pivot_offset)
     target: tuple = (0.55, 0.0, 0.05)  # m, nail head (world)
     target_mass: float = math.inf  # kg: the nail is held by the wood
 

@@ -41,7 +41,7 @@ class KnockParams:
     t_wind: float = 0.7  # s
     follow_through: float = 0.25  # rad
     rest_angle: float = 0.15  # rad short of the impact pose at the start
-    pivot_offset: float = 0.10  # m
+    pivot_offset: float = 0.10  # m, pivot behind the handle butt (more for a short tool: task.swing_pivot_offset)
     target: tuple = (0.50, 0.0, 0.21)  # m, struck face of a tower's top block (world)
     target_mass: float = 0.05  # kg, one wooden block
 

@@ -1,0 +1,287 @@
+"""Procedural tool families: parametric builders, their size ranges, and the tasks each can do.
+
+    from itup_jax import families
+    families.names()                         # ('hammer', 'broom', ..., 'squeegee')
+    families.get("screwdriver").tasks        # ('knock',)
+    tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
+    tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
+    tool = itup.load_tool("spanner")         # the family's default dimensions
+
+Nine families. The first four are the built-in tools' (`tool.claw_hammer`, `hand_broom`, `mallet`,
+`l_stick`), drawn part-wise by `dataset.part_variant`. The other five are defined here, each assembled
+from primitive parts with their own materials (`tool.assemble_tool`: mass properties from the parts'
+meshes and densities, a watertight union for sampling, capsules and boxes for the simulator):
+
+  screwdriver  a cellulose-acetate handle and a thin steel shaft; taps with the side of the shaft's tip
+               (knock).
+  spanner      a flat steel bar with a square head; strikes with the head's side (hammer, knock).
+  pry_bar      a heavy steel bar, hexagonal or round, with its end bent at a right angle; hooks and
+               pulls with the bend's inner face (reach).
+  hatchet      a hickory handle and an asymmetric steel head: a thin blade on one side, a square poll
+               on the other; strikes with the poll (hammer, knock).
+  squeegee     a T-headed long tool: a neoprene blade in a polypropylene holder on a hollow aluminium
+               handle; pushes with the blade (sweep).
+
+Every family keeps its category's tool frame (`tool.CATEGORY_CONTACT_NORMAL`): the handle along +z
+from its butt at the origin, the contact normal along the category's direction. The ranges are typical
+hand-tool dimensions (assumed); every draw inside them builds a closed mesh with positive inertia, and
+its contact lands on the task's target (tests/test_families.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
+
+import numpy as np
+import trimesh
+
+from itup_jax.errors import InputError
+from itup_jax.tool import Tool, _box, _cylinder, assemble_tool, claw_hammer, hand_broom, l_stick, mallet
+
+
+def _prism(radius: float, p0, p1, sections: int) -> tuple[trimesh.Trimesh, tuple]:
+    """A solid prism of `sections` sides (6: a hexagonal bar; many: a round one) whose flats lie `radius`
+    from its axis, and its collision capsule (radius: the mean of the flats' and the corners' distances)."""
+    circum = radius / math.cos(math.pi / sections)
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    u = (p1 - p0) / np.linalg.norm(p1 - p0)
+    mesh = trimesh.creation.cylinder(radius=circum, segment=np.array([p0, p1]), sections=sections)
+    r = 0.5 * (radius + circum)
+    return mesh, ("capsule", p0 + r * u, p1 - r * u, r)
+
+
+# ---------------------------------------------------------------------------------------------------
+# The five families defined here (the defaults are each family's `load_tool(<family>)` tool)
+# ---------------------------------------------------------------------------------------------------
+def screwdriver(*, handle_radius: float = 0.0135, handle_length: float = 0.100, shaft_radius: float = 0.003,
+                shaft_length: float = 0.100, name: str = "screwdriver") -> Tool:
+    """A screwdriver: a cellulose-acetate handle along +z, then a steel shaft to the tip. The contact is
+    the side of the shaft 10 mm short of its tip, facing +x (it taps a block in the knock). Default:
+    0.20 m long, ~0.1 kg."""
+    top = handle_length + shaft_length
+    return assemble_tool(
+        name=name, category="screwdriver",
+        parts=[
+            ("handle", "cellulose_acetate", _cylinder(handle_radius, (0, 0, 0), (0, 0, handle_length))),
+            ("shaft", "steel", _cylinder(shaft_radius, (0, 0, handle_length), (0, 0, top))),
+        ],
+        contact_points=[(shaft_radius, 0.0, top - 0.010)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-handle_radius - 0.006,) * 2 + (0.0,),
+                      (handle_radius + 0.006,) * 2 + (handle_length,)),
+    )
+
+
+def spanner(*, bar_length: float = 0.160, bar_width: float = 0.018, bar_thickness: float = 0.005,
+            head_half: float = 0.018, head_thickness: float = 0.008, name: str = "spanner") -> Tool:
+    """A spanner: a flat steel bar along +z (bar_width along x, bar_thickness along y) and a square steel
+    head (2 head_half along x and z, head_thickness along y) on top. The contact is the head's +x side.
+    Default: 0.20 m long, ~0.19 kg."""
+    w, t = bar_width / 2, bar_thickness / 2
+    zc = bar_length + head_half
+    g = max(w, t) + 0.006
+    return assemble_tool(
+        name=name, category="spanner",
+        parts=[
+            ("bar", "steel", _box((-w, -t, 0.0), (w, t, bar_length))),
+            ("head", "steel", _box((-head_half, -head_thickness / 2, bar_length),
+                                   (head_half, head_thickness / 2, bar_length + 2 * head_half))),
+        ],
+        contact_points=[(head_half, 0.0, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.7 * bar_length)),
+    )
+
+
+def pry_bar(*, length: float = 0.450, radius: float = 0.0095, hook_end: float = 0.080, sections: int = 6,
+            name: str = "pry_bar") -> Tool:
+    """A pry bar: a steel bar (hexagonal for sections = 6, `radius` to its flats) along +z and its end
+    bent at a right angle along +x up to hook_end. The contact is the bend's inner face (facing -z, back
+    along the bar), like the L-stick's hook. Default: 0.45 m long, ~1.3 kg."""
+    r = radius
+    circum = radius / math.cos(math.pi / sections)
+    g = circum + 0.006
+    hook = _prism(r, (circum, 0, length - r), (hook_end, 0, length - r), sections)
+    return assemble_tool(
+        name=name, category="pry_bar",
+        parts=[
+            ("bar", "steel", _prism(r, (0, 0, 0), (0, 0, length), sections)),
+            ("hook", "steel", hook),
+        ],
+        # the hook's underside: a flat or, for a hexagon turned corner-down, its lowest edge
+        contact_points=[(0.5 * (circum + hook_end), 0.0, float(hook[0].bounds[0][2]))],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.45 * length)),
+    )
+
+
+def hatchet(*, handle_length: float = 0.300, handle_radius: float = 0.015, blade_length: float = 0.090,
+            blade_height: float = 0.080, blade_thickness: float = 0.008, poll_length: float = 0.030,
+            poll_size: float = 0.028, name: str = "hatchet") -> Tool:
+    """A hatchet: a hickory handle along +z and a steel head on top, asymmetric about the handle: a thin
+    blade towards -x (blade_length long, blade_height tall) and a square poll towards +x. The contact is
+    the poll's face (+x). Default: 0.38 m long, ~0.8 kg."""
+    z0 = handle_length
+    zc = z0 + blade_height / 2
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hatchet",
+        parts=[
+            ("handle", "hickory", _cylinder(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("blade", "steel", _box((-blade_length, -blade_thickness / 2, z0),
+                                    (0.0, blade_thickness / 2, z0 + blade_height))),
+            ("poll", "steel", _box((0.0, -poll_size / 2, zc - poll_size / 2),
+                                   (poll_length, poll_size / 2, zc + poll_size / 2))),
+        ],
+        contact_points=[(poll_length, 0.0, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
+    )
+
+
+#: Share of a hollow aluminium handle's solid volume that is metal (a 1 mm wall on an 11 mm radius).
+HOLLOW_HANDLE_FILL = 1.0 - (10.0 / 11.0) ** 2
+
+
+def squeegee(*, half_width: float = 0.150, blade_height: float = 0.030, handle_radius: float = 0.011,
+             handle_length: float = 0.400, contact_x: float = 0.100, name: str = "squeegee") -> Tool:
+    """A squeegee, a T-headed long tool: a neoprene blade (2 half_width wide, 3 mm thick) whose edge is at
+    z = 0, a 20 x 20 mm polypropylene holder 5 mm wider each side, and a hollow aluminium handle along +z.
+    It pushes along +y with the blade's leading edge, touching at x = 0 and +-contact_x. Default: 0.45 m tall, 0.3 m
+    wide, ~0.23 kg."""
+    holder_top = blade_height + 0.020
+    g = handle_radius + 0.009
+    return assemble_tool(
+        name=name, category="squeegee",
+        parts=[
+            ("blade", "neoprene", _box((-half_width, -0.0015, 0.0), (half_width, 0.0015, blade_height))),
+            ("holder", "polypropylene", _box((-half_width - 0.005, -0.010, blade_height),
+                                             (half_width + 0.005, 0.010, holder_top))),
+            ("handle", "aluminium", _cylinder(handle_radius, (0, 0, holder_top), (0, 0, holder_top + handle_length)),
+             HOLLOW_HANDLE_FILL),
+        ],
+        # the blade's leading edge: tilted back in the sweep, the rest of the blade stays above the table
+        contact_points=[(0.0, 0.0015, 0.0), (-contact_x, 0.0015, 0.0), (contact_x, 0.0015, 0.0)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, holder_top + 0.35 * handle_length), (g, g, holder_top + handle_length)),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
+# The registry
+# ---------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Family:
+    """One procedural tool family.
+
+    Attributes:
+      name: the family's name (its category, and `load_tool`'s name for the default).
+      build: keyword dimensions (metres) -> Tool; its defaults are the family's default tool.
+      tasks: the task kinds the family's tools can do.
+      ranges: {keyword: (low, high)} uniform ranges of a draw (metres, or a count for `sections`);
+        empty for the four built-in families, which `dataset.part_variant` draws.
+      choices: {keyword: (value, ...)} discrete choices of a draw (uniform).
+      summary: one line for the docs and `itup tools`.
+    """
+
+    name: str
+    build: Callable[..., Tool]
+    tasks: tuple[str, ...]
+    ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    choices: Mapping[str, tuple] = dataclasses.field(default_factory=dict)
+    summary: str = ""
+
+    @property
+    def builtin(self) -> bool:
+        """One of the four families of the built-in tools (drawn by `dataset.part_variant`)."""
+        return not self.ranges
+
+
+def _ranges(**r: tuple[float, float]) -> Mapping[str, tuple[float, float]]:
+    return MappingProxyType(r)
+
+
+FAMILIES: Mapping[str, Family] = MappingProxyType({
+    "hammer": Family("hammer", claw_hammer, ("hammer",), summary="claw hammer (built-in; part-wise variants)"),
+    "broom": Family("broom", hand_broom, ("sweep",), summary="hand broom (built-in; part-wise variants)"),
+    "mallet": Family("mallet", mallet, ("knock",), summary="wooden mallet (built-in; part-wise variants)"),
+    "l_stick": Family("l_stick", l_stick, ("reach",), summary="L-shaped aluminium stick (built-in; part-wise variants)"),
+    "screwdriver": Family(
+        "screwdriver", screwdriver, ("knock",),
+        _ranges(handle_radius=(0.011, 0.018), handle_length=(0.080, 0.130), shaft_radius=(0.0025, 0.004),
+                shaft_length=(0.075, 0.200)),
+        summary="handle and thin steel shaft; taps with the shaft's side"),
+    "spanner": Family(
+        "spanner", spanner, ("hammer", "knock"),
+        _ranges(bar_length=(0.120, 0.240), bar_width=(0.014, 0.026), bar_thickness=(0.004, 0.007),
+                head_half=(0.014, 0.026), head_thickness=(0.006, 0.012)),
+        summary="flat steel bar and square head; strikes with the head's side"),
+    "pry_bar": Family(
+        "pry_bar", pry_bar, ("reach",),
+        _ranges(length=(0.350, 0.600), radius=(0.007, 0.011), hook_end=(0.060, 0.110)),
+        MappingProxyType({"sections": (6, 48)}),
+        summary="heavy steel bar (hexagonal or round) bent at the end; hooks with the bend"),
+    "hatchet": Family(
+        "hatchet", hatchet, ("hammer", "knock"),
+        _ranges(handle_length=(0.250, 0.380), handle_radius=(0.013, 0.018), blade_length=(0.070, 0.110),
+                blade_height=(0.060, 0.100), blade_thickness=(0.006, 0.010), poll_length=(0.020, 0.040),
+                poll_size=(0.022, 0.034)),
+        summary="handle and asymmetric steel head (blade and poll); strikes with the poll"),
+    "squeegee": Family(
+        "squeegee", squeegee, ("sweep",),
+        _ranges(half_width=(0.100, 0.200), blade_height=(0.020, 0.040), handle_radius=(0.009, 0.013),
+                handle_length=(0.300, 0.500)),
+        summary="T-headed long tool: blade on a long handle; pushes with the blade"),
+})
+
+
+def names() -> tuple[str, ...]:
+    """The families, the four built-in ones first."""
+    return tuple(FAMILIES)
+
+
+def get(name: str) -> Family:
+    """The family `name`, or InputError naming the known ones."""
+    try:
+        return FAMILIES[name]
+    except (KeyError, TypeError):
+        raise InputError(f"tool family {name!r}: unknown; known: {', '.join(FAMILIES)}") from None
+
+
+def for_task(kind: str) -> tuple[str, ...]:
+    """The families whose tools can do task `kind`."""
+    return tuple(f.name for f in FAMILIES.values() if kind in f.tasks)
+
+
+def draw(name: str, seed: int) -> Tool:
+    """A tool of family `name` drawn with `seed` (the same tool for the same seed), named '<name>@<seed>'.
+    The five families defined here draw every dimension uniformly in its range (and each choice
+    uniformly); the four built-in families draw their part-wise variants (`dataset.part_variant`)."""
+    fam = get(name)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"families.draw({name!r}): seed must be an integer >= 0, got {seed!r}")
+    if fam.builtin:
+        from itup_jax.dataset import part_variant  # the built-in families' variants live with the datasets
+
+        return dataclasses.replace(part_variant(name, int(seed)), name=f"{name}@{int(seed)}")
+    rng = np.random.default_rng([int(seed), sum(map(ord, name))])
+    kw = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in fam.ranges.items()}
+    kw.update({k: v[int(rng.integers(len(v)))] for k, v in fam.choices.items()})
+    return fam.build(name=f"{name}@{int(seed)}", **kw)
+
+
+_DRAWN = re.compile(r"^([a-z_]+)@(\d+)$")
+
+
+def parse_name(name: str) -> tuple[str, int | None] | None:
+    """('<family>', seed) for '<family>@<seed>', ('<family>', None) for a family's name, None otherwise."""
+    if name in FAMILIES:
+        return name, None
+    m = _DRAWN.match(name)
+    if m and m.group(1) in FAMILIES:
+        return m.group(1), int(m.group(2))
+    return None

@@ -1,0 +1,162 @@
+"""Tool families: every family builds closed meshes with sane mass properties, loads through the spec
+path like a user's mesh, and its contact lands on the task's target without the tool passing through the
+table or the target's surroundings; the reachable sampler returns only grasps the arm can carry."""
+
+from __future__ import annotations
+
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+
+import itup_jax as itup
+from itup_jax import families, priors
+from itup_jax.errors import InputError
+from itup_jax.grasp_sampler import sample_reachable
+from itup_jax.scene import build_scene
+from itup_jax.simulate import reachable
+from itup_jax.tool import CATEGORY_CONTACT_NORMAL
+
+NEW = [f for f in families.names() if not families.get(f).builtin]
+#: m, how deep a tool's mesh may reach into the environment's solids at the first contact (the contact
+#: sits on the target's face; a mesh facet may cut a corner).
+PENETRATION_TOL = 0.002
+
+
+def _tools(name):
+    return [itup.load_tool(name)] + [families.draw(name, s) for s in (1, 2)]
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_family_tools_are_closed_with_sane_mass_properties(name):
+    for tool in _tools(name):
+        assert tool.mesh.is_watertight and tool.mesh.volume > 0, tool.name
+        assert 0.03 < tool.mass < 2.0, (tool.name, tool.mass)
+        lo, hi = tool.mesh.bounds
+        extent = float(np.max(hi - lo))
+        assert 0.15 < extent < 0.8, (tool.name, extent)
+        com = np.asarray(tool.params.com)
+        assert np.all(com > lo) and np.all(com < hi), tool.name
+        eig = np.linalg.eigvalsh(np.asarray(tool.params.inertia))
+        assert eig.min() > 0 and eig.max() < eig.min() * 1e4, (tool.name, eig)  # positive, not degenerate
+        _, dist, _ = trimesh.proximity.closest_point(tool.mesh, tool.contact_points)
+        assert np.all(dist < 1e-6), (tool.name, dist)  # the contacts on the surface
+        np.testing.assert_allclose(tool.contact_normal, CATEGORY_CONTACT_NORMAL[tool.category])
+        assert tool.category == name and name in priors.CATEGORY_PRIORS
+        # the grasp region holds the handle: the sampler finds grasps in it
+        assert len(itup.sample_grasps(tool, 32, seed=0)) == 32
+
+
+def test_draws_are_deterministic_and_vary():
+    a, b, c = families.draw("hatchet", 5), families.draw("hatchet", 5), families.draw("hatchet", 6)
+    assert a.name == "hatchet@5" and np.array_equal(a.mesh.vertices, b.mesh.vertices)
+    assert a.mass != c.mass
+    assert itup.load_tool("hatchet@5").mass == a.mass  # the same tool by name
+    assert {families.draw("pry_bar", s).mesh.vertices.shape[0] for s in range(8)} == {27, 195}  # hex and round
+    with pytest.raises(InputError, match="tool family 'wrench'"):
+        families.draw("wrench", 0)
+    with pytest.raises(InputError, match="seed must be an integer >= 0"):
+        families.draw("spanner", -1)
+    with pytest.raises(InputError, match=r"tool families .*screwdriver"):
+        itup.load_tool("chisel")
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_family_tool_loads_through_the_spec_path(tmp_path, name):
+    """Written out as a user's STL and a spec in millimetres, without a stated frame: the frame check
+    accepts it (the family keeps its category's frame) and the mass and contact come back."""
+    tool = itup.load_tool(name)
+    mesh = tool.mesh.copy()
+    mesh.apply_scale(1e3)
+    path = tmp_path / f"{name}.stl"
+    mesh.export(path)
+    lo, hi = tool.grasp_region.lo * 1e3, tool.grasp_region.hi * 1e3
+    spec = {"name": name, "category": name, "units": "mm", "mass": tool.mass,
+            "contact_point": (tool.contact_point * 1e3).tolist(),
+            "contact_normal": tool.contact_normal.tolist(),
+            "grasp_region": {"min": lo.tolist(), "max": hi.tolist()}}
+    user = itup.load_tool(str(path), spec=spec)
+    assert user.mass == pytest.approx(tool.mass)
+    np.testing.assert_allclose(user.contact_point, tool.contact_point, atol=1e-9)
+    np.testing.assert_allclose(user.mesh_to_tool, np.eye(3))
+    assert float(user.params.mu) == priors.CATEGORY_PRIORS[name].mu.value
+
+
+def _first_contact_step(task) -> int:
+    on = (np.asarray(task.impact)[:, 0] > 0) | (np.asarray(task.drag)[:, 0] > 0)
+    return int(np.argmax(on))
+
+
+def _box_depth(points: np.ndarray, centre: np.ndarray, R: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """[P] how deep each point lies inside an oriented box (<= 0: outside)."""
+    local = (points - centre) @ R
+    return np.min(half - np.abs(local), axis=-1)
+
+
+COMBOS = [(f, k) for f in families.names() for k in families.get(f).tasks]
+
+
+@pytest.mark.parametrize("name,kind", COMBOS)
+def test_placement_puts_the_contact_on_the_target(name, kind):
+    """The task is within the arm's speed limits; at the first contact the tool's contact point is on the
+    target point, and no part of the mesh lies
+    inside the table or inside any solid of the scene (the board, the tower, the debris, the block) by
+    more than PENETRATION_TOL: for the family's default and a drawn tool."""
+    for tool in (itup.load_tool(name), families.draw(name, 3)):
+        with warnings.catch_warnings():  # within the UR5e's speed limits (a short tool's swing pivots further back)
+            warnings.simplefilter("error")
+            task = itup.make_task(kind, tool)
+        k = _first_contact_step(task)
+        R = np.asarray(task.traj.R_world_tool)[k]
+        p = np.asarray(task.traj.p_world_tool)[k]
+        np.testing.assert_allclose(R @ tool.contact_point + p, np.asarray(task.c_obj_world)[0], atol=1e-6)
+        surface = np.concatenate([tool.mesh.vertices, trimesh.sample.sample_surface(tool.mesh, 3000, seed=0)[0]])
+        verts = surface @ R.T + p
+        above = verts
+        if tool.category == "broom":  # its bristle pack bends on the table: the block and the handle must clear it
+            _, lo, hi = tool.primitives[0]
+            above = verts[~np.all((surface >= lo - 1e-9) & (surface <= hi + 1e-9), axis=1)]
+        assert above[:, 2].min() > -PENETRATION_TOL, (tool.name, kind, above[:, 2].min())  # the table top: z = 0
+        scene = build_scene(tool, task)
+        m, d = scene.model, mujoco.MjData(scene.model)
+        mujoco.mj_forward(m, d)
+        # the environment: the bodies hung from the world other than the arm and the tool
+        env = {b for b in range(1, m.nbody) if m.body_parentid[b] == 0 and m.body(b).name not in ("ur5e/base", "tool")}
+        boxes = [g for g in range(m.ngeom) if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX and m.geom_bodyid[g] in env]
+        assert boxes, kind
+        for g in boxes:
+            depth = _box_depth(verts, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g])
+            assert depth.max() < PENETRATION_TOL, (tool.name, kind, m.geom(g).name, depth.max())
+
+
+@pytest.mark.parametrize("name,kind", [("screwdriver", "knock"), ("pry_bar", "reach"), ("hatchet", "hammer")])
+def test_reachable_sampler_returns_only_reachable_grasps(name, kind):
+    tool = itup.load_tool(name)
+    task = itup.make_task(kind, tool)
+    r = sample_reachable(tool, task, 48, seed=0)
+    assert r.complete and len(r.grasps) == 48 and r.drawn >= 48
+    assert np.all(np.asarray(reachable(task, r.grasps)))  # checked again by the IK
+    again = sample_reachable(tool, task, 48, seed=0)
+    np.testing.assert_array_equal(np.asarray(again.grasps.p_tool_grasp), np.asarray(r.grasps.p_tool_grasp))
+    # a budget too small for the count: what was found, reported as incomplete
+    small = sample_reachable(tool, task, 200, seed=0, budget=256)
+    assert not small.complete and small.drawn == 256 and len(small.grasps) < 200
+    assert small.to_json() == {"requested": 200, "reachable": len(small.grasps), "drawn": 256, "budget": 256,
+                               "complete": False}
+    with pytest.raises(InputError, match="budget must be an integer >= n"):
+        sample_reachable(tool, task, 10, budget=5)
+
+
+def test_a_short_tool_swings_about_a_pivot_further_back():
+    """The swing's lever grows for a tool too short to reach the impact speed within the joint-speed
+    limit; a long one keeps the kind's pivot_offset."""
+    from itup_jax.robot import UR5E_MAX_JOINT_SPEED
+    from itup_jax.task import SWING_SPEED_SHARE, swing_pivot_offset
+
+    c = np.array([0.003, 0.0, 0.19])  # a screwdriver's contact
+    off = swing_pivot_offset(c, 1.0, 0.10)
+    assert off > 0.10
+    assert np.linalg.norm(c + [0, 0, off]) == pytest.approx(1.0 / (SWING_SPEED_SHARE * UR5E_MAX_JOINT_SPEED))
+    assert swing_pivot_offset(np.array([0.06, 0.0, 0.29]), 0.8, 0.10) == 0.10  # the built-in hammer's
