@@ -45,7 +45,7 @@ from itup_jax.trajectory import Trajectory
 from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.wrench import Loads, task_loads
 
-__version__ = "0.10.0"
+__version__ = "0.11.0"
 
 
 def __getattr__(name: str):

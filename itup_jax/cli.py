@@ -8,12 +8,14 @@
   itup bench score [--n 10000] [--json]
   itup bench verify [--n 1000] [--k 5] [--json]
   itup bench sample [--n 4096] [--json]
+  itup bench reachable [--n 256] [--json]
   itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
 Exit status: 0 done; 2 bad input (a message names the input and the problem, before any long work;
 nothing is half-written); 3 no acceptable grasp (`plan`: no candidate the arm can carry, or, with
---verify, none of the verified grasps did the task and held; the message says what to try).
+--verify (or the out-of-distribution guard's verification), none of the verified grasps did the task
+and held; `evaluate`: a verified method's grasps did not; the message says what to try).
 """
 
 from __future__ import annotations
@@ -112,7 +114,7 @@ def cmd_plan(args) -> int:
         plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
                           torque_first=args.torque_first, top=args.top, verify=args.verify,
                           verify_draws=args.verify_draws, verify_physics=args.verify_physics, sampling=args.sampling,
-                          budget=args.budget)
+                          budget=args.budget, guard=not args.no_guard)
     except itup.InputError as exc:  # the library's names for the options, written as the flags that set them
         raise_input(_as_flags(str(exc).replace("plan_grasp: ", "")))
     _print_plan(args, plan)
@@ -147,6 +149,11 @@ def _print_plan(args, plan) -> None:
     if sm["mode"] == "reachable" and not sm["complete"]:
         print(f"warning: the arm can carry {sm['reachable']} of {sm['drawn']} drawn candidates through the task, "
               f"fewer than the {sm['requested']} asked for (--budget {sm['budget']} spent)")
+    g = plan.guard
+    if g is not None and g.fired:
+        print("warning: " + g.message(tool.name, plan.task.kind) + "; " + (
+            f"the {plan.verify_k} best grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
+            "trust the learned score)" if plan.guard_verified else "the --verify rollouts decide the pick"))
     if costs is None:  # the reachable sampler found none: nothing was scored
         print(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
               "(closed-form IK); " + "; ".join(plan.advice))
@@ -166,7 +173,7 @@ def _print_plan(args, plan) -> None:
     pick_rank, best = plan.pick_rank, plan.best_index
     if pick_rank >= len(plan.top):  # the pick lies below the listed ones: its row follows them
         listed.append((pick_rank, best))
-    marked = plan.status == "ok" and not args.verify
+    marked = plan.status == "ok" and plan.verified is None
     for rank, i in listed:
         c = plan.row(i)["costs"]
         if rank > len(plan.top):  # a gap between the listed rows and the pick
@@ -222,7 +229,7 @@ def cmd_generate(args) -> int:
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal, timestep=args.timestep,
-                         variants=args.variants, contact=args.contact)
+                         variants=args.variants, contact=args.contact, family=args.family)
     m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard,
                  process_index=args.process_index, process_count=args.process_count, nthread=args.threads)
     t = m["totals"]
@@ -276,6 +283,9 @@ def _cmd_adapt(args) -> int:
     except InputError as exc:
         raise_input(_as_flags(str(exc).replace("adapt: ", ""), names=("keep", "teacher")))
     save_model(args.out, out)
+    from itup_jax.training import write_guard_reference
+
+    write_guard_reference(args.out, args.data, init=args.init)
     epochs = out.spec["adapted_from"].get("epochs", args.finetune_epochs)
     kept = [k for k, e in out.spec.get("by_task", {"all": out.spec}).items() if e.get("best_epoch", 0) < 0]
     print(f"wrote {args.out}: {args.init} adapted (up to {epochs} epochs per network, early stopping); best "
@@ -318,7 +328,11 @@ def cmd_train(args) -> int:
     except InputError as exc:
         raise_input(_as_flags(str(exc), names=("teacher",)))
     save_model(args.out, model)
-    print(f"wrote {args.out}: best validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
+    from itup_jax.training import write_guard_reference
+
+    ref = write_guard_reference(args.out, args.data)
+    print(f"wrote {args.out} (and the out-of-distribution guard's reference {ref}): best validation loss "
+          f"{model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
           f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
     return 0
@@ -486,10 +500,16 @@ def cmd_evaluate(args) -> int:
     print(f"task {args.task} | tool {tool.name} | {c.get('used')} reachable candidates of {c.get('sampled')} sampled | "
           f"{args.seeds} randomised-physics rollouts per pick (native MuJoCo){grip}: mean ± std")
     _print_eval_table(res)
+    unverified = [m for m, r in res["methods"].items() if r.get("verified") and not r["verified"]["succeeded"]]
+    for m in unverified:
+        v = res["methods"][m]["verified"]
+        print(f"no verified pick for {m}: none of the {len(v['tried'])} grasps it rolled out did the task and held in "
+              f"MuJoCo (its row is the least bad of them); try more candidates (--n, now {args.n}), another grasp "
+              "region in the tool's spec (grasp_region), a stronger grip, or another tool")
     if args.json:
         _atomic_write_json(args.json, res)
         print(f"wrote {args.json}")
-    return 0
+    return EXIT_NO_PICK if unverified else 0
 
 
 def _check_out_folder(flag: str, path: str) -> None:
@@ -595,11 +615,20 @@ def cmd_tools(args) -> int:
         print(f"{name:8s} category {t.category:8s} mass {float(p.mass):.3f} kg  size {size} m  com {com} m  "
               f"e {float(p.restitution):.2f}  mu {float(p.mu):.2f}  dt {float(p.contact_duration) * 1e3:.0f} ms")
         print(f"{'':8s} parts {list(t.parts)}")
+    from itup_jax import families
+
+    print("tool families (itup.load_tool('<family>') is the default, '<family>@<seed>' a drawn one):")
+    for name in families.names():
+        fam = families.get(name)
+        t = itup.load_tool(name)
+        lo, hi = t.mesh.bounds
+        print(f"  {name:12s} tasks {','.join(fam.tasks):12s} default {t.mass:.3f} kg, {float(np.max(hi - lo)):.2f} m long: "
+              f"{fam.summary}")
     print("category priors:")
     for cat, pr in priors.CATEGORY_PRIORS.items():
         for field in ("density", "restitution", "mu", "contact_duration"):
             q = getattr(pr, field)
-            print(f"  {cat:8s} {field:16s} {q.value:<8g} {q.unit:7s} {q.source}")
+            print(f"  {cat:11s} {field:16s} {q.value:<8g} {q.unit:7s} {q.source}")
     return 0
 
 
@@ -626,7 +655,7 @@ def _default(fn, name: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from itup_jax import bench
+    from itup_jax import bench, families
     from itup_jax.dataset import GenerateConfig, generate
     from itup_jax.evaluate import DEFAULT_METHODS, METHODS, VERIFY_K, VERIFY_TORQUE_DRAWS, VERIFY_TORQUE_K
     from itup_jax.grasp_sampler import REACHABLE_BUDGET_FACTOR
@@ -640,7 +669,7 @@ def build_parser() -> argparse.ArgumentParser:
     from itup_jax.task import TASK_KINDS
 
     ap = argparse.ArgumentParser(prog="itup", description="inverse Tool-use Planning (iTuP) in JAX. Exit status: "
-                                 "0 done, 2 bad input, 3 no acceptable grasp (plan)",
+                                 "0 done, 2 bad input, 3 no acceptable grasp (plan; evaluate's verified methods)",
                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--no-compile-cache", action="store_true",
                     help="do not keep compiled kernels between runs (default: kept in ~/.cache/itup-jax/jax, "
@@ -687,6 +716,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "measured total (default 1)")
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
+    p.add_argument("--no-guard", action="store_true",
+                   help="sdgnet: do not switch to verified picking when the tool lies outside the network's training "
+                   "data (the out-of-distribution guard, itup_jax/ood.py; it still reports)")
     p.add_argument("--scorer", default=_default(plan_grasp, "scorer"), choices=SCORERS,
                    help="sdgnet (the shipped checkpoint, default), sdgnet_paper (the paper objective's checkpoint), "
                    "analytic (the paper's cost), analytic_wrench (its grip-demand form), or a baseline")
@@ -760,6 +792,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--variants", default=gen_defaults.variants, choices=["stretch", "parts"],
                      help="procedural tools: 'stretch' scales the whole built-in tool, 'parts' varies the handle and "
                      "the head independently (dataset.part_variant)")
+    gen.add_argument("--family", default=None, choices=families.names(),
+                     help="draw every shard's tool from this tool family (itup tools lists them; --tasks must be ones it "
+                     "can do) instead of the task's built-in tool and its --variants")
     gen.add_argument("--contact", default=gen_defaults.contact, choices=["flat", "point"],
                      help="grasp sampler: 'flat' (the pads lie flat on the tool; grasp_sampler.py) or 'point' (antipodal "
                      "point contacts in the friction cone, every dataset up to code 0.5.0)")
@@ -868,7 +903,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"a smoke run: at most {QUICK_DEMO[0]} candidates and {QUICK_DEMO[1]} draws per pick")
     dm.set_defaults(fn=cmd_demo)
 
-    t = sub.add_parser("tools", help="list the built-in tools and the category priors")
+    t = sub.add_parser("tools", help="list the built-in tools, the tool families and the category priors")
     t.set_defaults(fn=cmd_tools)
     return ap
 

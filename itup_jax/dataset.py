@@ -194,6 +194,9 @@ class GenerateConfig:
     # the grasp sampler's contact model (`SamplerConfig.contact`): "flat" (the pads lie flat on the tool;
     # since code 0.6.0) or "point" (every dataset up to code 0.5.0; a manifest without the key)
     contact: str = "flat"
+    # a tool family (`families.FAMILIES`) whose tools every shard draws instead of the task's built-in tool
+    # and its variants: variant 0 the family's default tool, v >= 1 `families.draw`; None: the built-ins
+    family: str | None = None
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
@@ -207,6 +210,13 @@ class GenerateConfig:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
         if self.timestep is not None:
             check_timestep(self.timestep, "generate")
+        if self.family is not None:
+            from itup_jax import families
+
+            fam = families.get(self.family)
+            if set(self.tasks) - set(fam.tasks):
+                raise InputError(f"generate: family {self.family!r} does the tasks {list(fam.tasks)}, not "
+                                 f"{sorted(set(self.tasks) - set(fam.tasks))}; give --tasks {','.join(fam.tasks)}")
 
     def task_timestep(self, kind: str) -> float:
         """s, the step `kind`'s scenes are integrated at."""
@@ -221,6 +231,8 @@ class GenerateConfig:
             del d["variants"]
         if d["contact"] == "point":
             del d["contact"]
+        if d["family"] is None:
+            del d["family"]
         return d
 
     @classmethod
@@ -253,15 +265,19 @@ def _unit_seed(config: GenerateConfig, task: str, variant: int) -> int:
 def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Tool, Task]:
     """The tool and task of a shard: variant 0 is the task's built-in tool, variant v >= 1 the
     procedural variant of the config's family (`variants`) seeded from the run seed (the same tool
-    every time, so experiments can rebuild a shard's tool from its manifest entry)."""
-    base = load_tool(DEFAULT_TOOL[task_kind])
+    every time, so experiments can rebuild a shard's tool from its manifest entry); with a tool
+    `family`, that family's default tool and its draws (`families.draw`) instead."""
     seed = _unit_seed(config, task_kind, variant)
-    if variant == 0:
-        tool = base
+    if config.family is not None:
+        from itup_jax import families
+
+        tool = load_tool(config.family) if variant == 0 else families.draw(config.family, seed)
+    elif variant == 0:
+        tool = load_tool(DEFAULT_TOOL[task_kind])
     elif config.variants == "parts":
         tool = part_variant(DEFAULT_TOOL[task_kind], seed)
     else:
-        tool = vary_tool(base, seed)
+        tool = vary_tool(load_tool(DEFAULT_TOOL[task_kind]), seed)
     with warnings.catch_warnings():  # a stretched tool may swing a little over the speed limit: flagged per rollout
         warnings.simplefilter("ignore", UserWarning)
         task = make_task(task_kind, tool)

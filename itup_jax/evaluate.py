@@ -92,7 +92,8 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     "measured": {label: {mean, std, n}}, "rollouts": {label: [seeds]}}}}; `sdgnet_verified` and
     `sdgnet_verified_torque` also have "verified": {k, draws, weights, physics, tried (the candidates
     rolled out to check), chosen_by, unreachable (how many candidates were skipped as unreachable: 0
-    unless `candidates` given here holds unreachable ones)}. The torque-first pick's check rollouts draw
+    unless `candidates` given here holds unreachable ones), succeeded (the pick did the task and held in
+    every check rollout; False: no verified grasp did, and the pick is only the least bad)}. The torque-first pick's check rollouts draw
     their physics from seed + 1 (with `randomize`, or the default spreads when it is None), the
     evaluation's rollouts from seed.
     """
@@ -134,7 +135,8 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
             verified = {"k": VERIFY_TORQUE_K, "draws": VERIFY_TORQUE_DRAWS, "weights": "torque_first", "physics": "random"}
         if verified is not None:
             i = v.index
-            verified.update(tried=[int(j) for j in v.shortlist], chosen_by=v.chosen_by, unreachable=len(v.unreachable))
+            verified.update(tried=[int(j) for j in v.shortlist], chosen_by=v.chosen_by, unreachable=len(v.unreachable),
+                            succeeded=v.succeeded)
         else:
             i = int(np.argmin(np.asarray(s.total, float)))
         dt = time.perf_counter() - t0

@@ -152,7 +152,7 @@ def squeegee(*, half_width: float = 0.150, blade_height: float = 0.030, handle_r
     """A squeegee, a T-headed long tool: a neoprene blade (2 half_width wide, 3 mm thick) whose edge is at
     z = 0, a 20 x 20 mm polypropylene holder 5 mm wider each side, and a hollow aluminium handle along +z.
     It pushes along +y with the blade's leading edge, touching at x = 0 and +-contact_x. Default: 0.45 m tall, 0.3 m
-    wide, ~0.23 kg."""
+    wide, ~0.22 kg."""
     holder_top = blade_height + 0.020
     g = handle_radius + 0.009
     return assemble_tool(

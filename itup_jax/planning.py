@@ -30,6 +30,8 @@ DEFAULT_TOP = 5
 #: arm can carry through the task (`grasp_sampler.sample_reachable`); "all" draws n and walks the ranking to
 #: the first reachable one.
 SAMPLING_MODES = ("reachable", "all")
+#: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and no --verify was asked for.
+GUARD_VERIFY_K = 5
 #: Statuses of a plan (`GraspPlan.status`).
 STATUSES = ("ok", "no_reachable_candidate", "no_verified_success")
 #: The measured labels reported per verification rollout.
@@ -45,6 +47,8 @@ class GraspPlan:
       grasps: the N candidates.  scores: the scorer's `Scores` of them ([N] arrays).
       sampling: how they were drawn: {"mode", "requested", "reachable", "drawn", "budget", "complete"}
         (mode "all": drawn = requested, and reachable counts only the candidates checked).
+      guard: the out-of-distribution guard's reading (`ood.Guard`) for an SDG-Net scorer, else None;
+        when it fired and no verification was asked for, the plan verified GUARD_VERIFY_K grasps.
       ranking: [N] candidate indices by increasing total.  top: the first `top` of them.
       reachable: {index: bool} for every candidate whose reachability was checked (closed-form IK).
       pick_rank: 0-based rank of the best-scored reachable candidate (0 when none is).
@@ -82,6 +86,8 @@ class GraspPlan:
     measure_weights: Any = None
     physics: str = "nominal"
     sampling: dict = dataclasses.field(default_factory=dict)
+    guard: Any = None
+    guard_verified: bool = False
 
     @property
     def best_index(self) -> int:
@@ -113,6 +119,7 @@ class GraspPlan:
             "regime": self.regime,
             "n_candidates": int(self.n),
             "sampling": dict(self.sampling),
+            "guard": None if self.guard is None else {**self.guard.to_json(), "verified": self.guard_verified},
             "seed": self.seed,
             "scorer": self.scorer,
             "weights": self.weights,
@@ -161,7 +168,7 @@ def first_reachable(task, grasps: Grasps, ranking: np.ndarray, *, check_first: i
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
                weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
                verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
-               budget: int | None = None) -> GraspPlan:
+               budget: int | None = None, guard: bool = True) -> GraspPlan:
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
@@ -182,6 +189,9 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       verify: K > 0 rolls the K best reachable out in MuJoCo and keeps the lowest measured total
         (`verify.best_grasp_verified`); verify_draws R > 1 rolls each out under R draws of the priors
         (verify_physics "random", the default then) and keeps the lowest mean.
+      guard: an SDG-Net scorer's plan reads the out-of-distribution guard (`ood.check`) always; with guard
+        True, when the tool lies outside the network's training data and verify is 0, it verifies
+        GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`).
     Returns:
       `GraspPlan`; its status says whether a grasp is recommended.
     Raises:
@@ -246,6 +256,14 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         used = dataclasses.asdict(sw) if scorer in SDGNET_SCORERS else None
         scores = itup.score(tool, task, grasps, model=model if scorer == "sdgnet" and model is not None else scorer, seed=seed,
                             weights=sw)
+    reading, guard_verified = None, False
+    if scorer in SDGNET_SCORERS:
+        from itup_jax import ood
+        from itup_jax.sdgnet import PAPER_MODEL
+
+        reading = ood.check(tool, task, grasps, model=PAPER_MODEL if scorer == "sdgnet_paper" else model)
+        if guard and reading.fired and verify == 0:
+            verify, guard_verified = GUARD_VERIFY_K, True
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))
@@ -262,7 +280,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     regime = itup.classify_regime(tool, task).name.lower()
     base = dict(tool=tool, task=task, grasps=grasps, scores=scores, ranking=ranking, top=order, reachable=reachable,
                 n=n_scored, seed=seed, scorer=scorer, weights=used, regime=regime,
-                graspnet_rotation=np.asarray(to_graspnet(grasps)["rotation_matrix"]), sampling=sampled)
+                graspnet_rotation=np.asarray(to_graspnet(grasps)["rotation_matrix"]), sampling=sampled, guard=reading,
+                guard_verified=guard_verified)
     if rank_found is None:
         return GraspPlan(**base, pick_rank=0, pick=None, status="no_reachable_candidate",
                          advice=_unreachable_advice(n))
@@ -289,9 +308,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
             row["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
             rows.append(row)
     # a verified pick must have done the task and held in every one of its rollouts
-    mine = [r["valid"] and r["success"] and not r["failed"] for r in rows if r["index"] == v.index]
     status, advice = "ok", ()
-    if not mine or not all(mine):
+    if not v.succeeded:
         status = "no_verified_success"
         advice = (f"verify more grasps (verify, now {verify}) or sample more (n, now {n})",
                   "another grasp region in the tool's spec (grasp_region)",

@@ -178,9 +178,9 @@ CATEGORY_PRIORS = MappingProxyType(
         ),
         "squeegee": CategoryPrior(
             density=Quantity(
-                730.0, "kg/m^3",
+                720.0, "kg/m^3",
                 "effective density of a neoprene blade, a polypropylene holder and a hollow aluminium "
-                "handle: ~0.23 kg over ~3.1e-4 m^3 of closed volume (the family's default, `families.squeegee`)",
+                "handle: ~0.22 kg over ~3.0e-4 m^3 of closed volume (the family's default, `families.squeegee`)",
             ),
             restitution=Quantity(
                 0.1, "-", "assumed: a rubber blade absorbs nearly all of an impact's energy"

@@ -128,18 +128,24 @@ sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("sp
 _FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
 
 
+def _tool_field(tool: Tool, spec, dt) -> DensityField:
+    """The tool's density field for a feature spec in dtype `dt`, cached per tool and spec (no
+    conversion per call)."""
+    per_tool = _FIELDS.setdefault(tool, {})
+    if spec not in per_tool:
+        f = tool_field(tool, spec)
+        per_tool[spec] = DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing)
+    return per_tool[spec]
+
+
 def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
     """Arguments of `sdgnet_scores_jit` (float32; the tool's density field cached per tool and spec)."""
     model = model.for_task(task.kind)
     spec = model.feature_spec
     dt = jnp.float32
-    per_tool = _FIELDS.setdefault(tool, {})
-    if spec not in per_tool:  # cached already in the scorer's dtype: no conversion per call
-        f = tool_field(tool, spec)
-        per_tool[spec] = DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing)
     s = model.spec
     params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
-    args = (per_tool[spec], tool.params, task, grasps, params,
+    args = (_tool_field(tool, spec, dt), tool.params, task, grasps, params,
             jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
             jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.costs(dt),
             weights.heads(model.class_heads, dt))

@@ -720,16 +720,20 @@ def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
     `y_scale` [C] (the objective's units; `objective.costs_of` makes the scorer's costs of them); the probabilities are the sigmoids of the outputs after the costs (which label each
     is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
     shape). An ensemble (`ensemble`: every array with a leading member axis M, x_mean [M, F]) runs its
-    M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Pure;
+    M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Outputs
+    are >= 0 and probabilities in [0, 1] by construction. Pure;
     `predict` and the scorer's jit wrap it."""
     if x_mean.ndim == 2:  # static: an ensemble's stacked members
         z, logits = jax.vmap(_network_outputs, in_axes=(0, 0, 0, 0, 0, None))(params, x_mean, x_std, y_mean, y_std,
                                                                                feats)
-        z, probs = z.mean(0), jax.nn.sigmoid(logits).mean(0)
+        # each member's prediction held at >= 0 (below), then their mean
+        z, probs = jnp.maximum(z, 0.0).mean(0), jax.nn.sigmoid(logits).mean(0)
     else:
         z, logits = _network_outputs(params, x_mean, x_std, y_mean, y_std, feats)
         probs = jax.nn.sigmoid(logits)
-    return y_scale * jnp.expm1(z), (probs if probs.shape[-1] > 0 else None)
+    # every target is a magnitude (torque, grip force, slip, drift >= 0), learnt as log1p(y / scale) >= 0: a
+    # network output below 0 (an extrapolation) is held at 0, so no prediction is negative
+    return y_scale * jnp.expm1(jnp.maximum(z, 0.0)), (probs if probs.shape[-1] > 0 else None)
 
 
 #: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).

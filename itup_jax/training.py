@@ -127,3 +127,26 @@ def ensemble_of(paths: Sequence[str], *, command: str | None = None):
     model.spec["ensemble"]["files"] = [os.path.abspath(m) for m in paths]
     model.spec["command"] = command
     return model
+
+
+def write_guard_reference(checkpoint: str, paths: Sequence[str], *, init: str | None = None) -> str:
+    """Write the out-of-distribution guard's reference of a checkpoint trained on the datasets in `paths`
+    (`ood.reference_path(checkpoint)`): a sample of their rows' features per task; for a checkpoint adapted
+    from `init`, `init`'s reference rows (when it has one) join the new rows. Returns the file written."""
+    import numpy as np
+
+    from itup_jax import ood
+
+    data, _ = load_training_data(paths)
+    feats, tasks = np.asarray(data["features"], np.float32), np.asarray(data["task"])
+    if init is not None:
+        from itup_jax.ood import _reference_path_of
+
+        old = _reference_path_of(init)
+        if old is not None:
+            ref = ood.load_reference(old)
+            feats = np.concatenate([feats] + list(ref.features.values()))
+            tasks = np.concatenate([tasks] + [np.full(len(v), k) for k, v in ref.features.items()])
+    path = ood.reference_path(checkpoint)
+    ood.save_reference(path, ood.sample_reference(feats, tasks))
+    return path

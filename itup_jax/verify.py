@@ -72,6 +72,16 @@ class Verified:
     unreachable: np.ndarray
     draws: int = 1
 
+    @property
+    def succeeded(self) -> bool:
+        """Whether the pick was checked and did the task and held in every one of its rollouts (valid,
+        success, not failed): False when none of the verified grasps did, or none was rolled out."""
+        if self.chosen_by != "measured":
+            return False
+        r = int(np.nonzero(self.shortlist == self.index)[0][0])
+        ok = (self.candidate_labels("valid") & self.candidate_labels("success") & ~self.candidate_labels("failed"))[r]
+        return bool(ok.all())
+
     def candidate_labels(self, field: str) -> np.ndarray:
         """[M, r] one `Labels` field (e.g. "peak_torque_projected", "success") per shortlisted candidate and
         draw."""

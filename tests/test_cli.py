@@ -10,7 +10,7 @@ import pytest
 
 from itup_jax.cli import main
 
-PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "sampling", "seed", "scorer", "weights", "best", "top", "summary",
+PLAN_KEYS = {"schema", "task", "tool", "regime", "n_candidates", "sampling", "guard", "seed", "scorer", "weights", "best", "top", "summary",
              "status"}
 GRASP_KEYS = {"reachable", "index", "p_tool_grasp_m", "q_tool_grasp_wxyz", "width_m", "graspnet_rotation_matrix", "costs"}
 BENCH_KEYS = {"n", "t", "compile_s", "warm_ms", "numpy_ms", "speedup_vs_numpy", "machine", "max_rel_diff_vs_numpy"}
@@ -323,3 +323,22 @@ def test_importing_the_cli_does_not_start_jax():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().splitlines()[-1] == "0"
+
+
+def test_evaluate_says_when_a_verified_method_found_no_grasp_that_works(tmp_path, capsys, monkeypatch):
+    """When none of a verified method's rolled-out grasps did the task and held, evaluate says so, records
+    it in the JSON and exits 3 (here every check is made to fail)."""
+    from itup_jax.verify import Verified
+
+    out = tmp_path / "e.json"
+    assert main(["evaluate", "--task", "hammer", "--methods", "sdgnet_verified,force_closure", "--n", "8",
+                 "--seeds", "1", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["methods"]["sdgnet_verified"]["verified"]["succeeded"] is True
+    capsys.readouterr()
+    monkeypatch.setattr(Verified, "succeeded", property(lambda self: False))
+    assert main(["evaluate", "--task", "hammer", "--methods", "sdgnet_verified,force_closure", "--n", "8",
+                 "--seeds", "1", "--json", str(out)]) == 3
+    res = json.loads(out.read_text())
+    assert res["methods"]["sdgnet_verified"]["verified"]["succeeded"] is False
+    assert "verified" not in res["methods"]["force_closure"]
+    assert "no verified pick for sdgnet_verified: none of the" in capsys.readouterr().out

@@ -589,3 +589,33 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
     with pytest.raises(SystemExit) as e:
         _run_experiment("initial_grip.py", ["--data", str(tmp_path / "nothing"), "--out", str(tmp_path / "x")], monkeypatch)
     assert e.value.code == 2 and not (tmp_path / "x").exists()
+
+
+def test_ood_guard_quick(tmp_path, monkeypatch):
+    """A built-in family and a held-out one, a calibration and a test tool each: every row measured, the
+    threshold calibrated by the rule, the picks judged."""
+    _run_experiment("ood_guard.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "ood_guard.json").read_text())
+    jsonschema.validate(doc, load_schema("ood_guard"))
+    rows = doc["rows"]["calibration"] + doc["rows"]["test"]
+    assert {r["family"] for r in rows} == {"mallet", "screwdriver"} and len(doc["rows"]["test"]) == 2
+    assert {r["builtin"] for r in rows if r["family"] == "mallet"} == {True}
+    assert all(r["pred_min"]["tau"] >= 0 and r["candidates"] == 12 for r in rows)
+    j = doc["judged"]["test"]
+    assert j["held_out_tools"] == 1 and j["builtin_tools"] == 1 and doc["calibration"]["threshold"] >= 0
+
+
+def test_leave_family_out_quick(tmp_path, monkeypatch):
+    """Two tiny families: the shipped checkpoint adapted on both and on each alone, every model judged on
+    the same rollouts of each family's tools, each adapted checkpoint written with its guard reference."""
+    _run_experiment("leave_family_out.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "lofo.json").read_text())
+    assert set(doc["held_out"]) == {"screwdriver", "squeegee"}
+    assert set(doc["rows"]) == {"shipped", "all", "without_screwdriver", "without_squeegee"}
+    for name in ("all", "without_screwdriver", "without_squeegee"):
+        assert (tmp_path / "models" / f"{name}.reference.npz").exists()
+    # every model judged on the same tools
+    tools = {name: [(r["tool"], r["task"]) for r in rs] for name, rs in doc["rows"].items()}
+    assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["all"]) == 2
+    held = doc["held_out"]["screwdriver"]["without"]
+    assert held["tools"] == 1 and 0 <= held["verified_ok"] <= 1

@@ -160,3 +160,15 @@ def test_a_short_tool_swings_about_a_pivot_further_back():
     assert off > 0.10
     assert np.linalg.norm(c + [0, 0, off]) == pytest.approx(1.0 / (SWING_SPEED_SHARE * UR5E_MAX_JOINT_SPEED))
     assert swing_pivot_offset(np.array([0.06, 0.0, 0.29]), 0.8, 0.10) == 0.10  # the built-in hammer's
+
+
+def test_a_dataset_of_a_family_draws_its_tools_and_checks_its_tasks():
+    from itup_jax.dataset import GenerateConfig, unit_tool
+
+    c = GenerateConfig(tasks=("knock",), tools_per_task=2, grasps=4, seed=3, family="screwdriver")
+    c.validate()
+    (t0, _), (t1, _) = unit_tool(c, "knock", 0), unit_tool(c, "knock", 1)
+    assert t0.name == "screwdriver" and t1.name.startswith("screwdriver@") and t0.mass != t1.mass
+    assert GenerateConfig.from_json(c.to_json()) == c and "family" not in GenerateConfig().to_json()
+    with pytest.raises(InputError, match="family 'squeegee' does the tasks"):
+        GenerateConfig(tasks=("hammer",), family="squeegee").validate()
