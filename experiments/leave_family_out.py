@@ -21,8 +21,9 @@ Evaluation tools: per family in --data and per built-in family, `--tools` draws 
 each with `--grasps` candidates the arm can carry, rolled out once in native MuJoCo under nominal
 physics; the same rollouts judge every model. Per model and family: the median Spearman rho between
 predicted and measured full induced peak wrist torque and grip demand, how often the guard fires, and
-how often the learned pick (lowest predicted total) and the verified pick (`--verify` best by predicted
-total, the lowest measured total among them) do the task and hold. The leave-one-out reading of a
+for the learned pick (lowest predicted total) and the verified pick (`--verify` best by predicted total,
+the lowest measured total among them) how often each did the task, failed in the grip, and did the task
+and held ("ok"). The leave-one-out reading of a
 family F is `without_<F>` on F's tools. Writes lofo.json.
 """
 
@@ -88,7 +89,9 @@ def judge(model_path: str, ev: dict, verify: int) -> dict:
     return {"tool": tool.name, "task": task.kind, "rho_induced": None if np.isnan(rho) else rho,
             "rho_grip": None if np.isnan(rho_grip) else rho_grip,
             "guard": None if guard is None else guard.score, "fired": bool(guard is not None and guard.fired),
-            "learned_ok": bool(ok[order[0]]), "verified_ok": bool(ok[verified]), "any_ok": bool(ok.any())}
+            "learned_ok": bool(ok[order[0]]), "verified_ok": bool(ok[verified]), "any_ok": bool(ok.any()),
+            "learned_success": bool(L.success[order[0]]), "learned_failed": bool(L.failed[order[0]]),
+            "verified_success": bool(L.success[verified]), "verified_failed": bool(L.failed[verified])}
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -97,8 +100,8 @@ def summarise(rows: list[dict]) -> dict:
     return {"tools": len(rows), "median_rho_induced": float(np.median(rho)) if rho else None,
             "median_rho_grip": float(np.median(grip)) if grip else None,
             "guard_fired": float(np.mean([r["fired"] for r in rows])),
-            "learned_ok": float(np.mean([r["learned_ok"] for r in rows])),
-            "verified_ok": float(np.mean([r["verified_ok"] for r in rows])),
+            **{k: float(np.mean([r[k] for r in rows])) for k in
+               ("learned_ok", "learned_success", "learned_failed", "verified_ok", "verified_success", "verified_failed")},
             "any_ok": float(np.mean([r["any_ok"] for r in rows]))}
 
 

@@ -15,7 +15,10 @@ out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, 
   * the learned pick (lowest predicted total) and the verified pick (the `--verify` best by predicted
     total, the lowest measured total among them, as `itup plan --verify K` picks under nominal
     physics): task success and grip failure; whether any candidate did the task and held;
-  * the guard's score and groups.
+  * the guard's score and groups;
+  * on the test set, the planner end to end (`--plan-n` reachable candidates, its defaults: the guard
+    verifies 5 grasps when it fires), its pick rolled out `--plan-draws` times under random physics:
+    whether it did the task and held in every draw.
 
 Calibration rule (fixed before the test set is read): the guard's threshold is the largest tool score t
 such that, on the calibration tools of the held-out families, at least 90 % of the tools with rho < 0.5
@@ -45,6 +48,21 @@ if ROOT not in sys.path:
 CAL_SEED, TEST_SEED = 100, 200
 #: rho below which SDG-Net's ranking counts as failed, and the share of such tools the guard must catch.
 RHO_FAIL, CATCH = 0.5, 0.9
+
+
+def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
+    """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, the guard, which
+    verifies 5 grasps when it fires), its pick then rolled out `draws` times under random physics."""
+    from itup_jax.planning import plan_grasp
+    from itup_jax.simulate import Randomization, simulate
+
+    plan = plan_grasp(tool, task, n=n, seed=seed)
+    out = {"status": plan.status, "guard_fired": bool(plan.guard is not None and plan.guard.fired),
+           "verified": plan.verified is not None, "drawn": plan.sampling.get("drawn"), "ok_draws": None}
+    if plan.pick is not None:
+        L = simulate(tool, task, plan.grasps[np.full(draws, plan.pick)], seed=seed + 7, randomize=Randomization()).labels
+        out["ok_draws"] = float(np.mean(np.asarray(L.valid) & np.asarray(L.success) & ~np.asarray(L.failed)))
+    return out
 
 
 def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
@@ -121,6 +139,10 @@ def judge(rows: list[dict], threshold: float) -> dict:
         "learned_ok_where_solvable": sum(r["learned"]["ok"] for r in solvable),
         "verified_ok_where_solvable": sum(r["verified"]["ok"] for r in solvable),
         "unsolvable_held_out": len(held) - len(solvable),
+        # the planner end to end (test set): its pick did the task and held in every random draw
+        "planner_ok_where_solvable": sum(bool(r.get("plan") and r["plan"]["ok_draws"] == 1.0) for r in solvable),
+        "planner_runs": sum("plan" in r for r in held),
+        "planner_verified": sum(bool(r.get("plan") and r["plan"]["verified"]) for r in held),
     }
 
 
@@ -151,6 +173,7 @@ def _nan_to_none(x):
 
 
 def main(argv=None) -> dict:
+    import itup_jax as itup
     from itup_jax import families
     from itup_jax.bench import machine_info
 
@@ -159,11 +182,14 @@ def main(argv=None) -> dict:
     ap.add_argument("--grasps", type=int, default=64, help="reachable candidates per tool (default %(default)s)")
     ap.add_argument("--verify", type=int, default=5, metavar="K", help="the verified pick's shortlist (default %(default)s)")
     ap.add_argument("--families", default=",".join(families.names()), help="comma-separated families")
+    ap.add_argument("--plan-n", type=int, default=1000, help="candidates of the planner's run on each test tool "
+                    "(0: no planner run; default %(default)s)")
+    ap.add_argument("--plan-draws", type=int, default=3, help="random-physics rollouts of the planner's pick")
     ap.add_argument("--quick", action="store_true", help="two families, 1 draw each, 12 candidates (for the tests)")
     ap.add_argument("--out", default="results/ood_guard")
     args = ap.parse_args(argv)
     if args.quick:
-        args.tools, args.grasps, args.verify, args.families = 1, 12, 2, "mallet,screwdriver"
+        args.tools, args.grasps, args.verify, args.families, args.plan_n, args.plan_draws = 1, 12, 2, "mallet,screwdriver", 16, 1
     names = [f for f in args.families.split(",") if f]
     for f in names:
         families.get(f)
@@ -182,6 +208,11 @@ def main(argv=None) -> dict:
                     tool = families.get(name).build() if s is None else families.draw(name, s)
                     row = tool_row(tool, kind, args.grasps, args.verify, seed=0 if s is None else s)
                     row.update(family=name, builtin=fam.builtin)
+                    if set_name == "test" and args.plan_n > 0:
+                        with warnings.catch_warnings():
+                            warnings.simplefilter("ignore")
+                            task = itup.make_task(kind, tool)
+                        row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws)
                     sets[set_name].append(row)
                     print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} guard "
                           f"{row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "

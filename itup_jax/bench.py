@@ -372,17 +372,17 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
             "machine": machine_info()}
 
 
-def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0) -> dict[str, Any]:
-    """Per tool family and task it can do (the family's default tool): the wall time of
+def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0, families: tuple | None = None) -> dict[str, Any]:
+    """Per tool family (`families`, default all) and task it can do (the family's default tool): the wall time of
     `sample_reachable(tool, task, n)` warm (median of `repeats`; the first call, which compiles the
     sampler's kernels, apart), the candidates it drew and the reachable share, beside plain
     `sample_grasps` of as many candidates as it drew (the reference: the IK's share of the cost)."""
-    from itup_jax import families
+    from itup_jax import families as fams
     from itup_jax.grasp_sampler import sample_grasps, sample_reachable
 
     rows = []
-    for name in families.names():
-        for kind in families.get(name).tasks:
+    for name in families or fams.names():
+        for kind in fams.get(name).tasks:
             tool = load_tool(name)
             task = make_task(kind, tool)
             t0 = time.perf_counter()

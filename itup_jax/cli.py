@@ -8,7 +8,7 @@
   itup bench score [--n 10000] [--json]
   itup bench verify [--n 1000] [--k 5] [--json]
   itup bench sample [--n 4096] [--json]
-  itup bench reachable [--n 256] [--json]
+  itup bench reachable [--n 256] [--families F,...] [--json]
   itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
@@ -441,7 +441,12 @@ def cmd_bench_reachable(args) -> int:
 
     if args.n < 1 or args.repeats < 1:
         raise_input(f"bench reachable: --n and --repeats must be >= 1, got --n {args.n} --repeats {args.repeats}")
-    res = bench_reachable(n=args.n, repeats=args.repeats)
+    from itup_jax import families
+
+    names = tuple(f for f in args.families.split(",") if f) if args.families else None
+    for f in names or ():
+        families.get(f)  # an unknown family: a clear message before any work
+    res = bench_reachable(n=args.n, repeats=args.repeats, families=names)
     print(json.dumps(res) if args.json else "\n".join(
         f"reachable {r['family']:11s} {r['task']:6s}: {r['reachable']} reachable of {r['drawn']} drawn "
         f"({r['reachable_share']:.0%}) in {r['warm_s']:.2f} s warm (first call {r['first_call_s']:.2f} s; sampling "
@@ -773,6 +778,7 @@ def build_parser() -> argparse.ArgumentParser:
     bp.add_argument("--n", type=int, default=_default(bench.bench_reachable, "n"),
                     help="reachable candidates per tool (default %(default)s)")
     bp.add_argument("--repeats", type=int, default=_default(bench.bench_reachable, "repeats"))
+    bp.add_argument("--families", default=None, help="comma-separated tool families (default: every one)")
 
     gen = sub.add_parser("generate", help="label dataset: shards + manifest; resumes after a kill")
     gen.add_argument("--out", required=True, help="dataset folder (created; resumed if it holds a manifest)")

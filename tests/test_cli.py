@@ -306,6 +306,17 @@ def test_bench_sample_reports_both_kernels(capsys):
         assert r["kernels_agree"] and r["warm_s"] > 0 and r["kernel_chunk_ms"] > 0 and r["dot_kernel_chunk_ms"] > 0
 
 
+def test_bench_reachable_reports_each_family_and_task(capsys):
+    assert main(["bench", "reachable", "--n", "16", "--repeats", "1", "--families", "spanner", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["benchmark"] == "reachable" and [(r["family"], r["task"]) for r in res["families"]] == [
+        ("spanner", "hammer"), ("spanner", "knock")]
+    for r in res["families"]:
+        assert r["reachable"] == 16 and r["drawn"] >= 16 and 0 < r["reachable_share"] <= 1 and r["warm_s"] > 0
+    assert main(["bench", "reachable", "--families", "wrench"]) == 2
+    assert "tool family 'wrench'" in capsys.readouterr().err
+
+
 def test_cli_asks_xla_for_deterministic_gpu_scatters(monkeypatch):
     import os
 

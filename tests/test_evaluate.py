@@ -603,6 +603,10 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
     assert all(r["pred_min"]["tau"] >= 0 and r["candidates"] == 12 for r in rows)
     j = doc["judged"]["test"]
     assert j["held_out_tools"] == 1 and j["builtin_tools"] == 1 and doc["calibration"]["threshold"] >= 0
+    # the planner ran end to end on each test tool, and on the held-out one its guard decides the verification
+    assert all("plan" in r for r in doc["rows"]["test"]) and j["planner_runs"] == 1
+    held = next(r for r in doc["rows"]["test"] if not r["builtin"])["plan"]
+    assert held["verified"] == held["guard_fired"] and held["status"] in ("ok", "no_verified_success")
 
 
 def test_leave_family_out_quick(tmp_path, monkeypatch):
