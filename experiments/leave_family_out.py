@@ -10,7 +10,7 @@ does the guard fire where it does not?
 
 Models, each the shipped checkpoint adapted (`training.adapt_on_datasets`: every task's network continues
 from its weights on the new rows, kept unless an epoch beats it on held-out tools) and given a guard
-reference of the shipped one's rows and the new rows (`training.write_guard_reference`). With
+reference of the shipped one's rows and the new rows (`adapt_on_datasets(guard_reference=...)`). With
 `--rehearse DIR ...`, rows of the checkpoint's own families join every adaptation (without them a
 network adapted on new families alone forgets the old ones; docs/results.md):
   * `shipped`: the shipped checkpoint itself (none of the families in --data);
@@ -109,8 +109,9 @@ def main(argv=None) -> dict:
     from itup_jax import families
     from itup_jax.bench import machine_info
     from itup_jax.dataset import GenerateConfig, generate
+    from itup_jax.ood import reference_path
     from itup_jax.sdgnet import DEFAULT_MODEL, save_model
-    from itup_jax.training import adapt_on_datasets, write_guard_reference
+    from itup_jax.training import adapt_on_datasets
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", nargs="+", default=[], metavar="FAMILY=DIR", help="one dataset per family")
@@ -150,9 +151,8 @@ def main(argv=None) -> dict:
         path = os.path.join(args.out, "models", f"{name}.npz")
         dirs = [data[f] for f in fams] + list(args.rehearse)
         t1 = time.time()
-        m = adapt_on_datasets(DEFAULT_MODEL, dirs, epochs=args.epochs, seed=0)
+        m = adapt_on_datasets(DEFAULT_MODEL, dirs, epochs=args.epochs, seed=0, guard_reference=reference_path(path))
         save_model(path, m)
-        write_guard_reference(path, dirs, init=DEFAULT_MODEL)
         models[name] = path
         print(f"model {name}: adapted on {', '.join(fams)} in {time.time() - t1:.0f} s", flush=True)
     # the built-in families' tools measure what adapting costs on the families the checkpoint knew

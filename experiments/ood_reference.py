@@ -5,9 +5,9 @@ inputs, sampled per task (`itup_jax/models/training_reference.npz`, `ood.sample_
 
 The shipped checkpoints were trained on four `itup generate` runs (docs/results.md, "Data"). A row's
 features depend on the tool, the task and the grasp only, not on its rollout, so they are rebuilt here
-without simulating: each shard's tool (`dataset.unit_tool`), its candidates (`sample_grasps` with the
-shard's seed and contact model, as `dataset.make_shard` draws them), the ones the arm can carry
-(`simulate.reachable`: the rows a rollout can make valid), and their features. About 80 s on 2 cores.
+without simulating: each shard's tool and candidates (`dataset.shard_candidates`, as `dataset.make_shard`
+draws them), the ones the arm can carry (`simulate.reachable`: the rows a rollout can make valid), and
+their features (`dataset.shard_features`). About 80 s on 2 cores.
 A checkpoint trained by `itup train` gets its reference from its own training rows instead.
 """
 
@@ -26,24 +26,18 @@ SHIPPED_RUNS = ((("hammer", "sweep", "knock"), 48, 20, "stretch"), (("hammer", "
 
 def training_features(runs=SHIPPED_RUNS, grasps: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """(features [N, F], tasks [N]) of the reachable candidates of every shard of `runs`."""
-    from itup_jax.dataset import GenerateConfig, _unit_seed, shard_units, unit_tool
-    from itup_jax.features import FeatureSpec, batched_features, tool_field
-    from itup_jax.grasp_sampler import SamplerConfig, sample_grasps
+    from itup_jax.dataset import GenerateConfig, shard_candidates, shard_features, shard_units
     from itup_jax.simulate import reachable
-    from itup_jax.wrench import task_loads
 
     feats, tasks = [], []
     for kinds, tools, seed, variants in runs:
         c = GenerateConfig(tasks=kinds, tools_per_task=tools, grasps=grasps, seed=seed, variants=variants, contact="flat")
-        spec = FeatureSpec(**c.feature_spec)
         for kind, v in shard_units(c):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)
-                tool, task = unit_tool(c, kind, v)
-            g = sample_grasps(tool, c.grasps, seed=_unit_seed(c, kind, v), config=SamplerConfig(contact=c.contact))
+                tool, task, g = shard_candidates(c, kind, v)
             ok = np.asarray(reachable(task, g))
-            f = batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params, g, spec=spec)
-            feats.append(np.asarray(f, np.float32)[ok])
+            feats.append(shard_features(c, tool, task, g)[ok])
             tasks += [kind] * int(ok.sum())
     return np.concatenate(feats), np.asarray(tasks)
 

@@ -262,6 +262,7 @@ def _library_warnings_on_stderr(fn, *args, **kwargs):
 def _cmd_adapt(args) -> int:
     """`itup train --init M.npz`: continue training a checkpoint on new data (`training.adapt_on_datasets`)."""
     from itup_jax.errors import InputError
+    from itup_jax.ood import reference_path
     from itup_jax.sdgnet import save_model
     from itup_jax.training import adapt_on_datasets
 
@@ -279,13 +280,10 @@ def _cmd_adapt(args) -> int:
         out = _library_warnings_on_stderr(
             adapt_on_datasets, args.init, args.data, epochs=args.finetune_epochs, lr=args.finetune_lr,
             seed=args.seed, patience=args.patience, ema=args.ema, keep=keep, teacher=args.teacher,
-            progress=not args.quiet, command=_command_line())
+            progress=not args.quiet, command=_command_line(), guard_reference=reference_path(args.out))
     except InputError as exc:
         raise_input(_as_flags(str(exc).replace("adapt: ", ""), names=("keep", "teacher")))
     save_model(args.out, out)
-    from itup_jax.training import write_guard_reference
-
-    write_guard_reference(args.out, args.data, init=args.init)
     epochs = out.spec["adapted_from"].get("epochs", args.finetune_epochs)
     kept = [k for k, e in out.spec.get("by_task", {"all": out.spec}).items() if e.get("best_epoch", 0) < 0]
     print(f"wrote {args.out}: {args.init} adapted (up to {epochs} epochs per network, early stopping); best "
@@ -296,6 +294,7 @@ def _cmd_adapt(args) -> int:
 
 def cmd_train(args) -> int:
     """`itup train`: `training.train_on_datasets` (or, with --init, `adapt_on_datasets`) and a printout."""
+    from itup_jax.ood import reference_path
     from itup_jax.sdgnet import TrainConfig, save_model
     from itup_jax.training import train_on_datasets
 
@@ -324,15 +323,13 @@ def cmd_train(args) -> int:
 
     try:
         model = _library_warnings_on_stderr(train_on_datasets, args.data, cfg, teacher=args.teacher,
-                                            progress=not args.quiet, command=_command_line())
+                                            progress=not args.quiet, command=_command_line(),
+                                            guard_reference=reference_path(args.out))
     except InputError as exc:
         raise_input(_as_flags(str(exc), names=("teacher",)))
     save_model(args.out, model)
-    from itup_jax.training import write_guard_reference
-
-    ref = write_guard_reference(args.out, args.data)
-    print(f"wrote {args.out} (and the out-of-distribution guard's reference {ref}): best validation loss "
-          f"{model.spec['best_val_loss']:.4f} (normalised SSE"
+    print(f"wrote {args.out} (and the out-of-distribution guard's reference {reference_path(args.out)}): best "
+          f"validation loss {model.spec['best_val_loss']:.4f} (normalised SSE"
           f"{' + weighted cross-entropy of ' + ', '.join(model.class_heads) if model.class_heads else ''}), "
           f"{model.spec['n_train']} train / {model.spec['n_val']} held-out-tool examples")
     return 0

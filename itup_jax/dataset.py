@@ -41,6 +41,7 @@ from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, is_integer
 from itup_jax.features import FeatureSpec, batched_features, tool_field
+from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import CONTACT_MODELS, SamplerConfig, sample_grasps
 from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.simulate import (
@@ -284,6 +285,23 @@ def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Too
     return tool, task
 
 
+def shard_candidates(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Tool, Task, Grasps]:
+    """The tool, task and candidate grasps of a shard (every one, reachable or not), as `make_shard` rolls
+    them out."""
+    tool, task = unit_tool(config, task_kind, variant)
+    grasps = sample_grasps(tool, config.grasps, seed=_unit_seed(config, task_kind, variant),
+                           config=SamplerConfig(contact=config.contact))
+    return tool, task, grasps
+
+
+def shard_features(config: GenerateConfig, tool: Tool, task: Task, grasps: Grasps) -> np.ndarray:
+    """[N, F] float32 SDG-Net features of a shard's candidates, as the shard stores them (a row's features
+    depend on the tool, task and grasp only, not on its rollout)."""
+    spec = FeatureSpec(**config.feature_spec)
+    feats = batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params, grasps, spec=spec)
+    return np.asarray(feats, np.float32)
+
+
 def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir: str | None = None,
                mcap_per_shard: int = 2, nthread: int | None = None) -> dict[str, np.ndarray]:
     """Arrays of one shard (host side; the features and costs run jitted at their outer calls).
@@ -294,8 +312,7 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
     shard's bytes do not depend on it.
     """
     seed = _unit_seed(config, task_kind, variant)
-    tool, task = unit_tool(config, task_kind, variant)
-    grasps = sample_grasps(tool, config.grasps, seed=seed, config=SamplerConfig(contact=config.contact))
+    tool, task, grasps = shard_candidates(config, task_kind, variant)
     scene = build_scene(tool, task, timestep=config.task_timestep(task_kind))
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, traces=mcap_dir is not None,
                    randomize=Randomization() if config.randomize else None, nthread=nthread)
@@ -305,15 +322,10 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
         for i in np.nonzero(res.labels.valid)[0][:mcap_per_shard]:
             write_rollout_mcap(os.path.join(mcap_dir, f"{task_kind}_{variant:03d}_{i:04d}.mcap"), scene, task, res,
                                int(i), grasp=grasps[int(i)])
-    spec = FeatureSpec(**config.feature_spec)
-    field = tool_field(tool, spec)
-    tp = tool.params
-    loads = task_loads(tp, task)
-    feats = batched_features(field, loads, tp, grasps, spec=spec)
     costs = wrench_costs(tool, task, grasps, CostParams())
     arrays = {f"label_{f}": np.asarray(v) for f, v in res.labels.as_dict().items()}
     arrays.update(
-        features=np.asarray(feats, np.float32),
+        features=shard_features(config, tool, task, grasps),
         grasp_p=np.asarray(grasps.p_tool_grasp, np.float64), grasp_q=np.asarray(grasps.q_tool_grasp, np.float64),
         grasp_width=np.asarray(grasps.width, np.float64),
         physics=np.stack([getattr(res.physics, f.name) for f in dataclasses.fields(res.physics)], axis=1),

@@ -144,15 +144,22 @@ def load_reference(path: str) -> Reference:
         raise InputError(f"guard reference {path!r}: unreadable ({exc})") from None
 
 
-def _reference_path_of(model: Any) -> str | None:
+@functools.lru_cache(maxsize=1)
+def _shipped_first_layers() -> tuple[np.ndarray, ...]:
+    """The first-layer weights of the shipped checkpoints (read once per process)."""
+    from itup_jax.sdgnet import DEFAULT_MODEL, PAPER_MODEL, load_model
+
+    return tuple(np.asarray(load_model(p).params[0][0]) for p in (DEFAULT_MODEL, PAPER_MODEL))
+
+
+def reference_path_of(model: Any) -> str | None:
     """The reference file of a checkpoint: the shipped one's for the shipped checkpoints (a path, None,
     or a loaded `Model` with their weights), `<stem>.reference.npz` beside any other path, else None."""
-    from itup_jax.sdgnet import DEFAULT_MODEL, PAPER_MODEL, Model, load_model
+    from itup_jax.sdgnet import DEFAULT_MODEL, PAPER_MODEL, Model
 
     if isinstance(model, Model):
         w = np.asarray(model.params[0][0])
-        shipped = any(np.shape(w) == np.shape(s.params[0][0]) and np.array_equal(w, s.params[0][0])
-                      for s in (load_model(DEFAULT_MODEL), load_model(PAPER_MODEL)))
+        shipped = any(w.shape == s.shape and np.array_equal(w, s) for s in _shipped_first_layers())
         return SHIPPED_REFERENCE if shipped else None
     if model is None or os.path.abspath(model) in (os.path.abspath(DEFAULT_MODEL), os.path.abspath(PAPER_MODEL)):
         return SHIPPED_REFERENCE
@@ -211,12 +218,12 @@ class Guard:
 def check(tool, task, grasps: Grasps, model: Any = None, *, threshold: float | None = None) -> Guard | None:
     """The guard's reading for `grasps` [N >= 1] of `tool` in `task` under SDG-Net checkpoint `model`
     (None: the shipped one; a path; a loaded `sdgnet.Model`), against `threshold` (None:
-    GUARD_THRESHOLD). None when the checkpoint has no reference (`_reference_path_of`)."""
+    GUARD_THRESHOLD). None when the checkpoint has no reference (`reference_path_of`)."""
     from itup_jax.scoring import _tool_field
     from itup_jax.sdgnet import Model, load_model
 
     validate_grasps(grasps)
-    path = _reference_path_of(model)
+    path = reference_path_of(model)
     if path is None:
         return None
     m = (model if isinstance(model, Model) else load_model(model)).for_task(task.kind)

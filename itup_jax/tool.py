@@ -418,8 +418,8 @@ def load_tool(name_or_path: str | os.PathLike, spec: str | os.PathLike | Mapping
         if parsed is not None:
             if key not in _BUILTIN_CACHE:
                 family, seed = parsed
-                _BUILTIN_CACHE[key] = (BUILTIN_TOOLS[key]() if key in BUILTIN_TOOLS else families.get(family).build()
-                                       if seed is None else families.draw(family, seed))
+                # a built-in tool is its family's default (the registry holds the same builders)
+                _BUILTIN_CACHE[key] = families.get(family).build() if seed is None else families.draw(family, seed)
             return _BUILTIN_CACHE[key]
         if os.path.splitext(key)[1]:
             raise InputError(f"tool mesh {key!r}: a mesh file needs a TOML spec (spec=...)")

@@ -55,10 +55,12 @@ def _teacher_record(path: str, teacher) -> dict:
 
 
 def train_on_datasets(paths: Sequence[str], config, *, teacher: str | None = None, progress: bool = False,
-                      command: str | None = None):
+                      command: str | None = None, guard_reference: str | None = None):
     """A new SDG-Net trained on the datasets' rows with `config` (`sdgnet.TrainConfig`); with `teacher`
     (a checkpoint, e.g. an ensemble), on its predictions of the rows instead of their labels. The
-    teacher is loaded, and so checked, before any data is read."""
+    teacher is loaded, and so checked, before any data is read. With `guard_reference` (a path,
+    `ood.reference_path` of the checkpoint), the out-of-distribution guard's reference of the rows is
+    written there (`write_guard_reference`)."""
     from itup_jax.sdgnet import load_model, train
 
     teacher_model = load_model(teacher) if teacher is not None else None
@@ -71,13 +73,15 @@ def train_on_datasets(paths: Sequence[str], config, *, teacher: str | None = Non
         model.spec["teacher"] = _teacher_record(teacher, teacher_model)
     model.spec["datasets"] = datasets_record(paths, manifests)
     model.spec["command"] = command
+    if guard_reference is not None:
+        write_guard_reference(guard_reference, data)
     return model
 
 
 def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = None, lr: float | None = None,
                       seed: int = 0, patience: int = 25, ema: float | None = None,
                       keep: Sequence[str] | None = None, teacher: str | None = None, progress: bool = False,
-                      command: str | None = None):
+                      command: str | None = None, guard_reference: str | None = None):
     """The checkpoint `init` adapted to the datasets' rows (`sdgnet.adapt`): each of its networks continues
     from its weights and normalisation for `epochs` (default: its recipe's fine-tuning epochs, or 60)
     and is kept unless an epoch beats it on the data's held-out tools.
@@ -86,6 +90,8 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
       objective, tau_third ... grip for the wrench objective; and p_success, p_failed) trained towards
       its own predictions of the rows, so the others adapt to a changed label while these stay.
     teacher: a checkpoint whose predictions replace every label (distil while adapting).
+    guard_reference: a path: the out-of-distribution guard's reference of the new rows, with `init`'s
+      reference rows when it has one, is written there (`write_guard_reference`).
     """
     from itup_jax.sdgnet import adapt, load_model
 
@@ -115,6 +121,8 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
         out.spec["teacher"] = _teacher_record(teacher, teacher_model)
     out.spec["datasets"] = datasets_record(paths, manifests)
     out.spec["command"] = command
+    if guard_reference is not None:
+        write_guard_reference(guard_reference, data, init=init)
     return out
 
 
@@ -129,24 +137,18 @@ def ensemble_of(paths: Sequence[str], *, command: str | None = None):
     return model
 
 
-def write_guard_reference(checkpoint: str, paths: Sequence[str], *, init: str | None = None) -> str:
-    """Write the out-of-distribution guard's reference of a checkpoint trained on the datasets in `paths`
-    (`ood.reference_path(checkpoint)`): a sample of their rows' features per task; for a checkpoint adapted
-    from `init`, `init`'s reference rows (when it has one) join the new rows. Returns the file written."""
+def write_guard_reference(path: str, data: dict, *, init: str | None = None) -> None:
+    """Write the out-of-distribution guard's reference of the training rows `data` (a loaded dataset
+    table: its "features" and "task") to `path`: a sample of the rows' features per task; for a
+    checkpoint adapted from `init`, `init`'s reference rows (when it has one) join the new rows."""
     import numpy as np
 
     from itup_jax import ood
 
-    data, _ = load_training_data(paths)
     feats, tasks = np.asarray(data["features"], np.float32), np.asarray(data["task"])
-    if init is not None:
-        from itup_jax.ood import _reference_path_of
-
-        old = _reference_path_of(init)
-        if old is not None:
-            ref = ood.load_reference(old)
-            feats = np.concatenate([feats] + list(ref.features.values()))
-            tasks = np.concatenate([tasks] + [np.full(len(v), k) for k, v in ref.features.items()])
-    path = ood.reference_path(checkpoint)
+    old = ood.reference_path_of(init) if init is not None else None
+    if old is not None:
+        ref = ood.load_reference(old)
+        feats = np.concatenate([feats] + list(ref.features.values()))
+        tasks = np.concatenate([tasks] + [np.full(len(v), k) for k, v in ref.features.items()])
     ood.save_reference(path, ood.sample_reference(feats, tasks))
-    return path

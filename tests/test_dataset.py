@@ -391,6 +391,14 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     spec = load(ckpt)[1]
     assert [d["config"]["seed"] for d in spec["datasets"]] == [1, 2, 2]
     assert spec["n_train"] + spec["n_val"] == len(both["features"]) + len(new["features"])
+    # beside the checkpoint, the guard's reference: rows of the very training rows, per task
+    from itup_jax import ood
+
+    ref = ood.load_reference(str(tmp_path / "m.reference.npz"))
+    rows = np.concatenate([both["features"], new["features"]]).astype(np.float16).astype(np.float32)
+    assert set(ref.features) == {"reach"} and len(ref.features["reach"]) == min(ood.REFERENCE_ROWS, len(rows))
+    assert all(any(np.array_equal(r, x) for x in rows) for r in ref.features["reach"][:5])
+    assert ood.reference_path_of(ckpt) == str(tmp_path / "m.reference.npz")
     # fine-tuned per task from the CLI: one network per task, the shared network's figures kept beside them
     assert main(["train", "--data", out, "--out", ckpt, "--epochs", "2", "--hidden", "8", "--finetune-epochs", "2",
                  "--rank-weight", "0.5", "--rank-temperature", "0.4", "--quiet"]) == 0
