@@ -30,6 +30,7 @@ family F is `without_<F>` on F's tools. Writes lofo.json.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -43,6 +44,15 @@ from itup_jax.atomic import atomic_write_json
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: Seeds of the evaluation draws (experiments/ood_guard.py's test set).
 EVAL_SEED = 200
+
+
+@functools.lru_cache(maxsize=1)
+def _ood_guard() -> dict:
+    """experiments/ood_guard.py's functions, read once (its `picks` judges the learned and verified picks
+    alike)."""
+    import runpy
+
+    return runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "ood_guard.py"))
 
 
 def rollouts(name: str, kinds, tools: int, grasps: int) -> list[dict]:
@@ -81,16 +91,14 @@ def judge(model_path: str, ev: dict, verify: int) -> dict:
     ok = valid & np.asarray(L.success) & ~np.asarray(L.failed)
     total = np.asarray(s.total, float)
     measured = np.asarray(measured_total(L, ScoreWeights(), objective_of(s)), float)
-    order = np.argsort(total, kind="stable")
-    short = [int(i) for i in order if valid[i]][:verify]
-    verified = short[int(np.argmin(measured[short]))] if short else int(order[0])
+    learned, verified = _ood_guard()["picks"](total, measured, valid, verify)
     rho = spearman(np.asarray(s.tau, float)[valid], np.asarray(L.peak_torque_induced, float)[valid])
     rho_grip = spearman(np.asarray(s.grip, float)[valid], np.asarray(L.grip_demand, float)[valid])
     return {"tool": tool.name, "task": task.kind, "rho_induced": None if np.isnan(rho) else rho,
             "rho_grip": None if np.isnan(rho_grip) else rho_grip,
             "guard": None if guard is None else guard.score, "fired": bool(guard is not None and guard.fired),
-            "learned_ok": bool(ok[order[0]]), "verified_ok": bool(ok[verified]), "any_ok": bool(ok.any()),
-            "learned_success": bool(L.success[order[0]]), "learned_failed": bool(L.failed[order[0]]),
+            "learned_ok": bool(ok[learned]), "verified_ok": bool(ok[verified]), "any_ok": bool(ok.any()),
+            "learned_success": bool(L.success[learned]), "learned_failed": bool(L.failed[learned]),
             "verified_success": bool(L.success[verified]), "verified_failed": bool(L.failed[verified])}
 
 

@@ -50,6 +50,15 @@ CAL_SEED, TEST_SEED = 100, 200
 RHO_FAIL, CATCH = 0.5, 0.9
 
 
+def picks(total: np.ndarray, measured: np.ndarray, valid: np.ndarray, verify: int) -> tuple[int, int]:
+    """(the learned pick: the lowest predicted total; the verified pick: among the `verify` best by
+    predicted total with a valid rollout, the lowest measured total, as `itup plan --verify K` picks under
+    nominal physics, or the learned pick when none is valid), from every candidate's rollout."""
+    order = np.argsort(total, kind="stable")
+    short = [int(i) for i in order if valid[i]][:verify]
+    return int(order[0]), (short[int(np.argmin(measured[short]))] if short else int(order[0]))
+
+
 def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
     """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, the guard, which
     verifies 5 grasps when it fires), its pick then rolled out `draws` times under random physics."""
@@ -87,10 +96,7 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
     meas_tau, meas_grip = np.asarray(L.peak_torque_induced, float), np.asarray(L.grip_demand, float)
     ok = valid & np.asarray(L.success) & ~np.asarray(L.failed)
     measured = np.asarray(measured_total(L, ScoreWeights(), objective_of(s)), float)
-    order = np.argsort(total, kind="stable")
-    learned = int(order[0])
-    short = [int(i) for i in order if valid[i]][:verify]
-    verified = short[int(np.argmin(measured[short]))] if short else learned
+    learned, verified = picks(total, measured, valid, verify)
     return {
         "tool": tool.name, "task": kind, "mass_kg": round(tool.mass, 4), "candidates": len(g), "drawn": r.drawn,
         "valid": int(valid.sum()),
