@@ -35,6 +35,7 @@ from itup_jax.costs import (
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, from_graspnet, make_grasps, to_graspnet, to_mujoco_site
 from itup_jax.grasp_sampler import SamplerConfig, SamplingError, sample_grasps
+from itup_jax.pipeline import RunResult, run
 from itup_jax.planning import GraspPlan, plan_grasp
 from itup_jax.scene import Scene, build_scene, task_timestep
 from itup_jax.scoring import Scores, ScoreWeights, best_grasp, score
@@ -45,7 +46,7 @@ from itup_jax.trajectory import Trajectory
 from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.wrench import Loads, task_loads
 
-__version__ = "0.11.0"
+__version__ = "0.12.0"
 
 
 def __getattr__(name: str):
@@ -64,5 +65,5 @@ __all__ = [
     "sample_grasps", "task_loads", "to_graspnet", "to_mujoco_site", "wrench_costs", "__version__",
     "Scene", "TASK_TIMESTEP", "build_scene", "task_timestep", "Labels", "Randomization", "SimConfig", "SimResult", "simulate",
     "Scores", "ScoreWeights", "best_grasp", "score", "Verified", "best_grasp_verified", "tasks",
-    "GraspPlan", "plan_grasp",
+    "GraspPlan", "plan_grasp", "RunResult", "run",
 ]

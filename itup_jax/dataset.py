@@ -111,7 +111,8 @@ def vary_tool(tool: Tool, seed: int, ranges: VariantRanges = VariantRanges()) ->
         tool, name=f"{tool.name}~{seed}", mesh=mesh, params=params, contact_point=D @ tool.contact_point,
         contact_points=tool.contact_points @ D, contact_normal=normal / np.linalg.norm(normal),
         grasp_region=Box(D @ tool.grasp_region.lo, D @ tool.grasp_region.hi), primitives=tuple(prims),
-        parts=tuple((n, m, round(w * k, 4)) for n, m, w in tool.parts))
+        parts=tuple((n, m, round(w * k, 4)) for n, m, w in tool.parts),
+        part_regions=tuple((n, Box(D @ b.lo, D @ b.hi)) for n, b in tool.part_regions))
 
 
 #: The part-wise family (`part_variant`): per built-in tool, each dimension's uniform range as a factor

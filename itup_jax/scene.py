@@ -185,6 +185,22 @@ def _add_tool(spec: mujoco.MjSpec, tool: Tool) -> list[str]:
     return names
 
 
+def attach_robot(spec: mujoco.MjSpec, timestep: float) -> None:
+    """Attach the UR5e at the world origin ('ur5e/' names) and the gripper to its flange ('gripper/'), and
+    set the solver options every scene with the robot uses (step `timestep` s, implicitfast, elliptic
+    cones, impratio 10)."""
+    arm = mujoco.MjSpec.from_file(str(UR5E_XML))
+    gripper = mujoco.MjSpec.from_file(str(GRIPPER_XML))
+    spec.worldbody.add_frame().attach_body(arm.body("base"), "ur5e/", "")
+    spec.site("ur5e/flange").attach_body(gripper.body("gripper_base"), "gripper/", "")
+    # attach keeps the parent's <option> and drops the child's (its elliptic cone and impratio: without
+    # them the pads dropped a 0.8 kg hammer): set the solver options on the composed spec
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10.0
+
+
 def target_bodies(kind: str) -> tuple[str, ...]:
     """The task objects of a `kind` scene whose world pose is recorded (sensors `target/<body>_pos`, `_quat`)."""
     return tasks.get(kind).target_bodies
@@ -197,16 +213,7 @@ def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Sce
     timestep = kind.timestep if timestep is None else check_timestep(timestep, "build_scene")
     spec = mujoco.MjSpec.from_file(str(MJCF_DIR / kind.scene_file))
     kind.place(spec, task)
-    arm = mujoco.MjSpec.from_file(str(UR5E_XML))
-    gripper = mujoco.MjSpec.from_file(str(GRIPPER_XML))
-    spec.worldbody.add_frame().attach_body(arm.body("base"), "ur5e/", "")
-    spec.site("ur5e/flange").attach_body(gripper.body("gripper_base"), "gripper/", "")
-    # attach keeps the parent's <option> and drops the child's (its elliptic cone and impratio: without
-    # them the pads dropped a 0.8 kg hammer): set the solver options on the composed spec
-    spec.option.timestep = timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = 10.0
+    attach_robot(spec, timestep)
     tool_geoms = _add_tool(spec, tool)
 
     mu = float(tool.params.mu)

@@ -126,6 +126,9 @@ class Tool:
         tools that touch the target in several places at once (broom bristles).
       grasp_region: `Box` in which grasps are allowed (the handle).
       parts: description of the parts, ((name, material, mass_kg), ...), for documentation.
+      part_regions: ((name, Box), ...) each part's bounding box in the tool frame (the same names as
+        `parts`; from the spec's `[parts.<name>]` tables for a mesh tool, else empty): the regions
+        grounding chooses among (`itup_jax.parts`).
       primitives: collision primitives for the simulator, (("capsule", p0, p1, radius) |
         ("box", lo, hi), ...) in the tool frame; empty for a mesh tool (the simulator then uses the
         mesh's convex hull).
@@ -144,6 +147,7 @@ class Tool:
     grasp_region: Box
     parts: tuple = ()
     primitives: tuple = ()
+    part_regions: tuple = ()
     mesh_to_tool: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
 
     @property
@@ -251,7 +255,7 @@ def assemble_tool(
     The mass properties are the sum of the parts' (each at its material's density); the collision and
     sampling mesh is their boolean union.
     """
-    props, described, meshes, prims = [], [], [], []
+    props, described, meshes, prims, regions = [], [], [], [], []
     for part_name, material, (mesh, prim), *scale in parts:
         prims.append(prim)
         mesh = check_mesh(mesh, f"tool {name!r} part {part_name!r}")
@@ -259,6 +263,7 @@ def assemble_tool(
         m, c, i = mesh_mass_properties(mesh, density)
         props.append((m, c, i))
         described.append((part_name, material, round(m, 4)))
+        regions.append((part_name, Box(np.asarray(mesh.bounds[0], float), np.asarray(mesh.bounds[1], float))))
         meshes.append(mesh)
     mass, com, inertia = combine_mass_properties(props)
     union = meshes[0] if len(meshes) == 1 else trimesh.boolean.union(meshes, engine="manifold")
@@ -273,7 +278,7 @@ def assemble_tool(
         name=name, category=category, mesh=union, params=params, contact_point=cps[0],
         contact_normal=_unit(contact_normal, f"tool {name!r}.contact_normal"), contact_points=cps,
         grasp_region=_box_from(grasp_region[0], grasp_region[1], f"tool {name!r}.grasp_region"),
-        parts=tuple(described), primitives=tuple(prims),
+        parts=tuple(described), primitives=tuple(prims), part_regions=tuple(regions),
     )
 
 
@@ -365,7 +370,7 @@ _BUILTIN_CACHE: dict[str, Tool] = {}
 # ---------------------------------------------------------------------------------------------------
 _SPEC_REQUIRED = {"name", "category", "contact_point", "grasp_region"}
 _SPEC_OPTIONAL = {"contact_normal", "contact_points", "mass", "density", "mu", "restitution", "contact_duration",
-                  "units", "handle_axis", "x_axis"}
+                  "units", "handle_axis", "x_axis", "parts"}
 #: Length units a spec may state (`units`), in metres per unit: the mesh and every position in the spec.
 SPEC_UNITS = {"m": 1.0, "mm": 1e-3}
 #: m, the largest extent a hand tool's mesh may have, and the smallest: outside them the units are
@@ -492,6 +497,7 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
                     f"{label}: field 'grasp_region'")
     if not _box_overlaps(box, mesh.bounds):  # a region away from the mesh can hold no grasp
         raise InputError(f"{label}: field 'grasp_region' does not overlap the mesh (bounds {mesh.bounds.tolist()})")
+    regions = _spec_parts(data.get("parts", {}), scale, mesh, label)
 
     R = _stated_frame(data, label)
     if R is None:
@@ -504,6 +510,7 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
         mesh.apply_transform(T)
         cps, normal = cps @ R.T, R @ normal
         box = _rotated_box(box, R)
+        regions = tuple((n, _rotated_box(b, R)) for n, b in regions)
     density = data.get("density", prior.density.value)
     _positive(density, f"{label}: field 'density'", "kg/m^3")
     mass, com, inertia = mesh_mass_properties(mesh, float(density))
@@ -522,8 +529,25 @@ def _load_mesh_tool(mesh_path: str, spec: str | os.PathLike | Mapping) -> Tool:
         name=name, category=category, mesh=mesh, params=params, contact_point=cps[0],
         contact_normal=normal, contact_points=cps, grasp_region=box,
         parts=((name, f"{category} prior" if "density" not in data else "spec density", round(mass, 4)),),
-        mesh_to_tool=R,
+        mesh_to_tool=R, part_regions=regions,
     )
+
+
+def _spec_parts(table: Any, scale: float, mesh: trimesh.Trimesh, label: str) -> tuple:
+    """The spec's `[parts.<name>]` tables ({min = [x,y,z], max = [x,y,z]}, the spec's units) as
+    ((name, Box), ...) in metres; each must overlap the mesh."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"{label}: field 'parts' must be a table of [parts.<name>] tables with min and max")
+    out = []
+    for pname, region in table.items():
+        what = f"{label}: field 'parts.{pname}'"
+        if not isinstance(region, Mapping) or set(region) != {"min", "max"}:
+            raise InputError(f"{what} must be a table {{ min = [x,y,z], max = [x,y,z] }}")
+        b = _box_from(scale * _vec3(region["min"], f"{what}.min"), scale * _vec3(region["max"], f"{what}.max"), what)
+        if not _box_overlaps(b, mesh.bounds):
+            raise InputError(f"{what} does not overlap the mesh (bounds {mesh.bounds.tolist()})")
+        out.append((str(pname), b))
+    return tuple(out)
 
 
 def _check_extent(mesh: trimesh.Trimesh, mesh_path: str, unit_name: str) -> None:

@@ -1,0 +1,309 @@
+"""Picking a tool up from the table: grasps the arm can take from above, and the pick rolled out in MuJoCo.
+
+    from itup_jax import pickup
+    cands = pickup.pick_candidates(top, i, tool, grasps)   # which grasps can be picked from the rest pose
+    result = pickup.execute_pick(top, i, tool, cands.grasps[k])   # approach, close, lift; the grasp achieved
+
+A grasp sampled on the tool (`grasp_sampler`, tool frame) is turned into a pick from the tool's resting
+pose (`tabletop.Tabletop.poses`):
+
+  * its approach axis must point down, within MAX_APPROACH_TILT of the vertical;
+  * the gripper must clear the table: where the pads would reach below it (a handle lying on the
+    table is thinner than the pads are long), the grasp moves up along its approach axis until the
+    gripper's lowest point is TABLE_CLEARANCE above the table, so that the tool sits nearer the
+    fingertips; at most by MAX_PAD_SHIFT (the pads must still cover the grasp point);
+  * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`) must touch no other tool
+    and not the tool itself, at the grasp and along the approach;
+  * closed-form IK must reach the pre-grasp (PICK_APPROACH back along the approach axis), the grasp and
+    the lift (PICK_LIFT straight up), with the elbow and wrist above the table.
+The shifted grasps are what the pipeline then scores and plans with (`pipeline`).
+
+`execute_pick` rolls the pick out natively in MuJoCo (step PICK_TIMESTEP) in a scene with the table,
+every tool at rest, the UR5e and the gripper: the arm starts at the pre-grasp with the gripper open,
+descends along the approach, closes (the grip force rises to `grip_force` per pad over GRIP_RAMP),
+lifts PICK_LIFT and holds. It measures, rather than assumes, the grasp it achieved: the tool's pose in
+the grasp frame after the lift (`PickResult.achieved`), its error against the planned grasp, and
+whether the tool came up in the pads. The gripper's actuator opens the jaw with a negative force in
+this scene only (the task scenes hold a closed grip throughout).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+
+from itup_jax import ik, robot
+from itup_jax.errors import InputError
+from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
+from itup_jax.grasp_sampler import collision_points, gripper_collides
+from itup_jax.scene import attach_robot
+from itup_jax.tabletop import NOSLIP_ITERATIONS, ROLLING_FRICTION, TABLE_FRICTION, Tabletop, _add_tool_body
+from itup_jax.tool import Tool
+
+#: rad, the largest angle between a pick's approach axis and straight down.
+MAX_APPROACH_TILT = math.radians(35.0)
+#: m, the gripper's lowest point above the table at the grasp.
+TABLE_CLEARANCE = 0.002
+#: m, how far a grasp may move up its approach axis to clear the table: the pad's half-length less
+#: 0.5 mm, so that the grasp point stays on the pad (a 6 mm rod lying on the table, grasped from straight
+#: above, needs 14.75 mm: a fingertip pinch).
+MAX_PAD_SHIFT = robot.PAD_LENGTH / 2 - 0.0005
+#: m, the narrowest jaw opening that counts as holding something after the lift.
+MIN_HELD_WIDTH = 0.001
+#: m, the pre-grasp's distance back along the approach axis, and the lift's height.
+PICK_APPROACH = 0.10
+PICK_LIFT = 0.12
+#: m, the open gripper's extra opening per side, and the margin of its boxes against other tools.
+PICK_CLEARANCE = 0.005
+PICK_MARGIN = 0.002
+#: s, the pick's step and phases: settle at the pre-grasp, approach, close (the force ramps over
+#: GRIP_RAMP), lift, hold.
+PICK_TIMESTEP = 0.002
+PICK_PHASES = (0.1, 0.7, 0.5, 0.8, 0.3)
+GRIP_RAMP = 0.15
+#: N, the force that holds the jaw open while approaching.
+OPEN_FORCE = 20.0
+#: -, share of PICK_LIFT the tool must rise for the pick to count as lifted.
+LIFT_SHARE = 0.7
+#: IK samples per straight segment of the pick's path.
+PATH_SAMPLES = 12
+
+
+@dataclasses.dataclass(frozen=True)
+class PickCandidates:
+    """Grasps that can be picked from the rest pose (tool frame, shifted to clear the table).
+
+    Attributes:
+      grasps: `Grasps` [M], the pickable grasps (shifted).
+      index: [M] their indices in the grasps given.
+      shift: [M] m, how far each moved up its approach axis.
+      q_path: [M, 2 PATH_SAMPLES + 1, 6] rad, the arm's joint path: pre-grasp -> grasp -> lift.
+      counts: how many were given, pointed down, cleared the table, cleared the tools, had IK.
+    """
+
+    grasps: Grasps
+    index: np.ndarray
+    shift: np.ndarray
+    q_path: np.ndarray
+    counts: dict
+
+
+def _R(q: np.ndarray) -> np.ndarray:
+    out = np.empty(q.shape[:-1] + (9,))
+    for i, qi in enumerate(q.reshape(-1, 4)):
+        mujoco.mju_quat2Mat(out.reshape(-1, 9)[i], qi)
+    return out.reshape(q.shape[:-1] + (3, 3))
+
+
+def _corners(width: np.ndarray) -> np.ndarray:
+    """[M, 24, 3] the corners of the open gripper's boxes in the grasp frame."""
+    out = []
+    for _, lo, hi in gripper_boxes(width + 2 * PICK_CLEARANCE):
+        for c in range(8):
+            out.append(np.where([(c >> k) & 1 for k in range(3)], hi, lo))
+    return np.stack(out, axis=1)
+
+
+def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
+    """[M, 2 PATH_SAMPLES + 1, 4, 4] flange poses: pre-grasp -> grasp -> lift (straight lines)."""
+    flange = np.eye(4)
+    flange[2, 3] = -robot.FLANGE_TO_GRASP
+    s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
+    approach = T_world_grasp[:, :3, 2]
+    offs = np.concatenate([-PICK_APPROACH * (1 - s)[None, :, None] * approach[:, None, :],
+                           np.broadcast_to(PICK_LIFT * s[1:, None] * np.array([0.0, 0.0, 1.0]),
+                                           (len(approach), PATH_SAMPLES, 3))], axis=1)  # [M, P, 3]
+    T = np.repeat(T_world_grasp[:, None], offs.shape[1], axis=1).copy()
+    T[..., :3, 3] += offs
+    return T @ flange
+
+
+def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps) -> PickCandidates:
+    """The grasps [N] (tool frame) of the table's tool `index` that can be picked from its rest pose,
+    shifted to clear the table (module docstring). `tool` is that tool (its grounded form: the mass and
+    mesh are the table's tool's)."""
+    if not 0 <= index < len(top.tools):
+        raise InputError(f"pick_candidates: index {index} is not one of the table's 0-{len(top.tools) - 1}")
+    T_wt = np.asarray(top.poses[index], float)
+    p = np.asarray(grasps.p_tool_grasp, float)
+    R_tg = _R(np.asarray(grasps.q_tool_grasp, float))
+    w = np.asarray(grasps.width, float)
+    R_wg = T_wt[:3, :3] @ R_tg
+    counts = {"given": len(p)}
+    down = -R_wg[:, 2, 2] >= math.cos(MAX_APPROACH_TILT)
+    counts["pointing_down"] = int(down.sum())
+    # lowest gripper corner above the table; raise along -approach (world +z share -R_wg[2, 2])
+    corners = _corners(w)  # [M, 24, 3]
+    p_w = p @ T_wt[:3, :3].T + T_wt[:3, 3]
+    z_low = p_w[:, 2] + np.einsum("mj,mcj->mc", R_wg[:, 2, :], corners).min(1)
+    rise = np.maximum(-R_wg[:, 2, 2], 1e-6)
+    shift = np.maximum(TABLE_CLEARANCE - z_low, 0.0) / rise
+    ok = down & (shift <= MAX_PAD_SHIFT)
+    counts["clear_of_table"] = int(ok.sum())
+    p_s = p - shift[:, None] * R_tg[:, :, 2]
+    # the open gripper against every tool at the grasp and along the approach (in this tool's frame)
+    T_tw = np.linalg.inv(T_wt)
+    for j, (other, T_wo) in enumerate(zip(top.tools, top.poses)):
+        if not ok.any():
+            break
+        pts = collision_points(other, 0.004) @ T_wo[:3, :3].T + T_wo[:3, 3]
+        pts = pts @ T_tw[:3, :3].T + T_tw[:3, 3]
+        idx = np.nonzero(ok)[0]
+        steps = (0.0,) if j == index else (0.0, PICK_APPROACH / 3, 2 * PICK_APPROACH / 3, PICK_APPROACH)
+        for back in steps:
+            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], w[idx] + 2 * PICK_CLEARANCE,
+                                   PICK_MARGIN if j != index else 0.0)
+            ok[idx[hit]] = False
+            idx = idx[~hit]
+    counts["clear_of_tools"] = int(ok.sum())
+    idx = np.nonzero(ok)[0]
+    T_wg = np.tile(np.eye(4), (len(idx), 1, 1))
+    T_wg[:, :3, :3] = R_wg[idx]
+    T_wg[:, :3, 3] = p_s[idx] @ T_wt[:3, :3].T + T_wt[:3, 3]
+    q = ik.track(_world_paths(T_wg), robot.HOME_Q, min_height=robot.ARM_CLEARANCE) if len(idx) else np.zeros((0, 2 * PATH_SAMPLES + 1, 6))
+    good = ~np.isnan(q).any(axis=(1, 2)) & ~(np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(1, 2))
+    counts["reachable"] = int(good.sum())
+    idx, q = idx[good], q[good]
+    out = make_grasps(p_s[idx], R_tg[idx], w[idx]) if len(idx) else None
+    return PickCandidates(grasps=out, index=idx, shift=shift[idx], q_path=q, counts=counts)
+
+
+@dataclasses.dataclass(frozen=True)
+class PickResult:
+    """What a pick did.
+
+    Attributes:
+      lifted: the tool rose at least LIFT_SHARE of PICK_LIFT, both pads touch it and the jaw is open at
+        least MIN_HELD_WIDTH (the tool is between the pads).
+      rise: m, how far the tool's centre of mass rose.
+      achieved: `Grasps` [1], the grasp after the lift (tool frame), measured; None when not lifted.
+      position_error: m, the achieved grasp origin's distance from the planned one (tool frame).
+      angle_error: rad, the rotation between the achieved and the planned grasp frames.
+      pads_touching: how many pads touch the tool at the end (0-2).
+    """
+
+    lifted: bool
+    rise: float
+    achieved: Grasps | None
+    position_error: float
+    angle_error: float
+    pads_touching: int
+
+    def to_json(self) -> dict:
+        out = {"lifted": self.lifted, "rise_m": round(self.rise, 4), "pads_touching": self.pads_touching,
+               "position_error_m": round(self.position_error, 5), "angle_error_deg": round(math.degrees(self.angle_error), 3)}
+        if self.achieved is not None:
+            out["achieved"] = {"p_tool_grasp": np.round(np.asarray(self.achieved.p_tool_grasp)[0], 5).tolist(),
+                               "q_tool_grasp": np.round(np.asarray(self.achieved.q_tool_grasp)[0], 6).tolist(),
+                               "width": round(float(np.asarray(self.achieved.width)[0]), 5)}
+        return out
+
+
+def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
+    """The pick scene: table, the table's tools at rest, the UR5e and the gripper (module docstring).
+    Returns (model, the geom names of tool `index`)."""
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.5, 1.5, 0.01],
+                            friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], contype=1, conaffinity=1, condim=6)
+    # the robot's files' options, set before attaching (attach keeps the parent's and warns on a conflict)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10.0
+    attach_robot(spec, PICK_TIMESTEP)
+    spec.option.noslip_iterations = NOSLIP_ITERATIONS
+    names = {}
+    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
+        names[i] = _add_tool_body(spec, i, t, T)
+    for i, t in enumerate(top.tools):
+        mu = float(t.params.mu)
+        for pad in ("gripper/pad_neg", "gripper/pad_pos"):
+            for g in names[i]:
+                spec.add_pair(name=f"{pad}-{g}", geomname1=pad, geomname2=g, condim=4,
+                              friction=[mu, mu, robot.PAD_TORSION, 1e-4, 1e-4], solref=[0.004, 1.0],
+                              solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
+    grip = spec.actuator("gripper/grip")
+    grip.ctrlrange = [-OPEN_FORCE, robot.GRIPPER_MAX_GRIP_FORCE]
+    for key in list(spec.keys):
+        spec.delete(key)
+    return spec.compile(), names[index]
+
+
+def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *,
+                 grip_force: float = 100.0) -> PickResult:
+    """Roll the pick of table tool `index` with `grasp` ([1] or a single grasp, tool frame) along its
+    joint path `q_path` [P, 6] (`PickCandidates.q_path`) out in MuJoCo (module docstring)."""
+    from itup_jax.robot import ARM_JOINTS
+    from itup_jax.simulate import INITIAL_SQUEEZE
+
+    m, geoms = pick_model(top, index)
+    d = mujoco.MjData(m)
+    arm_q = np.array([m.joint(f"ur5e/{j}").qposadr[0] for j in ARM_JOINTS])
+    act = np.array([m.actuator(f"ur5e/{j}").id for j in ARM_JOINTS])
+    act_v = np.array([m.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS])
+    grip = m.actuator("gripper/grip").id
+    fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
+    tq = m.joint(f"tool_{index}").qposadr[0]
+    d.qpos[arm_q] = q_path[0]
+    d.qpos[fq] = robot.GRIPPER_MAX_OPENING / 2
+    mujoco.mj_forward(m, d)
+    body = m.body(f"tool_{index}").id
+    z0 = float(d.xipos[body][2])
+    settle, t_app, t_close, t_lift, t_hold = PICK_PHASES
+    n_half = PATH_SAMPLES
+    q_down, q_up = q_path[:n_half + 1], q_path[n_half:]
+    dt = m.opt.timestep
+    total = sum(PICK_PHASES)
+    nstep = int(round(total / dt))
+    for k in range(nstep):
+        t = (k + 1) * dt
+        if t <= settle:
+            q, qd, f = q_path[0], np.zeros(6), -OPEN_FORCE
+        elif t <= settle + t_app:
+            s = (t - settle) / t_app * n_half
+            i0 = min(int(s), n_half - 1)
+            q = q_down[i0] + (s - i0) * (q_down[i0 + 1] - q_down[i0])
+            qd = (q_down[i0 + 1] - q_down[i0]) * n_half / t_app
+            f = -OPEN_FORCE
+        elif t <= settle + t_app + t_close:
+            q, qd = q_down[-1], np.zeros(6)
+            f = -OPEN_FORCE + (grip_force + OPEN_FORCE) * min((t - settle - t_app) / GRIP_RAMP, 1.0)
+        elif t <= settle + t_app + t_close + t_lift:
+            s = (t - settle - t_app - t_close) / t_lift * n_half
+            i0 = min(int(s), n_half - 1)
+            q = q_up[i0] + (s - i0) * (q_up[i0 + 1] - q_up[i0])
+            qd = (q_up[i0 + 1] - q_up[i0]) * n_half / t_lift
+            f = grip_force
+        else:
+            q, qd, f = q_up[-1], np.zeros(6), grip_force
+        d.ctrl[act], d.ctrl[act_v], d.ctrl[grip] = q, qd, f
+        mujoco.mj_step(m, d)
+    rise = float(d.xipos[body][2]) - z0
+    tool_geoms = {m.geom(g).id for g in geoms}
+    pads = {m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id}
+    touching = set()
+    for c in d.contact[:d.ncon]:
+        pair = {int(c.geom1), int(c.geom2)}
+        if pair & pads and pair & tool_geoms:
+            touching |= pair & pads
+    width = float(d.qpos[fq].mean() * 2 + 2 * INITIAL_SQUEEZE)
+    lifted = rise >= LIFT_SHARE * PICK_LIFT and len(touching) == 2 and width >= MIN_HELD_WIDTH
+    site = m.site("gripper/grasp").id
+    T_wg = np.eye(4)
+    T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
+    T_wt = np.eye(4)
+    T_wt[:3, :3] = _R(d.qpos[tq + 3:tq + 7].copy())
+    T_wt[:3, 3] = d.qpos[tq:tq + 3]
+    T_tg = np.linalg.inv(T_wt) @ T_wg
+    p_plan = np.asarray(grasp.p_tool_grasp, float).reshape(3)
+    R_plan = _R(np.asarray(grasp.q_tool_grasp, float).reshape(4))
+    pos_err = float(np.linalg.norm(T_tg[:3, 3] - p_plan))
+    cos = (np.trace(R_plan.T @ T_tg[:3, :3]) - 1) / 2
+    ang_err = float(np.arccos(np.clip(cos, -1.0, 1.0)))
+    achieved = None
+    if lifted:
+        achieved = make_grasps(T_tg[None, :3, 3], T_tg[None, :3, :3], np.array([min(width, robot.GRIPPER_MAX_OPENING)]))
+    return PickResult(lifted=bool(lifted), rise=rise, achieved=achieved, position_error=pos_err,
+                      angle_error=ang_err, pads_touching=len(touching))

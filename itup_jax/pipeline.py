@@ -1,0 +1,246 @@
+"""The whole chain: an instruction and a table of tools -> a tool picked up and the task done, in MuJoCo.
+
+    import itup_jax as itup
+    r = itup.run("drive the nail", clutter=4, seed=3)       # -> RunResult
+    r.stage, r.success                                     # 'done', True
+    r = itup.run("sweep the debris", method="copa")         # an ablation (METHODS)
+
+The stages (the paper's six, in simulation):
+  1-2. grounding (`grounding`): the task, its target, the tool on the table, its working part (Omega's
+       c_tool and n) and the part to hold (the grasp region);
+  3.   the task's trajectory for the grounded tool (`task.make_task`: the target's placement gives
+       Omega's c_obj and d);
+  4.   grasp sampling on the grounded tool (`grasp_sampler`), kept where the arm can pick them from the
+       tool's rest pose (`pickup.pick_candidates`) and carry them through the task (`simulate.reachable`);
+  5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
+  6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
+       it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
+       randomised physics by default), its task success and grip failure as the labels define them.
+The move from the lift to the task's first pose is not simulated: the task rollout starts with the tool
+held at the grasp the pick achieved.
+
+`RunResult.stage` says where a run ended: 'grounding' (the instruction could not be grounded), 'plan'
+(no task trajectory or no grasp for the grounded tool), 'pick' (no grasp could be picked and carried,
+or the tool did not come up in the pads), 'grip' (the tool slipped or turned in the grip during the
+task), 'task' (held, but the task not done), 'done' (success).
+
+METHODS (the paper's Table II columns, in simulation):
+  itup          two-level grounding, SDG-Net scoring;
+  no_sdgnet     two-level grounding, static force-closure scoring (Ferrari-Canny);
+  object_level  object-level grounding only: the whole tool is the grasp region and the contact is a
+                default one (the tool's far end along its handle, the category's contact direction);
+                SDG-Net scoring;
+  copa          two-level grounding, geometric scoring within the grounded part (no physics);
+  no_grounding  a random tool of the table, a random part to hold and a random part to strike with;
+                SDG-Net scoring.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from itup_jax import grounding as grounding_mod
+from itup_jax import parts
+from itup_jax.errors import InputError
+from itup_jax.tabletop import Tabletop, make_tabletop
+from itup_jax.tool import CATEGORY_CONTACT_NORMAL, Box, Tool
+
+#: method -> (grounding level, scorer).
+METHODS = {
+    "itup": ("two_level", "sdgnet"),
+    "no_sdgnet": ("two_level", "force_closure"),
+    "object_level": ("object", "sdgnet"),
+    "copa": ("two_level", "geometric"),
+    "no_grounding": ("random", "sdgnet"),
+}
+#: Grasps sampled on the grounded tool before the pick and reach filters.
+DEFAULT_SAMPLES = 2048
+#: N per pad, the grip force of the pick and the task.
+DEFAULT_GRIP_FORCE = 100.0
+#: Stages a run can end at (`RunResult.stage`).
+STAGES = ("grounding", "plan", "pick", "grip", "task", "done")
+#: m, the band below a tool's far end whose points make the object-level default contact.
+FAR_END_BAND = 0.005
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RunResult:
+    """One run of the whole chain (module docstring).
+
+    Attributes:
+      instruction, method: as given.  stage: where it ended (STAGES).  success: stage == 'done'.
+      message: one sentence on why it ended there.
+      grounding: `grounding.Grounding` (None when grounding failed).
+      tabletop: the `Tabletop`.  tool: the grounded tool (None before).
+      counts: candidates at each filter (sampled, pickable, task-reachable).
+      choice: the chosen candidate's index among the task-reachable ones and its score.
+      pick: `pickup.PickResult` (None when no pick ran).
+      labels: the task rollout's labels as {name: value} (None when none ran).
+      seed: the run's seed (sampling, physics).  wall_s: seconds.
+      task, sim: the Task and the task rollout's SimResult (for logs; not in the JSON).
+    """
+
+    instruction: str
+    method: str
+    stage: str
+    message: str
+    grounding: Any
+    tabletop: Tabletop
+    tool: Tool | None
+    counts: dict
+    choice: dict | None
+    pick: Any
+    labels: dict | None
+    seed: int
+    wall_s: float
+    task: Any = None
+    sim: Any = None
+
+    @property
+    def success(self) -> bool:
+        return self.stage == "done"
+
+    def to_json(self) -> dict:
+        return {"schema": "itup.run/1", "instruction": self.instruction, "method": self.method, "stage": self.stage,
+                "success": self.success, "message": self.message, "seed": self.seed,
+                "grounding": None if self.grounding is None else self.grounding.to_json(),
+                "tabletop": self.tabletop.to_json(), "counts": self.counts, "choice": self.choice,
+                "pick": None if self.pick is None else self.pick.to_json(), "labels": self.labels,
+                "wall_s": round(self.wall_s, 3)}
+
+
+def _far_end(tool: Tool) -> tuple[np.ndarray, np.ndarray]:
+    """The object-level default contact: the centre of the mesh's points within FAR_END_BAND of its far
+    end along the handle (+z), and the category's contact direction."""
+    v = np.asarray(tool.mesh.vertices, float)
+    top = v[v[:, 2] >= v[:, 2].max() - FAR_END_BAND]
+    c = top.mean(0)
+    c = np.asarray(tool.mesh.nearest.on_surface(c[None])[0][0], float)
+    return c, np.asarray(CATEGORY_CONTACT_NORMAL.get(tool.category, tool.contact_normal), float)
+
+
+def _whole_tool(tool: Tool, contact: np.ndarray, normal: np.ndarray, region: Box | None = None) -> Tool:
+    if region is None:
+        lo, hi = np.asarray(tool.mesh.bounds[0], float), np.asarray(tool.mesh.bounds[1], float)
+        region = Box(lo - parts.GRASP_PART_MARGIN, hi + parts.GRASP_PART_MARGIN)
+    return dataclasses.replace(tool, contact_point=contact, contact_points=contact[None], contact_normal=normal,
+                               grasp_region=region)
+
+
+def ground_for(method: str, instruction: str, top: Tabletop, grounder: Any, rng: np.random.Generator):
+    """(Grounding, the grounded tool) as `method` grounds: two-level (the grounder), object-level (the
+    grounder's task and tool, the whole tool and a default contact) or random (the grounder's task, a
+    random tool, random parts)."""
+    level = METHODS[method][0]
+    g = grounding_mod.ground(instruction, top, grounder)
+    if level == "two_level":
+        return g, g.grounded_tool(top)
+    if level == "object":
+        tool = top.tools[g.tool_index]
+        c, n = _far_end(tool)
+        g = dataclasses.replace(g, work_part="far end (default)", grasp_part="whole tool",
+                                notes=g.notes + ("object-level grounding: whole tool, default contact",))
+        return g, _whole_tool(tool, c, n)
+    i = int(rng.integers(len(top.tools)))
+    tool = top.tools[i]
+    ps = parts.tool_parts(tool)
+    hold, strike = ps[int(rng.integers(len(ps)))], ps[int(rng.integers(len(ps)))]
+    centre = 0.5 * (strike.region.lo + strike.region.hi)
+    c = np.asarray(tool.mesh.nearest.on_surface(centre[None])[0][0], float)
+    n = np.asarray(CATEGORY_CONTACT_NORMAL.get(tool.category, tool.contact_normal), float)
+    region = Box(hold.region.lo - parts.GRASP_PART_MARGIN, hold.region.hi + parts.GRASP_PART_MARGIN)
+    g = dataclasses.replace(g, tool_index=i, tool_name=tool.name, work_part=strike.name, grasp_part=hold.name,
+                            notes=("no grounding: a random tool and random parts",))
+    return g, _whole_tool(tool, c, n, region)
+
+
+def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
+        method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
+        grip_force: float = DEFAULT_GRIP_FORCE, randomize: bool = True, model: Any = None,
+        traces: bool = False) -> RunResult:
+    """Run the whole chain once (module docstring).
+
+    Args:
+      instruction: plain words, e.g. "drive the nail with the hammer".
+      tabletop: the table (default: `make_tabletop(clutter=clutter, seed=seed)`).
+      seed: seeds the table (when built here), the sampling, the random ablation and the physics draw.
+      method: a key of METHODS.  grounder: 'rule' or a grounder object (`vlm.VLMGrounder`).
+      samples: grasps sampled before the pick and reach filters.
+      grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
+        (`simulate.Randomization`), else nominal.
+      model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
+      traces: keep the task rollout's per-step traces (for `mcap_log`).
+    """
+    import itup_jax as itup
+    from itup_jax.grasp_sampler import SamplingError
+    from itup_jax.pickup import execute_pick, pick_candidates
+    from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
+
+    if method not in METHODS:
+        raise InputError(f"run: method {method!r}: unknown; choose from {', '.join(METHODS)}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError(f"run: samples must be an integer >= 1, got {samples!r}")
+    if not (isinstance(grip_force, (int, float)) and math.isfinite(grip_force) and grip_force > 0):
+        raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
+    t0 = time.perf_counter()
+    top = tabletop if tabletop is not None else make_tabletop(clutter=clutter, seed=seed)
+    rng = np.random.default_rng([int(seed), 4049])
+    base = dict(instruction=instruction, method=method, tabletop=top, seed=int(seed))
+
+    def end(stage, message, **kw):
+        fields = dict(grounding=None, tool=None, counts={}, choice=None, pick=None, labels=None)
+        fields.update(kw)
+        return RunResult(**base, stage=stage, message=message, wall_s=time.perf_counter() - t0, **fields)
+
+    try:
+        g, tool = ground_for(method, instruction, top, grounder, rng)
+    except grounding_mod.GroundingError as exc:
+        return end("grounding", str(exc))
+    try:
+        task = itup.make_task(g.task, tool)
+        grasps = itup.sample_grasps(tool, int(samples), seed=int(seed))
+    except (InputError, SamplingError) as exc:
+        return end("plan", str(exc), grounding=g, tool=tool)
+    cands = pick_candidates(top, g.tool_index, tool, grasps)
+    counts = {"sampled": int(samples), **{f"pick_{k}": v for k, v in cands.counts.items() if k != "given"}}
+    if cands.grasps is None:
+        return end("pick", f"none of {samples} grasps on the {tool.name} can be picked from its rest pose",
+                   grounding=g, tool=tool, counts=counts)
+    ok = reachable(task, cands.grasps)
+    counts["task_reachable"] = int(ok.sum())
+    if not ok.any():
+        return end("pick", f"none of the {len(ok)} pickable grasps can be carried through the {g.task} task",
+                   grounding=g, tool=tool, counts=counts)
+    keep = np.nonzero(ok)[0]
+    grasps_k = cands.grasps[keep]
+    scorer = METHODS[method][1]
+    scores = itup.score(tool, task, grasps_k, model=model if (scorer == "sdgnet" and model is not None) else scorer,
+                        seed=int(seed))
+    total = np.asarray(scores.total, float)
+    best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
+    choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(cands.shift[keep[best]]),
+              "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
+    pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], cands.q_path[keep[best]], grip_force=grip_force)
+    kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick)
+    if not pick.lifted:
+        return end("pick", f"the {tool.name} did not come up in the pads (rose {pick.rise * 1000:.0f} mm, "
+                   f"{pick.pads_touching} pads touching)", **kw)
+    if not reachable(task, pick.achieved)[0]:
+        return end("pick", "the grasp the pick achieved cannot be carried through the task", **kw)
+    sim = simulate(tool, task, pick.achieved, seed=int(seed), randomize=Randomization() if randomize else None,
+                   config=SimConfig(grip_force=float(grip_force)), traces=traces)
+    L = sim.labels
+    labels = {f: (bool(np.asarray(v)[0]) if np.asarray(v).dtype == bool else float(np.asarray(v)[0]))
+              for f, v in L.as_dict().items()}
+    kw.update(labels=labels, task=task, sim=sim)
+    if labels["failed"]:
+        return end("grip", f"the {tool.name} slipped or turned in the grip during the task "
+                   f"(slip {labels['slip_translation'] * 1000:.0f} mm, turn {math.degrees(labels['slip_rotation']):.1f} deg)", **kw)
+    if not labels["success"]:
+        return end("task", f"the {g.task} task was not done (task metric {labels['task_metric']:.4g})", **kw)
+    return end("done", f"the {g.task} task was done with the {tool.name}", **kw)
