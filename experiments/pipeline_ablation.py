@@ -74,7 +74,9 @@ def main(argv=None) -> int:
                 for m in args.methods:
                     r = itup.run(INSTRUCTIONS[task], tabletop=top, seed=t, method=m, samples=args.samples)
                     rows.append({"clutter": clutter, "trial": t, "task": task, "method": m, "stage": r.stage,
-                                 "success": r.success, "tool": None if r.grounding is None else r.grounding.tool_name,
+                                 "success": r.success, "message": r.message,
+                                 "tool": None if r.grounding is None else r.grounding.tool_name,
+                                 "task_reachable": r.counts.get("task_reachable"),
                                  "pick_position_error_m": None if r.pick is None else r.pick.position_error,
                                  "pick_angle_error_rad": None if r.pick is None else r.pick.angle_error,
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],

@@ -611,11 +611,22 @@ def cmd_run(args) -> int:
 
     _check_out_dir("--out", args.out)
     model = _check_model_arg(args)
+    grounder = "rule"
+    if args.grounder == "vlm":
+        from itup_jax.vlm import VLMGrounder
+
+        kw = dict(timeout=args.vlm_timeout, fallback="rule" if args.vlm_fallback else None)
+        if args.vlm_key_env:
+            kw["api_key_env"] = args.vlm_key_env
+        grounder = (VLMGrounder(url=args.vlm_url, model=args.vlm_model, **kw) if args.vlm_url or args.vlm_model
+                    else VLMGrounder.from_env(**kw))
+    elif any((args.vlm_url, args.vlm_model, args.vlm_key_env, args.vlm_fallback)):
+        raise_input("--vlm-url/--vlm-model/--vlm-key-env/--vlm-fallback apply to --grounder vlm")
     top = tabletop.make_tabletop(clutter=args.clutter, seed=args.seed)
     print(f"itup run: {args.instruction!r}; table seed {args.seed}: {len(top.tools)} tools "
           f"({', '.join(t.name for t in top.tools)}), method {args.method}", flush=True)
     r = itup.run(args.instruction, tabletop=top, seed=args.seed, method=args.method, samples=args.samples,
-                 grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True)
+                 grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True, grounder=grounder)
     if r.stage == "grounding":
         raise GroundingError(r.message)
     g = r.grounding
@@ -636,6 +647,14 @@ def cmd_run(args) -> int:
     print(f"{'done' if r.success else 'ended at ' + r.stage}: {r.message}")
     os.makedirs(args.out, exist_ok=True)
     files = {}
+    if r.pick is not None and r.pick.trace is not None:
+        from itup_jax.atomic import atomic_write
+        from itup_jax.mcap_log import bodies_mcap_bytes
+
+        tr = r.pick.trace
+        files["pick_mcap"] = os.path.join(args.out, "pick.mcap")
+        atomic_write(files["pick_mcap"], bodies_mcap_bytes(tr["model"], tr["t"], tr["pos"], tr["quat"], tr["bodies"],
+                                                           {"tool": g.tool_name, "instruction": args.instruction}))
     if r.sim is not None:
         from itup_jax.mcap_log import write_rollout_mcap
         from itup_jax.scene import build_scene
@@ -972,7 +991,16 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--grip-force", type=float, default=DEFAULT_GRIP_FORCE, metavar="N", help="N per pad, pick and task")
     rn.add_argument("--nominal", action="store_true", help="nominal physics for the task (default: drawn around the priors)")
     rn.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
-    rn.add_argument("--out", default="itup-run", help="output folder: run.json, scene.png, task.mcap (default ./itup-run/)")
+    rn.add_argument("--grounder", choices=("rule", "vlm"), default="rule",
+                    help="rule: the lexicon grounder (default); vlm: a vision-language model behind an "
+                    "OpenAI-compatible endpoint (--vlm-url and --vlm-model, or $ITUP_VLM_URL and $ITUP_VLM_MODEL)")
+    rn.add_argument("--vlm-url", default=None, help="the endpoint's base URL, e.g. http://localhost:8000/v1")
+    rn.add_argument("--vlm-model", default=None, help="the model's name on the endpoint")
+    rn.add_argument("--vlm-key-env", default=None, help="environment variable holding the API key (default OPENAI_API_KEY)")
+    rn.add_argument("--vlm-timeout", type=float, default=60.0, help="s to wait for the model's answer (default 60)")
+    rn.add_argument("--vlm-fallback", action="store_true", help="on a failed or invalid answer, ground with the rules")
+    rn.add_argument("--out", default="itup-run",
+                    help="output folder: run.json, scene.png, pick.mcap, task.mcap (default ./itup-run/)")
     rn.set_defaults(fn=cmd_run)
 
     t = sub.add_parser("tools", help="list the built-in tools, the tool families and the category priors")

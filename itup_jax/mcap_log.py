@@ -350,6 +350,45 @@ def rollout_mcap_bytes(scene: Scene, task: Task, result: Any, index: int, *, eve
     return buf.getvalue()
 
 
+def bodies_mcap_bytes(m: mujoco.MjModel, t: np.ndarray, pos: np.ndarray, quat: np.ndarray, bodies,
+                      metadata: dict | None = None) -> bytes:
+    """An MCAP of recorded body poses: `/tf` world -> body/<name> per step (t [S] s, pos [S, B, 3], quat
+    [S, B, 4] wxyz of `bodies` [B]) and `/scene` with each body's geoms frame-locked to it, plus the static
+    geoms in the world frame. For rollouts stepped outside `simulate` (the pick, `pickup.execute_pick`)."""
+    t = np.asarray(t, float)
+    t_ns = np.round((t - t[0]) * 1e9).astype(np.int64)
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.NONE)
+    w.start(profile="", library="itup-jax")
+    chan = {}
+    for topic in ("/tf", "/scene"):
+        name = TOPICS[topic]
+        sid = w.register_schema(name=name, encoding="jsonschema", data=json.dumps(SCHEMAS[name]).encode())
+        chan[topic] = w.register_channel(topic=topic, message_encoding="json", schema_id=sid)
+    names = [m.body(int(b)).name for b in bodies]
+    entities = [{"timestamp": _time(0), "frame_id": f"body/{n}", "id": n, "lifetime": _time(0), "frame_locked": True,
+                 **_geom_primitives(m, np.nonzero(m.geom_bodyid == int(b))[0])} for b, n in zip(bodies, names)]
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    static = [g for g in range(m.ngeom) if m.geom_bodyid[g] == 0]
+    poses = []
+    for g in static:
+        qw = np.zeros(4)
+        mujoco.mju_mat2Quat(qw, d.geom_xmat[g])
+        poses.append((d.geom_xpos[g].copy(), qw))
+    entities.append({"timestamp": _time(0), "frame_id": "world", "id": "environment", "lifetime": _time(0),
+                     "frame_locked": True, **_geom_primitives(m, static, poses)})
+    w.add_message(chan["/scene"], log_time=0, publish_time=0, sequence=0,
+                  data=json.dumps({"deletions": [], "entities": entities}, separators=(",", ":")).encode())
+    for k, ns in enumerate(t_ns):
+        tfs = [_tf(int(ns), "world", f"body/{n}", pos[k, j], quat[k, j]) for j, n in enumerate(names)]
+        w.add_message(chan["/tf"], log_time=int(ns), publish_time=int(ns), sequence=k,
+                      data=json.dumps({"transforms": tfs}, separators=(",", ":")).encode())
+    w.add_metadata("itup.bodies", {k: str(v) for k, v in (metadata or {}).items()})
+    w.finish()
+    return buf.getvalue()
+
+
 def write_rollout_mcap(path: str, scene: Scene, task: Task, result: Any, index: int, *, every: int = 2,
                        grasp: Any = None) -> str:
     """Write rollout `index` of `result` (simulate(..., traces=True)) to `path` atomically; returns path."""

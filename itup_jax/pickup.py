@@ -14,6 +14,10 @@ pose (`tabletop.Tabletop.poses`):
     fingertips; at most by MAX_PAD_SHIFT (the pads must still cover the grasp point);
   * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`) must touch no other tool
     and not the tool itself, at the grasp and along the approach;
+  * the tool's weight must not turn it in the pads as it comes up: the gravity torque about the jaw's
+    closure axis at the rest pose (the axis the pads resist only by torsional friction) must stay below
+    LIFT_TORQUE_SHARE of the pads' torsional capacity, 2 PAD_TORSION x grip force (a broom held at the
+    top of its handle turned ~20 degrees in the pads during the lift and the pick failed);
   * closed-form IK must reach the pre-grasp (PICK_APPROACH back along the approach axis), the grasp and
     the lift (PICK_LIFT straight up), with the elbow and wrist above the table.
 The shifted grasps are what the pipeline then scores and plans with (`pipeline`).
@@ -35,7 +39,7 @@ import math
 import mujoco
 import numpy as np
 
-from itup_jax import ik, robot
+from itup_jax import ik, robot, units
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.grasp_sampler import collision_points, gripper_collides
@@ -68,6 +72,8 @@ GRIP_RAMP = 0.15
 OPEN_FORCE = 20.0
 #: -, share of PICK_LIFT the tool must rise for the pick to count as lifted.
 LIFT_SHARE = 0.7
+#: -, the share of the pads' torsional capacity the tool's weight may load about the closure axis.
+LIFT_TORQUE_SHARE = 0.5
 #: IK samples per straight segment of the pick's path.
 PATH_SAMPLES = 12
 
@@ -81,7 +87,8 @@ class PickCandidates:
       index: [M] their indices in the grasps given.
       shift: [M] m, how far each moved up its approach axis.
       q_path: [M, 2 PATH_SAMPLES + 1, 6] rad, the arm's joint path: pre-grasp -> grasp -> lift.
-      counts: how many were given, pointed down, cleared the table, cleared the tools, had IK.
+      counts: how many were given, pointed down, cleared the table, cleared the tools, held against their
+        weight, had IK.
     """
 
     grasps: Grasps
@@ -121,10 +128,11 @@ def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
     return T @ flange
 
 
-def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps) -> PickCandidates:
-    """The grasps [N] (tool frame) of the table's tool `index` that can be picked from its rest pose,
-    shifted to clear the table (module docstring). `tool` is that tool (its grounded form: the mass and
-    mesh are the table's tool's)."""
+def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
+                    grip_force: float = 100.0) -> PickCandidates:
+    """The grasps [N] (tool frame) of the table's tool `index` that can be picked from its rest pose with
+    `grip_force` N per pad, shifted to clear the table (module docstring). `tool` is that tool (its
+    grounded form: the mass and mesh are the table's tool's)."""
     if not 0 <= index < len(top.tools):
         raise InputError(f"pick_candidates: index {index} is not one of the table's 0-{len(top.tools) - 1}")
     T_wt = np.asarray(top.poses[index], float)
@@ -159,6 +167,13 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps) -> Pi
             ok[idx[hit]] = False
             idx = idx[~hit]
     counts["clear_of_tools"] = int(ok.sum())
+    # the weight's torque about the closure axis (world), from the grasp point to the centre of mass
+    com_w = T_wt[:3, :3] @ np.asarray(tool.params.com, float) + T_wt[:3, 3]
+    p_sw = p_s @ T_wt[:3, :3].T + T_wt[:3, 3]
+    weight = np.array([0.0, 0.0, -float(tool.params.mass) * units.STANDARD_GRAVITY])
+    tau_closure = np.einsum("mj,mj->m", np.cross(com_w - p_sw, weight), R_wg[:, :, 1])
+    ok &= np.abs(tau_closure) <= LIFT_TORQUE_SHARE * 2 * robot.PAD_TORSION * float(grip_force)
+    counts["held_against_weight"] = int(ok.sum())
     idx = np.nonzero(ok)[0]
     T_wg = np.tile(np.eye(4), (len(idx), 1, 1))
     T_wg[:, :3, :3] = R_wg[idx]
@@ -169,6 +184,34 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps) -> Pi
     idx, q = idx[good], q[good]
     out = make_grasps(p_s[idx], R_tg[idx], w[idx]) if len(idx) else None
     return PickCandidates(grasps=out, index=idx, shift=shift[idx], q_path=q, counts=counts)
+
+
+#: The pick's typical error (measured: a few millimetres, a few degrees): a candidate is carried through
+#: the task with margin when the grasp moved REACH_MARGIN_SHIFT along its x axis or turned
+#: REACH_MARGIN_TURN about its closure axis, either way, still is (`reachable_with_margin`).
+REACH_MARGIN_SHIFT = 0.005
+REACH_MARGIN_TURN = math.radians(4.0)
+
+
+def reachable_with_margin(task, grasps: Grasps) -> np.ndarray:
+    """[N] bool: each grasp and its four perturbations (+-REACH_MARGIN_SHIFT along the grasp's x axis,
+    +-REACH_MARGIN_TURN about its closure axis) can all be carried through `task` (`simulate.reachable`):
+    the grasp a pick achieves, a few millimetres and degrees off, can still do the task."""
+    from itup_jax.simulate import reachable
+
+    p = np.asarray(grasps.p_tool_grasp, float)
+    R = _R(np.asarray(grasps.q_tool_grasp, float))
+    w = np.asarray(grasps.width, float)
+    ps, Rs = [p], [R]
+    for sgn in (-1.0, 1.0):
+        ps.append(p + sgn * REACH_MARGIN_SHIFT * R[:, :, 0])
+        Rs.append(R)
+        c, s_ = math.cos(sgn * REACH_MARGIN_TURN), math.sin(sgn * REACH_MARGIN_TURN)
+        turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])  # about the grasp's y (closure) axis
+        ps.append(p)
+        Rs.append(R @ turn)
+    allg = make_grasps(np.concatenate(ps), np.concatenate(Rs), np.tile(w, len(ps)))
+    return reachable(task, allg).reshape(len(ps), len(p)).all(axis=0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -183,6 +226,8 @@ class PickResult:
       position_error: m, the achieved grasp origin's distance from the planned one (tool frame).
       angle_error: rad, the rotation between the achieved and the planned grasp frames.
       pads_touching: how many pads touch the tool at the end (0-2).
+      trace: with `execute_pick(record_every=k)`: {"t" [S] s, "bodies" [B], "pos" [S, B, 3],
+        "quat" [S, B, 4]} every body's world pose every k-th step, and "model" (for `mcap_log`).
     """
 
     lifted: bool
@@ -191,6 +236,7 @@ class PickResult:
     position_error: float
     angle_error: float
     pads_touching: int
+    trace: dict | None = None
 
     def to_json(self) -> dict:
         out = {"lifted": self.lifted, "rise_m": round(self.rise, 4), "pads_touching": self.pads_touching,
@@ -232,9 +278,10 @@ def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
 
 
 def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *,
-                 grip_force: float = 100.0) -> PickResult:
+                 grip_force: float = 100.0, record_every: int | None = None) -> PickResult:
     """Roll the pick of table tool `index` with `grasp` ([1] or a single grasp, tool frame) along its
-    joint path `q_path` [P, 6] (`PickCandidates.q_path`) out in MuJoCo (module docstring)."""
+    joint path `q_path` [P, 6] (`PickCandidates.q_path`) out in MuJoCo (module docstring); with
+    `record_every` k, every body's pose every k-th step (`PickResult.trace`, for `mcap_log.bodies_mcap_bytes`)."""
     from itup_jax.robot import ARM_JOINTS
     from itup_jax.simulate import INITIAL_SQUEEZE
 
@@ -257,6 +304,8 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     dt = m.opt.timestep
     total = sum(PICK_PHASES)
     nstep = int(round(total / dt))
+    bodies = [b for b in range(1, m.nbody) if np.any(m.geom_bodyid == b)]
+    rec_t, rec_p, rec_q = [], [], []
     for k in range(nstep):
         t = (k + 1) * dt
         if t <= settle:
@@ -280,6 +329,10 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
             q, qd, f = q_up[-1], np.zeros(6), grip_force
         d.ctrl[act], d.ctrl[act_v], d.ctrl[grip] = q, qd, f
         mujoco.mj_step(m, d)
+        if record_every and k % record_every == 0:
+            rec_t.append(d.time)
+            rec_p.append(d.xpos[bodies].copy())
+            rec_q.append(d.xquat[bodies].copy())
     rise = float(d.xipos[body][2]) - z0
     tool_geoms = {m.geom(g).id for g in geoms}
     pads = {m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id}
@@ -305,5 +358,8 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     achieved = None
     if lifted:
         achieved = make_grasps(T_tg[None, :3, 3], T_tg[None, :3, :3], np.array([min(width, robot.GRIPPER_MAX_OPENING)]))
+    trace = None
+    if record_every:
+        trace = {"t": np.array(rec_t), "bodies": bodies, "pos": np.array(rec_p), "quat": np.array(rec_q), "model": m}
     return PickResult(lifted=bool(lifted), rise=rise, achieved=achieved, position_error=pos_err,
-                      angle_error=ang_err, pads_touching=len(touching))
+                      angle_error=ang_err, pads_touching=len(touching), trace=trace)

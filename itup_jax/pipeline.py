@@ -11,7 +11,8 @@ The stages (the paper's six, in simulation):
   3.   the task's trajectory for the grounded tool (`task.make_task`: the target's placement gives
        Omega's c_obj and d);
   4.   grasp sampling on the grounded tool (`grasp_sampler`), kept where the arm can pick them from the
-       tool's rest pose (`pickup.pick_candidates`) and carry them through the task (`simulate.reachable`);
+       tool's rest pose (`pickup.pick_candidates`) and carry them through the task with a margin for the
+       pick's error (`pickup.reachable_with_margin`);
   5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
        it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
@@ -58,12 +59,17 @@ METHODS = {
     "copa": ("two_level", "geometric"),
     "no_grounding": ("random", "sdgnet"),
 }
-#: Grasps sampled on the grounded tool before the pick and reach filters.
+#: Grasps sampled on the grounded tool per round, before the pick and reach filters; rounds go on until
+#: MIN_CANDIDATES pass both, at most SAMPLE_ROUNDS (a rod lying flat passes ~1 in 100).
 DEFAULT_SAMPLES = 2048
+MIN_CANDIDATES = 16
+SAMPLE_ROUNDS = 4
 #: N per pad, the grip force of the pick and the task.
 DEFAULT_GRIP_FORCE = 100.0
 #: Stages a run can end at (`RunResult.stage`).
 STAGES = ("grounding", "plan", "pick", "grip", "task", "done")
+#: Steps between the pick's recorded poses when traces are kept (every 10 ms at the pick's 2 ms step).
+PICK_LOG_EVERY = 5
 #: m, the band below a tool's far end whose points make the object-level default contact.
 FAR_END_BAND = 0.005
 
@@ -170,15 +176,16 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       tabletop: the table (default: `make_tabletop(clutter=clutter, seed=seed)`).
       seed: seeds the table (when built here), the sampling, the random ablation and the physics draw.
       method: a key of METHODS.  grounder: 'rule' or a grounder object (`vlm.VLMGrounder`).
-      samples: grasps sampled before the pick and reach filters.
+      samples: grasps sampled per round before the pick and reach filters (rounds until MIN_CANDIDATES
+        pass, at most SAMPLE_ROUNDS).
       grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
         (`simulate.Randomization`), else nominal.
       model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
-      traces: keep the task rollout's per-step traces (for `mcap_log`).
+      traces: keep the task rollout's per-step traces and the pick's body poses (for `mcap_log`).
     """
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
-    from itup_jax.pickup import execute_pick, pick_candidates
+    from itup_jax.pickup import execute_pick, pick_candidates, reachable_with_margin
     from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
 
     if method not in METHODS:
@@ -203,29 +210,48 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         return end("grounding", str(exc))
     try:
         task = itup.make_task(g.task, tool)
-        grasps = itup.sample_grasps(tool, int(samples), seed=int(seed))
-    except (InputError, SamplingError) as exc:
+    except InputError as exc:
         return end("plan", str(exc), grounding=g, tool=tool)
-    cands = pick_candidates(top, g.tool_index, tool, grasps)
-    counts = {"sampled": int(samples), **{f"pick_{k}": v for k, v in cands.counts.items() if k != "given"}}
-    if cands.grasps is None:
-        return end("pick", f"none of {samples} grasps on the {tool.name} can be picked from its rest pose",
-                   grounding=g, tool=tool, counts=counts)
-    ok = reachable(task, cands.grasps)
-    counts["task_reachable"] = int(ok.sum())
-    if not ok.any():
-        return end("pick", f"none of the {len(ok)} pickable grasps can be carried through the {g.task} task",
-                   grounding=g, tool=tool, counts=counts)
-    keep = np.nonzero(ok)[0]
-    grasps_k = cands.grasps[keep]
+    # rounds of `samples` grasps until MIN_CANDIDATES can be picked and carried through the task
+    counts: dict = {"sampled": 0, "rounds": 0}
+    found = []  # (grasps, shift, q_path) of each round's pickable, task-reachable candidates
+    for r in range(SAMPLE_ROUNDS):
+        try:
+            grasps = itup.sample_grasps(tool, int(samples), seed=int(seed) * SAMPLE_ROUNDS + r)
+        except SamplingError as exc:
+            return end("plan", str(exc), grounding=g, tool=tool, counts=counts)
+        cands = pick_candidates(top, g.tool_index, tool, grasps, grip_force=grip_force)
+        counts["sampled"] += int(samples)
+        counts["rounds"] += 1
+        for k, v in cands.counts.items():
+            if k != "given":
+                counts[f"pick_{k}"] = counts.get(f"pick_{k}", 0) + v
+        ok = reachable_with_margin(task, cands.grasps) if cands.grasps is not None else np.zeros(0, bool)
+        counts["task_reachable"] = counts.get("task_reachable", 0) + int(ok.sum())
+        if ok.any():
+            keep = np.nonzero(ok)[0]
+            found.append((cands.grasps[keep], cands.shift[keep], cands.q_path[keep]))
+        if counts["task_reachable"] >= MIN_CANDIDATES:
+            break
+    if not found:
+        what = (f"none of {counts['sampled']} grasps on the {tool.name} can be picked from its rest pose"
+                if not counts.get("pick_reachable") else
+                f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task")
+        return end("pick", what, grounding=g, tool=tool, counts=counts)
+    grasps_k = itup.make_grasps(np.concatenate([np.asarray(f[0].p_tool_grasp) for f in found]),
+                                q_tool_grasp=np.concatenate([np.asarray(f[0].q_tool_grasp) for f in found]),
+                                width=np.concatenate([np.asarray(f[0].width) for f in found]))
+    shifts = np.concatenate([f[1] for f in found])
+    q_paths = np.concatenate([f[2] for f in found])
     scorer = METHODS[method][1]
     scores = itup.score(tool, task, grasps_k, model=model if (scorer == "sdgnet" and model is not None) else scorer,
                         seed=int(seed))
     total = np.asarray(scores.total, float)
     best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
-    choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(cands.shift[keep[best]]),
+    choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(shifts[best]),
               "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
-    pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], cands.q_path[keep[best]], grip_force=grip_force)
+    pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
+                        record_every=PICK_LOG_EVERY if traces else None)
     kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick)
     if not pick.lifted:
         return end("pick", f"the {tool.name} did not come up in the pads (rose {pick.rise * 1000:.0f} mm, "

@@ -240,6 +240,13 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path):
     j = json.loads((out / "run.json").read_text())
     assert j["schema"] == "itup.run/1" and (out / "scene.png").exists()
     assert (p.returncode == 0) == j["success"]
+    if j["pick"] is not None:  # the pick's every body, logged
+        from itup_jax.mcap_log import read_rollout_mcap
+
+        log = read_rollout_mcap(str(out / "pick.mcap"))
+        names = {e["id"] for e in log["/scene"][0]["entities"]}
+        assert {"tool_0", "tool_2", "gripper/finger_neg", "ur5e/wrist_3_link"} <= names
+        assert len(log["/tf"]) > 100
     if j["labels"] is not None:
         assert (out / "task.mcap").exists()
     bad = subprocess.run([sys.executable, "-m", "itup_jax.cli", "run", "make a sandwich", "--out", str(tmp_path / "x")],
