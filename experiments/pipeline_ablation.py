@@ -56,11 +56,11 @@ def main(argv=None) -> int:
     ap.add_argument("--tasks", nargs="+", default=list(INSTRUCTIONS))
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
     ap.add_argument("--samples", type=int, default=2048)
-    ap.add_argument("--quick", action="store_true", help="1 trial, 2 tasks, 2 methods, 256 samples (tests)")
+    ap.add_argument("--quick", action="store_true", help="1 trial, the hammer, 2 methods, clutter 2, 256 samples (tests)")
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
     if args.quick:
-        args.trials, args.tasks, args.methods, args.samples = 1, ["hammer", "knock"], ["itup", "copa"], 256
+        args.trials, args.tasks, args.methods, args.samples, args.clutter = 1, ["hammer"], ["itup", "copa"], 256, 2
     bad = [m for m in args.methods if m not in METHODS] + [t for t in args.tasks if t not in INSTRUCTIONS]
     if bad or args.trials < 1:
         ap.error(f"unknown method(s) or task(s) {bad}, or --trials < 1")

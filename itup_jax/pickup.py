@@ -162,6 +162,8 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         idx = np.nonzero(ok)[0]
         steps = (0.0,) if j == index else (0.0, PICK_APPROACH / 3, 2 * PICK_APPROACH / 3, PICK_APPROACH)
         for back in steps:
+            if len(idx) == 0:
+                break
             hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], w[idx] + 2 * PICK_CLEARANCE,
                                    PICK_MARGIN if j != index else 0.0)
             ok[idx[hit]] = False

@@ -372,10 +372,11 @@ def picture(top: Tabletop, path: str | None = None, *, title: str | None = None,
         centre = 0.5 * (v.min(0) + v.max(0))
         lo = v[:, 1].min()
         ax.annotate(str(i + 1), (centre[0], lo - 0.02), fontsize=13, weight="bold", ha="center", va="top", color=c)
-    for name, p in target_positions().items():
-        if name in top.targets:
+    for k, (name, p) in enumerate(target_positions().items()):
+        if name in top.targets:  # labels alternate below and above their marks (the nail and tower stand close)
             ax.plot(p[0], p[1], marker="X", ms=11, color="crimson")
-            ax.annotate(name, (p[0], p[1] - 0.03), fontsize=9, ha="center", va="top", color="crimson")
+            ax.annotate(name, (p[0], p[1] + (-0.03 if k % 2 == 0 else 0.03)), fontsize=9, ha="center",
+                        va="top" if k % 2 == 0 else "bottom", color="crimson")
     ax.plot(0, 0, marker="o", ms=14, color="dimgray")
     ax.annotate("robot", (0, -0.04), fontsize=9, ha="center", va="top")
     ax.set_xlim(-0.1, 1.0)

@@ -94,7 +94,8 @@ def test_happy_path_sends_text_and_picture_and_validates_the_answer(stub, table,
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
     # the answer in a fenced block is read too; the grounded tool is the scene's
     stub.mode = "fenced"
-    g = VLMGrounder(url=stub.url, model="m", timeout=5).ground("drive the nail", table)
+    g = VLMGrounder(url=stub.url, model="m", timeout=5, image=False).ground("drive the nail", table)
+    assert len(stub.requests[-1]["body"]["messages"][1]["content"]) == 1  # text only
     assert g.grounded_tool(table).name == "hammer"
 
 
@@ -114,16 +115,16 @@ def test_happy_path_sends_text_and_picture_and_validates_the_answer(stub, table,
 def test_bad_answers_are_clear_errors(stub, table, mode, answer, words):
     stub.mode, stub.answer = mode, answer
     with pytest.raises(VLMError, match=words):
-        VLMGrounder(url=stub.url, model="m", timeout=5).ground("drive the nail", table)
+        VLMGrounder(url=stub.url, model="m", timeout=5, image=False).ground("drive the nail", table)
 
 
 def test_timeout_unreachable_and_the_rule_fallback(stub, table):
     stub.mode = "slow"
     with pytest.raises(VLMError, match="no answer .* within 0.3 s"):
-        VLMGrounder(url=stub.url, model="m", timeout=0.3).ground("drive the nail", table)
+        VLMGrounder(url=stub.url, model="m", timeout=0.3, image=False).ground("drive the nail", table)
     with pytest.raises(VLMError, match="cannot reach"):
-        VLMGrounder(url="http://127.0.0.1:9/v1", model="m", timeout=2).ground("drive the nail", table)
-    g = VLMGrounder(url=stub.url, model="m", timeout=0.3, fallback="rule").ground("drive the nail", table)
+        VLMGrounder(url="http://127.0.0.1:9/v1", model="m", timeout=2, image=False).ground("drive the nail", table)
+    g = VLMGrounder(url=stub.url, model="m", timeout=0.3, fallback="rule", image=False).ground("drive the nail", table)
     assert g.grounder == "rule (vlm fallback)" and g.tool_name == "hammer" and "within 0.3 s" in g.notes[0]
     for bad, words in ((dict(url="ftp://x"), "url must start"), (dict(url="http://x", model=""), "model"),
                        (dict(url="http://x", model="m", timeout=0), "timeout"),
@@ -135,6 +136,6 @@ def test_timeout_unreachable_and_the_rule_fallback(stub, table):
 def test_the_whole_chain_takes_the_vlm_grounding(stub, table):
     stub.mode, stub.answer = "ok", {"task": "knock", "tool": 3, "work_part": "head", "grasp_part": "handle"}
     r = itup.run("knock over the tower", tabletop=table, samples=512,
-                 grounder=VLMGrounder(url=stub.url, model="m", timeout=5))
+                 grounder=VLMGrounder(url=stub.url, model="m", timeout=5, image=False))
     assert r.grounding.grounder == "vlm" and r.grounding.tool_name == "mallet" and r.stage != "grounding"
     assert isinstance(describe(table), str) and grounding.TARGETS["knock"] in describe(table)
