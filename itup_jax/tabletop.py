@@ -346,6 +346,11 @@ def target_positions() -> dict[str, np.ndarray]:
     return out
 
 
+#: Where each target's label goes from its mark: (dx, dy) m, horizontal and vertical alignment.
+_LABEL_PLACE = {"nail": (0.02, 0.0, "left", "center"), "tower": (-0.02, 0.0, "right", "center"),
+                "debris": (0.0, -0.03, "center", "top"), "block": (0.0, -0.03, "center", "top")}
+
+
 def picture(top: Tabletop, path: str | None = None, *, title: str | None = None, highlight: int | None = None):
     """A top view of the table (module docstring). Writes a PNG to `path` when given; returns the
     matplotlib Figure."""
@@ -369,14 +374,14 @@ def picture(top: Tabletop, path: str | None = None, *, title: str | None = None,
             centre = T[:3, :3] @ (0.5 * (p.region.lo + p.region.hi)) + T[:3, 3]
             ax.annotate(f"{i + 1}{chr(97 + k)}", centre[:2], fontsize=7, ha="center", va="center", color="black",
                         bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
-        centre = 0.5 * (v.min(0) + v.max(0))
-        lo = v[:, 1].min()
-        ax.annotate(str(i + 1), (centre[0], lo - 0.02), fontsize=13, weight="bold", ha="center", va="top", color=c)
-    for k, (name, p) in enumerate(target_positions().items()):
-        if name in top.targets:  # labels alternate below and above their marks (the nail and tower stand close)
+        handle = next(p for p in parts.tool_parts(t) if "grasp" in p.roles)  # the number beside the handle
+        at = T[:3, :3] @ (0.5 * (handle.region.lo + handle.region.hi)) + T[:3, 3]
+        ax.annotate(str(i + 1), (at[0] - 0.035, at[1]), fontsize=13, weight="bold", ha="center", va="center", color=c)
+    for name, p in target_positions().items():
+        if name in top.targets:  # the nail and the tower stand close: their labels go either side
+            dx, dy, ha, va = _LABEL_PLACE.get(name, (0.0, -0.03, "center", "top"))
             ax.plot(p[0], p[1], marker="X", ms=11, color="crimson")
-            ax.annotate(name, (p[0], p[1] + (-0.03 if k % 2 == 0 else 0.03)), fontsize=9, ha="center",
-                        va="top" if k % 2 == 0 else "bottom", color="crimson")
+            ax.annotate(name, (p[0] + dx, p[1] + dy), fontsize=9, ha=ha, va=va, color="crimson")
     ax.plot(0, 0, marker="o", ms=14, color="dimgray")
     ax.annotate("robot", (0, -0.04), fontsize=9, ha="center", va="top")
     ax.set_xlim(-0.1, 1.0)
