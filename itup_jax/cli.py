@@ -622,7 +622,13 @@ def cmd_run(args) -> int:
                     else VLMGrounder.from_env(**kw))
     elif any((args.vlm_url, args.vlm_model, args.vlm_key_env, args.vlm_fallback)):
         raise_input("--vlm-url/--vlm-model/--vlm-key-env/--vlm-fallback apply to --grounder vlm")
-    top = tabletop.make_tabletop(clutter=args.clutter, seed=args.seed)
+    tools = None
+    if args.tools or args.add_tool:
+        if any(len(pair) != 2 for pair in args.add_tool or []):
+            raise_input("--add-tool takes a mesh file and its spec: --add-tool MESH SPEC")
+        tools = [itup.load_tool(n) for n in (args.tools or tabletop.DEFAULT_TOOLS)]
+        tools += [itup.load_tool(mesh, spec=spec) for mesh, spec in (args.add_tool or [])]
+    top = tabletop.make_tabletop(tools, clutter=args.clutter, seed=args.seed)
     print(f"itup run: {args.instruction!r}; table seed {args.seed}: {len(top.tools)} tools "
           f"({', '.join(t.name for t in top.tools)}), method {args.method}", flush=True)
     r = itup.run(args.instruction, tabletop=top, seed=args.seed, method=args.method, samples=args.samples,
@@ -983,6 +989,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "in MuJoCo. Exit 0: done; 3: the chain ran and the task was not done (the stage it ended "
                         "at is printed and in run.json); 2: bad input or an instruction it cannot ground.")
     rn.add_argument("instruction", help='plain words, e.g. "drive the nail with the hammer"')
+    rn.add_argument("--tools", nargs="+", default=None, metavar="NAME",
+                    help="the tools laid apart on the table: built-in or family names ('spanner@3'); default "
+                    "hammer broom mallet l_stick")
+    rn.add_argument("--add-tool", nargs=2, action="append", default=None, metavar=("MESH", "SPEC"),
+                    help="add your own tool (a mesh file and its TOML spec, as for plan --tool); repeatable")
     rn.add_argument("--clutter", type=int, default=0, help=f"procedural tools dropped among the others (0-{MAX_CLUTTER})")
     rn.add_argument("--seed", type=int, default=0, help="the table's layout, the sampling and the physics draw")
     rn.add_argument("--method", choices=tuple(METHODS), default="itup",

@@ -282,6 +282,10 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path, capsys):
         assert (out / "task.mcap").exists()
     assert main(["run", "make a sandwich", "--out", str(tmp_path / "x")]) == 2
     assert "no task in 'make a sandwich'" in capsys.readouterr().err and not (tmp_path / "x" / "run.json").exists()
+    assert main(["run", "drive the nail", "--add-tool", "no.stl", "no.toml", "--out", str(tmp_path / "y")]) == 2
+    assert "not found" in capsys.readouterr().err and not (tmp_path / "y" / "run.json").exists()
+    assert main(["run", "drive the nail", "--tools", "wand", "--out", str(tmp_path / "y")]) == 2
+    assert "tool 'wand'" in capsys.readouterr().err
 
 
 def test_ablation_experiment_quick(tmp_path):
