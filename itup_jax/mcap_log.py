@@ -261,17 +261,21 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
         prims = _geom_primitives(m, np.nonzero(m.geom_bodyid == b)[0])
         entities.append({"timestamp": _time(0), "frame_id": f"body/{name}", "id": name, "lifetime": _time(0),
                          "frame_locked": True, **prims})
+    entities.append(_environment(m, static_geoms(m)))
+    return {"deletions": [], "entities": entities}
+
+
+def _environment(m: mujoco.MjModel, geoms) -> dict:
+    """A frame-locked entity of the world-fixed `geoms` at their poses in the model's reference state."""
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)
-    geoms = static_geoms(m)
     poses = []
     for g in geoms:
         qw = np.zeros(4)
         mujoco.mju_mat2Quat(qw, d.geom_xmat[g])
         poses.append((d.geom_xpos[g].copy(), qw))
-    entities.append({"timestamp": _time(0), "frame_id": "world", "id": "environment", "lifetime": _time(0),
-                     "frame_locked": True, **_geom_primitives(m, geoms, poses)})
-    return {"deletions": [], "entities": entities}
+    return {"timestamp": _time(0), "frame_id": "world", "id": "environment", "lifetime": _time(0),
+            "frame_locked": True, **_geom_primitives(m, geoms, poses)}
 
 
 def _jsonable(v) -> Any:
@@ -368,16 +372,7 @@ def bodies_mcap_bytes(m: mujoco.MjModel, t: np.ndarray, pos: np.ndarray, quat: n
     names = [m.body(int(b)).name for b in bodies]
     entities = [{"timestamp": _time(0), "frame_id": f"body/{n}", "id": n, "lifetime": _time(0), "frame_locked": True,
                  **_geom_primitives(m, np.nonzero(m.geom_bodyid == int(b))[0])} for b, n in zip(bodies, names)]
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    static = [g for g in range(m.ngeom) if m.geom_bodyid[g] == 0]
-    poses = []
-    for g in static:
-        qw = np.zeros(4)
-        mujoco.mju_mat2Quat(qw, d.geom_xmat[g])
-        poses.append((d.geom_xpos[g].copy(), qw))
-    entities.append({"timestamp": _time(0), "frame_id": "world", "id": "environment", "lifetime": _time(0),
-                     "frame_locked": True, **_geom_primitives(m, static, poses)})
+    entities.append(_environment(m, [g for g in range(m.ngeom) if m.geom_bodyid[g] == 0]))
     w.add_message(chan["/scene"], log_time=0, publish_time=0, sequence=0,
                   data=json.dumps({"deletions": [], "entities": entities}, separators=(",", ":")).encode())
     for k, ns in enumerate(t_ns):

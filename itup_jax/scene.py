@@ -155,9 +155,14 @@ class Scene:
         return sensordata[..., adr:adr + dim]
 
 
-def _add_tool(spec: mujoco.MjSpec, tool: Tool) -> list[str]:
-    body = spec.worldbody.add_body(name="tool", pos=[0.0, 0.0, 1.0])
-    body.add_freejoint(name="tool")
+def add_tool_body(spec: mujoco.MjSpec, tool: Tool, name: str = "tool", *, pos=(0.0, 0.0, 1.0), quat=None,
+                  **geom_kw) -> list[str]:
+    """Add `tool` as a free body `name` (free joint `name`) at `pos`, `quat` (wxyz) with the tool's mass
+    properties and collision geoms `<name>_<k>`: its primitives, or for a user's mesh its convex hull
+    (mesh `<name>_hull`; MuJoCo and MJX collide convex meshes). `geom_kw` overrides the geoms' defaults
+    (no collision by type: the scenes collide by explicit pairs). Returns the geom names."""
+    body = spec.worldbody.add_body(name=name, pos=list(pos), **({} if quat is None else {"quat": list(quat)}))
+    body.add_freejoint(name=name)
     p = tool.params
     body.mass = float(p.mass)
     body.ipos = np.asarray(p.com, float)
@@ -166,22 +171,23 @@ def _add_tool(spec: mujoco.MjSpec, tool: Tool) -> list[str]:
     body.explicitinertial = True
     names = []
     kw = dict(contype=0, conaffinity=0, rgba=[0.55, 0.35, 0.2, 1.0], density=0.0)
+    kw.update(geom_kw)
     if tool.primitives:
         for i, prim in enumerate(tool.primitives):
-            name = f"tool_{i}"
+            gname = f"{name}_{i}"
             if prim[0] == "capsule":
                 _, a, b, r = prim
-                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
+                body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
             else:
                 _, lo, hi = prim
-                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
-            names.append(name)
-    else:  # a user's mesh: its convex hull (MuJoCo and MJX collide convex meshes)
+                body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
+            names.append(gname)
+    else:
         hull = tool.mesh.convex_hull
-        spec.add_mesh(name="tool_hull", uservert=np.asarray(hull.vertices, float).ravel(),
+        spec.add_mesh(name=f"{name}_hull", uservert=np.asarray(hull.vertices, float).ravel(),
                       userface=np.asarray(hull.faces, np.int32).ravel())
-        body.add_geom(name="tool_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="tool_hull", **kw)
-        names.append("tool_0")
+        body.add_geom(name=f"{name}_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_hull", **kw)
+        names.append(f"{name}_0")
     return names
 
 
@@ -214,7 +220,7 @@ def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Sce
     spec = mujoco.MjSpec.from_file(str(MJCF_DIR / kind.scene_file))
     kind.place(spec, task)
     attach_robot(spec, timestep)
-    tool_geoms = _add_tool(spec, tool)
+    tool_geoms = add_tool_body(spec, tool)
 
     mu = float(tool.params.mu)
     pad_pairs, target_pairs = [], []

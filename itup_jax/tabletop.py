@@ -100,37 +100,13 @@ def _quat(R: np.ndarray) -> np.ndarray:
     return q
 
 
-def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray, *, collide: bool = True) -> list[str]:
-    """A free body 'tool_<i>' at pose T with the tool's mass properties and collision geoms (its
-    primitives, or its mesh's convex hull). Returns the geom names."""
-    body = spec.worldbody.add_body(name=f"tool_{i}", pos=T[:3, 3], quat=_quat(T[:3, :3]))
-    body.add_freejoint(name=f"tool_{i}")
-    p = tool.params
-    body.mass = float(p.mass)
-    body.ipos = np.asarray(p.com, float)
-    I = np.asarray(p.inertia, float)
-    body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
-    body.explicitinertial = True
-    kw = dict(contype=1 if collide else 0, conaffinity=1 if collide else 0, density=0.0,
-              friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], rgba=[0.55, 0.35, 0.2, 1.0], condim=6)
-    names = []
-    if tool.primitives:
-        for k, prim in enumerate(tool.primitives):
-            name = f"tool_{i}_{k}"
-            if prim[0] == "capsule":
-                _, a, b, r = prim
-                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
-            else:
-                _, lo, hi = prim
-                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
-            names.append(name)
-    else:
-        hull = tool.mesh.convex_hull
-        spec.add_mesh(name=f"tool_{i}_hull", uservert=np.asarray(hull.vertices, float).ravel(),
-                      userface=np.asarray(hull.faces, np.int32).ravel())
-        body.add_geom(name=f"tool_{i}_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"tool_{i}_hull", **kw)
-        names.append(f"tool_{i}_0")
-    return names
+def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> list[str]:
+    """A free body 'tool_<i>' at pose T that collides with the table and the other tools
+    (`scene.add_tool_body`). Returns the geom names."""
+    from itup_jax.scene import add_tool_body
+
+    return add_tool_body(spec, tool, f"tool_{i}", pos=T[:3, 3], quat=_quat(T[:3, :3]), contype=1, conaffinity=1,
+                         friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], condim=6)
 
 
 def _drop_model(tools: Sequence[Tool], poses: np.ndarray) -> mujoco.MjModel:
