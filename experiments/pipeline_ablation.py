@@ -8,18 +8,22 @@ apart; clutter: `--clutter` procedural tools dropped among them) and per trial t
 with seed t (`tabletop.make_tabletop`) and every method of `pipeline.METHODS` runs on that same table
 with the same seed (the same sampling and the same physics draw: paired), `pipeline.run`. A cell's
 success rate comes with its exact binomial (Clopper-Pearson) 95 % interval; failures are broken down by
-the stage the run ended at (grounding, plan, pick, grip, task). The paper's numbers (real robot, 10
-trials per cell) are printed beside ours. Writes pipeline_ablation.json.
+the stage the run ended at (grounding, plan, pick, grip, task), with the success among the runs that
+picked the tool up and the median full induced peak wrist torque of their task rollouts. The paper's
+numbers (real robot, 10 trials per cell) are printed beside ours. Writes pipeline_ablation.json;
+`--from JSON [--first-trial K]` summarizes an earlier run's rows again (K: from table seed K on).
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import json
 import os
 import sys
 import time
 
+import numpy as np
 from scipy.stats import beta
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -49,6 +53,51 @@ def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     return lo, hi
 
 
+def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
+    """Per (clutter, task or 'total', method): successes with the Clopper-Pearson interval, the stages
+    the runs ended at, how many picked the tool up (reached the task rollout) and the success among
+    those, and the median full induced peak wrist torque of the task rollouts (N m). Prints the tables
+    beside the paper's."""
+    cells = {}
+    for clutter in clutters:
+        for task in list(tasks) + ["total"]:
+            for m in methods:
+                sel = [r for r in rows if r["clutter"] == clutter and r["method"] == m and task in (r["task"], "total")]
+                if not sel:
+                    continue
+                k, n = sum(r["success"] for r in sel), len(sel)
+                lo, hi = clopper_pearson(k, n)
+                stages = collections.Counter(r["stage"] for r in sel)
+                picked = [r for r in sel if r["stage"] in ("grip", "task", "done")]
+                torques = [r["peak_torque_induced"] for r in picked if r["peak_torque_induced"] is not None]
+                cells[f"{clutter}/{task}/{m}"] = {
+                    "clutter": clutter, "task": task, "method": m, "successes": k, "trials": n, "rate": k / n,
+                    "ci95": [lo, hi], "stages": {s: stages.get(s, 0) for s in STAGES}, "picked": len(picked),
+                    "done_given_picked": (sum(r["success"] for r in picked) / len(picked)) if picked else None,
+                    "median_peak_torque_induced": float(np.median(torques)) if torques else None}
+    for clutter in clutters:
+        paper = PAPER_TABLE2 if clutter == 0 else PAPER_TABLE3
+        name = "Table II (no clutter)" if clutter == 0 else f"Table III (clutter {clutter})"
+        print(f"\n{name}: success % [95 % CI] (paper's, real robot, 10 trials)")
+        print("task     " + "".join(f"{m:>26s}" for m in methods))
+        for task in list(tasks) + ["total"]:
+            line = f"{task:8s} "
+            for m in methods:
+                c = cells[f"{clutter}/{task}/{m}"]
+                p = paper.get(task, {}).get(m) if task != "total" else None
+                line += f"{100 * c['rate']:5.0f} [{100 * c['ci95'][0]:3.0f}-{100 * c['ci95'][1]:3.0f}]" + (
+                    f" ({p:3d})" if p is not None else "      ") + "   "
+            print(line)
+        for m in methods:
+            c = cells[f"{clutter}/total/{m}"]
+            fails = {s: v for s, v in c["stages"].items() if v and s != "done"}
+            given = c["done_given_picked"]
+            print(f"  {m:13s} picked {c['picked']}/{c['trials']}, done given picked "
+                  f"{'-' if given is None else f'{100 * given:.0f} %'}, median full induced peak torque "
+                  f"{c['median_peak_torque_induced'] or float('nan'):.2f} N m; ended at {fails}")
+    return cells
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trials", type=int, default=50, help="tables per task and clutter setting")
@@ -57,8 +106,23 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
     ap.add_argument("--samples", type=int, default=2048)
     ap.add_argument("--quick", action="store_true", help="1 trial, the hammer, 2 methods, clutter 2, 256 samples (tests)")
+    ap.add_argument("--from", dest="from_json", default=None, metavar="JSON",
+                    help="summarize the rows of an earlier run's pipeline_ablation.json instead of running")
+    ap.add_argument("--first-trial", type=int, default=0,
+                    help="with --from: only trials from this seed on (e.g. tables not looked at while the "
+                    "pipeline's filters were chosen)")
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
+    if args.from_json:
+        with open(args.from_json) as fh:
+            old = json.load(fh)
+        rows = [r for r in old["rows"] if r["trial"] >= args.first_trial]
+        print(f"{args.from_json}: trials {args.first_trial}..{old['trials'] - 1}")
+        cells = summarize(rows, old["tasks"], old["methods"], (0, old["clutter"]))
+        out = {**old, "cells": cells, "rows": rows, "first_trial": args.first_trial}
+        os.makedirs(args.out, exist_ok=True)
+        atomic_write_json(os.path.join(args.out, "pipeline_ablation.json"), out, indent=1)
+        return 0
     if args.quick:
         args.trials, args.tasks, args.methods, args.samples, args.clutter = 1, ["hammer"], ["itup", "copa"], 256, 2
     bad = [m for m in args.methods if m not in METHODS] + [t for t in args.tasks if t not in INSTRUCTIONS]
@@ -82,31 +146,7 @@ def main(argv=None) -> int:
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],
                                  "wall_s": round(r.wall_s, 2)})
             print(f"clutter {clutter} trial {t}: {time.perf_counter() - t0:.0f} s", flush=True)
-    cells = {}
-    for clutter in (0, args.clutter):
-        for task in args.tasks + ["total"]:
-            for m in args.methods:
-                sel = [r for r in rows if r["clutter"] == clutter and r["method"] == m and task in (r["task"], "total")]
-                k, n = sum(r["success"] for r in sel), len(sel)
-                lo, hi = clopper_pearson(k, n)
-                stages = collections.Counter(r["stage"] for r in sel)
-                cells[f"{clutter}/{task}/{m}"] = {"clutter": clutter, "task": task, "method": m, "successes": k,
-                                                  "trials": n, "rate": k / n, "ci95": [lo, hi],
-                                                  "stages": {s: stages.get(s, 0) for s in STAGES}}
-    for clutter, paper, name in ((0, PAPER_TABLE2, "Table II (no clutter)"), (args.clutter, PAPER_TABLE3, f"Table III (clutter {args.clutter})")):
-        print(f"\n{name}: success % [95 % CI] (paper)")
-        print("task     " + "".join(f"{m:>26s}" for m in args.methods))
-        for task in args.tasks + ["total"]:
-            line = f"{task:8s} "
-            for m in args.methods:
-                c = cells[f"{clutter}/{task}/{m}"]
-                p = paper.get(task, {}).get(m) if task != "total" else None
-                line += f"{100 * c['rate']:5.0f} [{100 * c['ci95'][0]:3.0f}-{100 * c['ci95'][1]:3.0f}]" + (
-                    f" ({p:3d})" if p is not None else "      ") + "   "
-            print(line)
-        print("failures by stage (itup): " + ", ".join(
-            f"{task} {dict((s, v) for s, v in cells[f'{clutter}/{task}/itup']['stages'].items() if v and s != 'done')}"
-            for task in args.tasks if "itup" in args.methods))
+    cells = summarize(rows, args.tasks, args.methods, (0, args.clutter))
     out = {"schema": "itup.pipeline_ablation/1", "trials": args.trials, "clutter": args.clutter, "tasks": args.tasks,
            "methods": args.methods, "samples": args.samples, "instructions": INSTRUCTIONS, "cells": cells,
            "paper": {"table2": PAPER_TABLE2, "table3": PAPER_TABLE3}, "rows": rows,
