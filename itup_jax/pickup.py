@@ -228,6 +228,7 @@ class PickResult:
       position_error: m, the achieved grasp origin's distance from the planned one (tool frame).
       angle_error: rad, the rotation between the achieved and the planned grasp frames.
       pads_touching: how many pads touch the tool at the end (0-2).
+      diverged: the simulation went unstable (a non-finite state, MuJoCo's warning); never lifted.
       trace: with `execute_pick(record_every=k)`: {"t" [S] s, "bodies" [B], "pos" [S, B, 3],
         "quat" [S, B, 4]} every body's world pose every k-th step, and "model" (for `mcap_log`).
     """
@@ -238,11 +239,14 @@ class PickResult:
     position_error: float
     angle_error: float
     pads_touching: int
+    diverged: bool = False
     trace: dict | None = None
 
     def to_json(self) -> dict:
-        out = {"lifted": self.lifted, "rise_m": round(self.rise, 4), "pads_touching": self.pads_touching,
-               "position_error_m": round(self.position_error, 5), "angle_error_deg": round(math.degrees(self.angle_error), 3)}
+        finite = lambda x, k: round(x, k) if math.isfinite(x) else None  # noqa: E731
+        out = {"lifted": self.lifted, "diverged": self.diverged, "rise_m": finite(self.rise, 4),
+               "pads_touching": self.pads_touching, "position_error_m": finite(self.position_error, 5),
+               "angle_error_deg": finite(math.degrees(self.angle_error), 3)}
         if self.achieved is not None:
             out["achieved"] = {"p_tool_grasp": np.round(np.asarray(self.achieved.p_tool_grasp)[0], 5).tolist(),
                                "q_tool_grasp": np.round(np.asarray(self.achieved.q_tool_grasp)[0], 6).tolist(),
@@ -335,6 +339,10 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
             rec_t.append(d.time)
             rec_p.append(d.xpos[bodies].copy())
             rec_q.append(d.xquat[bodies].copy())
+    # MuJoCo resets the state when it meets a bad value (and counts a warning): either means unstable
+    warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                    mujoco.mjtWarning.mjWARN_BADQPOS))
+    diverged = warned > 0 or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
     rise = float(d.xipos[body][2]) - z0
     tool_geoms = {m.geom(g).id for g in geoms}
     pads = {m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id}
@@ -344,7 +352,7 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
         if pair & pads and pair & tool_geoms:
             touching |= pair & pads
     width = float(d.qpos[fq].mean() * 2 + 2 * INITIAL_SQUEEZE)
-    lifted = rise >= LIFT_SHARE * PICK_LIFT and len(touching) == 2 and width >= MIN_HELD_WIDTH
+    lifted = not diverged and rise >= LIFT_SHARE * PICK_LIFT and len(touching) == 2 and width >= MIN_HELD_WIDTH
     site = m.site("gripper/grasp").id
     T_wg = np.eye(4)
     T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
@@ -364,4 +372,4 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     if record_every:
         trace = {"t": np.array(rec_t), "bodies": bodies, "pos": np.array(rec_p), "quat": np.array(rec_q), "model": m}
     return PickResult(lifted=bool(lifted), rise=rise, achieved=achieved, position_error=pos_err,
-                      angle_error=ang_err, pads_touching=len(touching), trace=trace)
+                      angle_error=ang_err, pads_touching=len(touching), diverged=diverged, trace=trace)

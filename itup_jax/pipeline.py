@@ -253,6 +253,8 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
                         record_every=PICK_LOG_EVERY if traces else None)
     kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick)
+    if pick.diverged:
+        return end("pick", f"the pick's simulation went unstable (MuJoCo); the {tool.name} was not lifted", **kw)
     if not pick.lifted:
         return end("pick", f"the {tool.name} did not come up in the pads (rose {pick.rise * 1000:.0f} mm, "
                    f"{pick.pads_touching} pads touching)", **kw)

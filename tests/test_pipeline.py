@@ -206,6 +206,13 @@ def test_pick_candidates_point_down_and_clear_the_table(hammer_pick):
     assert np.all(c.shift <= pickup.MAX_PAD_SHIFT) and c.shift.max() > 0  # a lying handle needs the shift
 
 
+def test_an_unstable_pick_is_reported_not_taken_for_a_result(hammer_pick, monkeypatch):
+    top, i, tool, c = hammer_pick
+    monkeypatch.setattr(pickup, "PICK_TIMESTEP", 0.08)  # far too coarse: MuJoCo resets the state and warns
+    r = pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0])
+    assert r.diverged and not r.lifted and r.achieved is None and r.to_json()["diverged"] is True
+
+
 def test_no_pickable_grasp_is_an_empty_answer_not_an_error(hammer_pick):
     top, i, tool, c = hammer_pick
     # the same grasps with the approach turned to point up: none can be picked from above
