@@ -33,7 +33,8 @@ from itup_jax import grounding, parts, tabletop
 QUICK = os.environ.get("ITUP_QUICK") == "1"
 OUT = os.environ.get("ITUP_NOTEBOOK_OUT", "notebooks/out")
 os.makedirs(OUT, exist_ok=True)
-SAMPLES = 512 if QUICK else 2048
+SAMPLES = 256 if QUICK else 2048
+METHODS = ("itup", "object_level") if QUICK else ("itup", "copa", "object_level")
 
 # %% [markdown]
 # ## The table
@@ -63,7 +64,7 @@ for instruction in ("drive the nail", "knock over the tower with the mallet, hel
 # `"object_level"` grounds the tool only (whole tool, default contact).
 
 # %%
-for method in ("itup", "copa", "object_level"):
+for method in METHODS:
     r = itup.run("knock over the tower", tabletop=top, seed=4, method=method, samples=SAMPLES)
     pick = r.pick
     print(f"{method:13s} {r.stage:6s} {r.message}")

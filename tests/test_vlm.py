@@ -135,7 +135,7 @@ def test_timeout_unreachable_and_the_rule_fallback(stub, table):
 
 def test_the_whole_chain_takes_the_vlm_grounding(stub, table):
     stub.mode, stub.answer = "ok", {"task": "knock", "tool": 3, "work_part": "head", "grasp_part": "handle"}
-    r = itup.run("knock over the tower", tabletop=table, samples=512,
+    r = itup.run("knock over the tower", tabletop=table, samples=256,
                  grounder=VLMGrounder(url=stub.url, model="m", timeout=5, image=False))
     assert r.grounding.grounder == "vlm" and r.grounding.tool_name == "mallet" and r.stage != "grounding"
     assert isinstance(describe(table), str) and grounding.TARGETS["knock"] in describe(table)
