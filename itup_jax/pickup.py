@@ -44,6 +44,7 @@ from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.grasp_sampler import collision_points, gripper_collides
 from itup_jax.scene import attach_robot
+from itup_jax.simulate import _quat_to_matrix
 from itup_jax.tabletop import NOSLIP_ITERATIONS, ROLLING_FRICTION, TABLE_FRICTION, Tabletop, _add_tool_body
 from itup_jax.tool import Tool
 
@@ -98,13 +99,6 @@ class PickCandidates:
     counts: dict
 
 
-def _R(q: np.ndarray) -> np.ndarray:
-    out = np.empty(q.shape[:-1] + (9,))
-    for i, qi in enumerate(q.reshape(-1, 4)):
-        mujoco.mju_quat2Mat(out.reshape(-1, 9)[i], qi)
-    return out.reshape(q.shape[:-1] + (3, 3))
-
-
 def _corners(width: np.ndarray) -> np.ndarray:
     """[M, 24, 3] the corners of the open gripper's boxes in the grasp frame."""
     out = []
@@ -137,7 +131,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         raise InputError(f"pick_candidates: index {index} is not one of the table's 0-{len(top.tools) - 1}")
     T_wt = np.asarray(top.poses[index], float)
     p = np.asarray(grasps.p_tool_grasp, float)
-    R_tg = _R(np.asarray(grasps.q_tool_grasp, float))
+    R_tg = _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float))
     w = np.asarray(grasps.width, float)
     R_wg = T_wt[:3, :3] @ R_tg
     counts = {"given": len(p)}
@@ -202,7 +196,7 @@ def reachable_with_margin(task, grasps: Grasps) -> np.ndarray:
     from itup_jax.simulate import reachable
 
     p = np.asarray(grasps.p_tool_grasp, float)
-    R = _R(np.asarray(grasps.q_tool_grasp, float))
+    R = _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float))
     w = np.asarray(grasps.width, float)
     ps, Rs = [p], [R]
     for sgn in (-1.0, 1.0):
@@ -357,11 +351,11 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     T_wg = np.eye(4)
     T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
     T_wt = np.eye(4)
-    T_wt[:3, :3] = _R(d.qpos[tq + 3:tq + 7].copy())
+    T_wt[:3, :3] = _quat_to_matrix(d.qpos[tq + 3:tq + 7].copy())
     T_wt[:3, 3] = d.qpos[tq:tq + 3]
     T_tg = np.linalg.inv(T_wt) @ T_wg
     p_plan = np.asarray(grasp.p_tool_grasp, float).reshape(3)
-    R_plan = _R(np.asarray(grasp.q_tool_grasp, float).reshape(4))
+    R_plan = _quat_to_matrix(np.asarray(grasp.q_tool_grasp, float).reshape(4))
     pos_err = float(np.linalg.norm(T_tg[:3, 3] - p_plan))
     cos = (np.trace(R_plan.T @ T_tg[:3, :3]) - 1) / 2
     ang_err = float(np.arccos(np.clip(cos, -1.0, 1.0)))

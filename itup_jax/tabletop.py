@@ -94,18 +94,13 @@ def _rot(axis: Sequence[float], angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-def _quat(R: np.ndarray) -> np.ndarray:
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, np.asarray(R, float).ravel())
-    return q
-
-
 def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> list[str]:
     """A free body 'tool_<i>' at pose T that collides with the table and the other tools
     (`scene.add_tool_body`). Returns the geom names."""
     from itup_jax.scene import add_tool_body
+    from itup_jax.simulate import _quat_from_matrix
 
-    return add_tool_body(spec, tool, f"tool_{i}", pos=T[:3, 3], quat=_quat(T[:3, :3]), contype=1, conaffinity=1,
+    return add_tool_body(spec, tool, f"tool_{i}", pos=T[:3, 3], quat=_quat_from_matrix(T[:3, :3]), contype=1, conaffinity=1,
                          friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], condim=6)
 
 

@@ -196,7 +196,7 @@ def test_pick_candidates_point_down_and_clear_the_table(hammer_pick):
     top, i, tool, c = hammer_pick
     assert c.counts["given"] == 1024 and c.counts["reachable"] == len(c.index) > 5
     T = top.poses[i]
-    R = pickup._R(np.asarray(c.grasps.q_tool_grasp))
+    R = pickup._quat_to_matrix(np.asarray(c.grasps.q_tool_grasp))
     approach_z = (T[:3, :3] @ R[:, :, 2].T)[2]
     assert np.all(-approach_z >= np.cos(pickup.MAX_APPROACH_TILT) - 1e-9)
     corners = pickup._corners(np.asarray(c.grasps.width))
@@ -217,7 +217,7 @@ def test_no_pickable_grasp_is_an_empty_answer_not_an_error(hammer_pick):
     top, i, tool, c = hammer_pick
     # the same grasps with the approach turned to point up: none can be picked from above
     flip = np.diag([1.0, -1.0, -1.0])
-    R = pickup._R(np.asarray(c.grasps.q_tool_grasp)) @ flip
+    R = pickup._quat_to_matrix(np.asarray(c.grasps.q_tool_grasp)) @ flip
     up = itup.make_grasps(np.asarray(c.grasps.p_tool_grasp), R, np.asarray(c.grasps.width))
     none = pickup.pick_candidates(top, i, tool, up)
     assert none.grasps is None and none.counts["pointing_down"] == 0 and len(none.index) == 0
