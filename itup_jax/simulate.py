@@ -208,10 +208,20 @@ def arm_trajectory(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
     return q_traj, infeasible
 
 
+#: Candidates per `arm_trajectory` call in `reachable`: the IK's temporaries of 128 candidates x 64 samples
+#: x 8 branches stay below the allocator's mmap threshold and are reused; one call on 2,000 candidates
+#: costs ~3x the same work in chunks of 128 (each ~50 MB temporary is mapped and zeroed afresh).
+REACHABLE_CHUNK = 128
+
+
 def reachable(task: Task, grasps: Grasps) -> np.ndarray:
     """[N] bool: whether the arm can follow the task's trajectory holding each grasp (`arm_trajectory`;
-    the complement of `plan(...).infeasible`, without building controls)."""
-    return ~arm_trajectory(task, grasps)[1]
+    the complement of `plan(...).infeasible`, without building controls), in chunks of REACHABLE_CHUNK."""
+    g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
+    n = len(g)
+    if n <= REACHABLE_CHUNK:
+        return ~arm_trajectory(task, g)[1]
+    return np.concatenate([~arm_trajectory(task, g[s: s + REACHABLE_CHUNK])[1] for s in range(0, n, REACHABLE_CHUNK)])
 
 
 def reachability_in_order(task: Task, grasps: Grasps, order, chunk: int = 16):

@@ -280,6 +280,19 @@ def test_mjx_holds_a_long_handle_as_native_mujoco_does(tasks):
     np.testing.assert_allclose(mjx.peak_torque, native.peak_torque, rtol=MJX_TORQUE_RTOL)
 
 
+def test_reachable_in_chunks_equals_one_call_on_the_whole_batch(hammer):
+    """`reachable` checks REACHABLE_CHUNK candidates at a time; the answer is the one-call answer of
+    `arm_trajectory` on the whole batch, over a batch of several chunks and a partial last one."""
+    import sys
+
+    sim = sys.modules["itup_jax.simulate"]
+    tool, task, _ = hammer
+    g = itup.sample_grasps(tool, 2 * sim.REACHABLE_CHUNK + 37, seed=3)
+    ok = reachable(task, g)
+    np.testing.assert_array_equal(ok, ~sim.arm_trajectory(task, g)[1])
+    assert 0 < ok.sum() < len(g)  # both answers occur
+
+
 def test_host_quaternion_matrix_equals_the_jax_one(rng):
     """The planner's float64 host conversion is the grasp module's rotation (x64 in the tests)."""
     import sys
