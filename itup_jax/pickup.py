@@ -12,8 +12,9 @@ pose (`tabletop.Tabletop.poses`):
     table is thinner than the pads are long), the grasp moves up along its approach axis until the
     gripper's lowest point is TABLE_CLEARANCE above the table, so that the tool sits nearer the
     fingertips; at most by MAX_PAD_SHIFT (the pads must still cover the grasp point);
-  * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`) must touch no other tool
-    and not the tool itself, at the grasp and along the approach;
+  * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`, at the opening it approaches
+    with: fully open, APPROACH_OPENING) must touch no other tool and not the tool itself, at the grasp
+    and along the approach;
   * the tool's weight must not turn it in the pads as it comes up: the gravity torque about the jaw's
     closure axis at the rest pose (the axis the pads resist only by torsional friction) must stay below
     LIFT_TORQUE_SHARE of the pads' torsional capacity, 2 PAD_TORSION x grip force (a broom held at the
@@ -64,6 +65,9 @@ PICK_LIFT = 0.12
 #: m, the open gripper's extra opening per side, and the margin of its boxes against other tools.
 PICK_CLEARANCE = 0.005
 PICK_MARGIN = 0.002
+#: m, the jaw opening the clearance checks assume: the gripper approaches fully open (OPEN_FORCE holds
+#: the fingers at their stroke, a few millimetres past it in MuJoCo's soft limit), plus the clearance.
+APPROACH_OPENING = robot.GRIPPER_MAX_OPENING + 2 * PICK_CLEARANCE
 #: s, the pick's step and phases: settle at the pre-grasp, approach, close (the force ramps over
 #: GRIP_RAMP), lift, hold.
 PICK_TIMESTEP = 0.002
@@ -99,10 +103,10 @@ class PickCandidates:
     counts: dict
 
 
-def _corners(width: np.ndarray) -> np.ndarray:
-    """[M, 24, 3] the corners of the open gripper's boxes in the grasp frame."""
+def _corners(m: int) -> np.ndarray:
+    """[m, 24, 3] the corners of the open gripper's boxes (APPROACH_OPENING) in the grasp frame."""
     out = []
-    for _, lo, hi in gripper_boxes(width + 2 * PICK_CLEARANCE):
+    for _, lo, hi in gripper_boxes(np.full(m, APPROACH_OPENING)):
         for c in range(8):
             out.append(np.where([(c >> k) & 1 for k in range(3)], hi, lo))
     return np.stack(out, axis=1)
@@ -138,7 +142,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
     down = -R_wg[:, 2, 2] >= math.cos(MAX_APPROACH_TILT)
     counts["pointing_down"] = int(down.sum())
     # lowest gripper corner above the table; raise along -approach (world +z share -R_wg[2, 2])
-    corners = _corners(w)  # [M, 24, 3]
+    corners = _corners(len(w))  # [M, 24, 3]
     p_w = p @ T_wt[:3, :3].T + T_wt[:3, 3]
     z_low = p_w[:, 2] + np.einsum("mj,mcj->mc", R_wg[:, 2, :], corners).min(1)
     rise = np.maximum(-R_wg[:, 2, 2], 1e-6)
@@ -158,7 +162,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         for back in steps:
             if len(idx) == 0:
                 break
-            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], w[idx] + 2 * PICK_CLEARANCE,
+            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], np.full(len(idx), APPROACH_OPENING),
                                    PICK_MARGIN if j != index else 0.0)
             ok[idx[hit]] = False
             idx = idx[~hit]

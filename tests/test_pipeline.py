@@ -199,11 +199,46 @@ def test_pick_candidates_point_down_and_clear_the_table(hammer_pick):
     R = pickup._quat_to_matrix(np.asarray(c.grasps.q_tool_grasp))
     approach_z = (T[:3, :3] @ R[:, :, 2].T)[2]
     assert np.all(-approach_z >= np.cos(pickup.MAX_APPROACH_TILT) - 1e-9)
-    corners = pickup._corners(np.asarray(c.grasps.width))
+    corners = pickup._corners(len(c.index))
     p_w = np.asarray(c.grasps.p_tool_grasp) @ T[:3, :3].T + T[:3, 3]
     z = p_w[:, 2, None] + np.einsum("mj,mcj->mc", (T[:3, :3] @ R)[:, 2, :], corners)
     assert z.min() >= pickup.TABLE_CLEARANCE - 1e-9
     assert np.all(c.shift <= pickup.MAX_PAD_SHIFT) and c.shift.max() > 0  # a lying handle needs the shift
+
+
+def _deepest_touch_of_other_tools(top, i, cands):
+    """m: the deepest penetration, in MuJoCo, of the open gripper or arm into a table tool other than
+    tool i, over every candidate's pick path (pre-grasp to grasp) posed statically, the jaw fully open."""
+    from itup_jax.robot import ARM_JOINTS, GRIPPER_MAX_OPENING
+
+    m, _ = pickup.pick_model(top, i)
+    d = mujoco.MjData(m)
+    arm = [m.joint(f"ur5e/{j}").qposadr[0] for j in ARM_JOINTS]
+    fingers = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
+    others = {g for g in range(m.ngeom) if m.geom(g).name.startswith("tool_") and not m.geom(g).name.startswith(f"tool_{i}_")}
+    robot_geoms = {g for g in range(m.ngeom) if m.geom(g).name.startswith(("gripper/", "ur5e/"))}
+    deepest = 0.0
+    for path in cands.q_path:
+        for q in path[:pickup.PATH_SAMPLES + 1]:
+            d.qpos[:] = m.qpos0
+            d.qpos[arm], d.qpos[fingers] = q, GRIPPER_MAX_OPENING / 2
+            mujoco.mj_forward(m, d)
+            for c in d.contact[:d.ncon]:
+                pair = {int(c.geom1), int(c.geom2)}
+                if pair & others and pair & robot_geoms:
+                    deepest = min(deepest, float(c.dist))
+    return -deepest
+
+
+def test_the_open_gripper_approaches_clear_of_the_other_tools(tables):
+    """The clearance check assumes the jaw as the pick opens it (fully): posed along every candidate's
+    approach in MuJoCo, the gripper touches no other tool deeper than the check's point spacing allows."""
+    for top, instruction in ((tables[4], "knock over the tower"), (tabletop.make_tabletop(clutter=4, seed=1), "drive the nail")):
+        g = grounding.ground(instruction, top)
+        tool = g.grounded_tool(top)
+        c = pickup.pick_candidates(top, g.tool_index, tool, itup.sample_grasps(tool, 1024, seed=0))
+        assert c.grasps is not None and len(c.index) > 0
+        assert _deepest_touch_of_other_tools(top, g.tool_index, c) < 0.002, instruction
 
 
 def test_an_unstable_pick_is_reported_not_taken_for_a_result(hammer_pick, monkeypatch):
