@@ -9,7 +9,8 @@ with seed t (`tabletop.make_tabletop`) and every method of `pipeline.METHODS` ru
 with the same seed (the same sampling and the same physics draw: paired), `pipeline.run`. A cell's
 success rate comes with its exact binomial (Clopper-Pearson) 95 % interval; failures are broken down by
 the stage the run ended at (grounding, plan, pick, grip, task), with the success among the runs that
-picked the tool up and the median full induced peak wrist torque of their task rollouts. The paper's
+picked the tool up and the median full induced peak wrist torque of their task rollouts (the raw peak
+beside it). The paper's
 numbers (real robot, 10 trials per cell) are printed beside ours. Writes pipeline_ablation.json;
 `--from JSON [--first-trial K]` summarizes an earlier run's rows again (K: from table seed K on).
 """
@@ -56,7 +57,7 @@ def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
 def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
     """Per (clutter, task or 'total', method): successes with the Clopper-Pearson interval, the stages
     the runs ended at, how many picked the tool up (reached the task rollout) and the success among
-    those, and the median full induced peak wrist torque of the task rollouts (N m). Prints the tables
+    those, and the median full induced and raw peak wrist torques of the task rollouts (N m). Prints the tables
     beside the paper's."""
     cells = {}
     for clutter in clutters:
@@ -70,11 +71,13 @@ def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
                 stages = collections.Counter(r["stage"] for r in sel)
                 picked = [r for r in sel if r["stage"] in ("grip", "task", "done")]
                 torques = [r["peak_torque_induced"] for r in picked if r["peak_torque_induced"] is not None]
+                raw = [r["peak_torque"] for r in picked if r.get("peak_torque") is not None]
                 cells[f"{clutter}/{task}/{m}"] = {
                     "clutter": clutter, "task": task, "method": m, "successes": k, "trials": n, "rate": k / n,
                     "ci95": [lo, hi], "stages": {s: stages.get(s, 0) for s in STAGES}, "picked": len(picked),
                     "done_given_picked": (sum(r["success"] for r in picked) / len(picked)) if picked else None,
-                    "median_peak_torque_induced": float(np.median(torques)) if torques else None}
+                    "median_peak_torque_induced": float(np.median(torques)) if torques else None,
+                    "median_peak_torque": float(np.median(raw)) if raw else None}
     for clutter in clutters:
         paper = PAPER_TABLE2 if clutter == 0 else PAPER_TABLE3
         name = "Table II (no clutter)" if clutter == 0 else f"Table III (clutter {clutter})"
@@ -94,7 +97,8 @@ def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
             given = c["done_given_picked"]
             print(f"  {m:13s} picked {c['picked']}/{c['trials']}, done given picked "
                   f"{'-' if given is None else f'{100 * given:.0f} %'}, median full induced peak torque "
-                  f"{c['median_peak_torque_induced'] or float('nan'):.2f} N m; ended at {fails}")
+                  f"{c['median_peak_torque_induced'] or float('nan'):.2f} N m (raw "
+                  f"{c['median_peak_torque'] or float('nan'):.2f} N m); ended at {fails}")
     return cells
 
 
@@ -144,6 +148,7 @@ def main(argv=None) -> int:
                                  "pick_position_error_m": None if r.pick is None else r.pick.position_error,
                                  "pick_angle_error_rad": None if r.pick is None else r.pick.angle_error,
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],
+                                 "peak_torque": None if r.labels is None else r.labels["peak_torque"],
                                  "wall_s": round(r.wall_s, 2)})
             print(f"clutter {clutter} trial {t}: {time.perf_counter() - t0:.0f} s", flush=True)
     cells = summarize(rows, args.tasks, args.methods, (0, args.clutter))

@@ -339,6 +339,12 @@ def test_ablation_experiment_quick(tmp_path):
     j = json.loads((tmp_path / "pipeline_ablation.json").read_text())
     assert len(j["rows"]) == 4 and j["cells"]["0/total/itup"]["trials"] == 1
     assert sum(j["cells"]["2/hammer/copa"]["stages"].values()) == 1
+    # a run that reached the task reports its full induced and raw peak wrist torques, the cell their medians
+    for r in j["rows"]:
+        reached = r["stage"] in ("grip", "task", "done")
+        assert (r["peak_torque"] is not None) == reached == (r["peak_torque_induced"] is not None)
+    for c in j["cells"].values():
+        assert (c["median_peak_torque"] is None) == (c["picked"] == 0)
     import jsonschema
 
     with open(os.path.join(ROOT, "itup_jax", "schemas", "pipeline_ablation.schema.json")) as fh:
