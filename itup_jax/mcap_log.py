@@ -8,7 +8,8 @@ Channels (JSON messages, each with a JSON Schema registered under the name Foxgl
   /tf            foxglove.FrameTransforms  world -> gripper (the grasp frame), world -> tool,
                                            world -> target/<body> for every task object, and
                                            world -> body/<name> for every arm and gripper link, per step
-  /scene         foxglove.SceneUpdate      primitives attached to those frames (tool capsules/boxes,
+  /scene         foxglove.SceneUpdate      primitives attached to those frames (tool capsules/boxes, or
+                                           a user's mesh tool as triangles,
                                            the two pads, the task objects, the arm's and gripper's
                                            links) and the static environment (table, board) in the
                                            world frame, once, frame-locked
@@ -71,7 +72,10 @@ SCHEMAS: dict[str, dict] = {
                         "pose": _POSE, "size": _VEC3, "bottom_scale": {"type": "number"},
                         "top_scale": {"type": "number"}, "color": _COLOR}}},
                     "spheres": {"type": "array", "items": {"type": "object", "properties": {
-                        "pose": _POSE, "size": _VEC3, "color": _COLOR}}}}}}}},
+                        "pose": _POSE, "size": _VEC3, "color": _COLOR}}},
+                    "triangles": {"type": "array", "items": {"type": "object", "properties": {
+                        "pose": _POSE, "points": {"type": "array", "items": _VEC3}, "color": _COLOR,
+                        "indices": {"type": "array", "items": {"type": "integer", "minimum": 0}}}}}}}}}},
     "itup.WristWrench": {
         "title": "itup.WristWrench", "type": "object",
         "properties": {"timestamp": _TIME, "frame_id": {"type": "string"}, "force": _VEC3, "torque": _VEC3,
@@ -145,10 +149,17 @@ def _capsule_entities(p0, p1, radius, color) -> tuple[list, list]:
     return [cyl], sph
 
 
+def _triangles(vertices: np.ndarray, faces: np.ndarray, pose: dict, color: dict) -> dict:
+    """A Foxglove triangle list of a mesh: vertices [V, 3] (m) and faces [F, 3] (indices into them)."""
+    return {"pose": pose, "points": [_v(p) for p in np.asarray(vertices, float)], "color": color,
+            "indices": np.asarray(faces, np.int64).ravel().tolist()}
+
+
 def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
-    """Foxglove cubes, cylinders and spheres of MuJoCo geoms: in their body's frame (the model's geom_pos,
-    geom_quat), or at `poses` [(pos, quat_wxyz)] when given. Planes become 2 mm slabs; meshes are skipped."""
-    out = {"cubes": [], "cylinders": [], "spheres": []}
+    """Foxglove cubes, cylinders, spheres and triangle lists of MuJoCo geoms: in their body's frame (the
+    model's geom_pos, geom_quat), or at `poses` [(pos, quat_wxyz)] when given. Planes become 2 mm slabs;
+    a mesh geom (a user's tool: its convex hull) becomes its triangles."""
+    out = {"cubes": [], "cylinders": [], "spheres": [], "triangles": []}
     G = mujoco.mjtGeom
     for k, g in enumerate(geoms):
         size = np.asarray(m.geom_size[g], float)
@@ -174,6 +185,11 @@ def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
         elif kind == G.mjGEOM_SPHERE:
             d = 2 * float(size[0])
             out["spheres"].append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": d}, "color": color})
+        elif kind == G.mjGEOM_MESH:
+            k_mesh = int(m.geom_dataid[g])
+            v0, nv = int(m.mesh_vertadr[k_mesh]), int(m.mesh_vertnum[k_mesh])
+            f0, nf = int(m.mesh_faceadr[k_mesh]), int(m.mesh_facenum[k_mesh])
+            out["triangles"].append(_triangles(m.mesh_vert[v0:v0 + nv], m.mesh_face[f0:f0 + nf], _pose(pos, quat), color))
     return out
 
 
@@ -244,8 +260,10 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
         else:
             lo, hi = np.asarray(prim[1]), np.asarray(prim[2])
             cubes.append({"pose": _pose((lo + hi) / 2), "size": _v(hi - lo), "color": _rgba(0.5, 0.5, 0.55)})
+    # a user's mesh tool (no primitives) is drawn as its mesh, in the tool frame
+    tris = [] if scene.tool.primitives else [_triangles(scene.tool.mesh.vertices, scene.tool.mesh.faces, _pose(), wood)]
     entities.append({"timestamp": _time(0), "frame_id": "tool", "id": "tool", "lifetime": _time(0),
-                     "frame_locked": True, "cubes": cubes, "cylinders": cyls, "spheres": sphs})
+                     "frame_locked": True, "cubes": cubes, "cylinders": cyls, "spheres": sphs, "triangles": tris})
     pad = m.geom("gripper/pad_neg")
     half = np.asarray(m.geom_size[pad.id], float)
     pads = [{"pose": _pose((0, s * (width / 2 + half[1]), 0)), "size": _v(2 * half), "color": _rgba(0.2, 0.2, 0.2)}

@@ -110,3 +110,56 @@ def test_the_log_shows_the_arm_gripper_and_environment(logged, tasks):
         mujoco.mju_quat2Mat(R, q_b)
         p_site = p_b + R.reshape(3, 3) @ m.site_pos[site.id]
         np.testing.assert_allclose(p_site, [g["translation"][k] for k in "xyz"], atol=1e-6)
+
+
+def test_a_mesh_geom_is_drawn_as_its_triangles():
+    """A mesh geom (a user's tool: its convex hull) becomes a Foxglove triangle list whose points, placed
+    at the geom's pose, span the mesh where MuJoCo has it (MuJoCo re-centres mesh vertices on their
+    centroid and moves the geom's pose to match)."""
+    import trimesh
+
+    from itup_jax.mcap_log import _geom_primitives
+
+    box = trimesh.creation.box(extents=[0.02, 0.04, 0.30])
+    box.apply_translation([0.01, 0.0, 0.15])  # the handle's end at the origin, off the centroid
+    spec = mujoco.MjSpec()
+    spec.add_mesh(name="hull", uservert=np.asarray(box.vertices, float).ravel(),
+                  userface=np.asarray(box.faces, np.int32).ravel())
+    body = spec.worldbody.add_body(name="tool")
+    body.add_geom(name="tool_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="hull")
+    m = spec.compile()
+    prims = _geom_primitives(m, [0])
+    (tri,) = prims["triangles"]
+    pts = np.array([[p["x"], p["y"], p["z"]] for p in tri["points"]])
+    idx = np.array(tri["indices"])
+    assert len(idx) == 3 * len(box.faces) and idx.min() == 0 and idx.max() == len(pts) - 1
+    o = tri["pose"]["orientation"]
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, np.array([o["w"], o["x"], o["y"], o["z"]]))
+    pos = np.array([tri["pose"]["position"][k] for k in "xyz"])
+    placed = pts @ R.reshape(3, 3).T + pos
+    np.testing.assert_allclose(placed.min(0), [0.0, -0.02, 0.0], atol=1e-9)
+    np.testing.assert_allclose(placed.max(0), [0.02, 0.02, 0.30], atol=1e-9)
+    assert not prims["cubes"] and not prims["cylinders"] and not prims["spheres"]
+
+
+def test_a_users_mesh_tool_is_drawn_in_the_task_log(tmp_path):
+    """A mesh tool has no primitives: the task log's tool entity carries its mesh, in the tool frame."""
+    import trimesh
+
+    from itup_jax.mcap_log import _scene_update
+
+    handle = trimesh.creation.cylinder(radius=0.014, height=0.28,
+                                       transform=trimesh.transformations.translation_matrix([0, 0, 0.14]))
+    head = trimesh.creation.box(extents=[0.09, 0.04, 0.04], transform=trimesh.transformations.translation_matrix([0, 0, 0.30]))
+    trimesh.boolean.union([handle, head], engine="manifold").export(tmp_path / "mallet.stl")
+    spec = {"name": "my_mallet", "category": "mallet", "contact_point": [0.045, 0, 0.30], "contact_normal": [1, 0, 0],
+            "grasp_region": {"min": [-0.03, -0.03, 0], "max": [0.03, 0.03, 0.2]}}
+    tool = itup.load_tool(str(tmp_path / "mallet.stl"), spec)
+    assert not tool.primitives
+    scene = build_scene(tool, itup.make_task("knock", tool))
+    (ent,) = [e for e in _scene_update(scene, itup.make_task("knock", tool), 0.03)["entities"] if e["id"] == "tool"]
+    (tri,) = ent["triangles"]
+    pts = np.array([[p["x"], p["y"], p["z"]] for p in tri["points"]])
+    np.testing.assert_allclose(pts, tool.mesh.vertices)
+    assert len(tri["indices"]) == 3 * len(tool.mesh.faces) and ent["frame_id"] == "tool"
