@@ -12,9 +12,9 @@ pose (`tabletop.Tabletop.poses`):
     table is thinner than the pads are long), the grasp moves up along its approach axis until the
     gripper's lowest point is TABLE_CLEARANCE above the table, so that the tool sits nearer the
     fingertips; at most by MAX_PAD_SHIFT (the pads must still cover the grasp point);
-  * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`, at the opening it approaches
-    with: fully open, APPROACH_OPENING) must touch no other tool and not the tool itself, at the grasp
-    and along the approach;
+  * the open gripper (pads, fingers and palm boxes, `grasp.gripper_boxes`, pre-shaped to the opening it
+    approaches with, `approach_opening`: the grasp's width plus PICK_CLEARANCE a side) must touch no
+    other tool and not the tool itself, at the grasp and along the approach;
   * the tool's weight must not turn it in the pads as it comes up: the gravity torque about the jaw's
     closure axis at the rest pose (the axis the pads resist only by torsional friction) must stay below
     LIFT_TORQUE_SHARE of the pads' torsional capacity, 2 PAD_TORSION x grip force (a broom held at the
@@ -24,7 +24,8 @@ pose (`tabletop.Tabletop.poses`):
 The shifted grasps are what the pipeline then scores and plans with (`pipeline`).
 
 `execute_pick` rolls the pick out natively in MuJoCo (step PICK_TIMESTEP) in a scene with the table,
-every tool at rest, the UR5e and the gripper: the arm starts at the pre-grasp with the gripper open,
+every tool at rest, the UR5e and the gripper: the arm starts at the pre-grasp with the jaw pre-shaped
+to `approach_opening` (a servo on the grip actuator holds it there),
 descends along the approach, closes (the grip force rises to `grip_force` per pad over GRIP_RAMP),
 lifts PICK_LIFT and holds. It measures, rather than assumes, the grasp it achieved: the tool's pose in
 the grasp frame after the lift (`PickResult.achieved`), its error against the planned grasp, and
@@ -65,9 +66,10 @@ PICK_LIFT = 0.12
 #: m, the open gripper's extra opening per side, and the margin of its boxes against other tools.
 PICK_CLEARANCE = 0.005
 PICK_MARGIN = 0.002
-#: m, the jaw opening the clearance checks assume: the gripper approaches fully open (OPEN_FORCE holds
-#: the fingers at their stroke, a few millimetres past it in MuJoCo's soft limit), plus the clearance.
-APPROACH_OPENING = robot.GRIPPER_MAX_OPENING + 2 * PICK_CLEARANCE
+#: N/m, N s/m: the jaw's pre-shape servo (pad opening held at `approach_opening` while the arm settles
+#: and approaches; its force within +-OPEN_FORCE), as a position-controlled 2F-85 opens to a set width.
+PRESHAPE_GAIN = 4000.0
+PRESHAPE_DAMPING = 40.0
 #: s, the pick's step and phases: settle at the pre-grasp, approach, close (the force ramps over
 #: GRIP_RAMP), lift, hold.
 PICK_TIMESTEP = 0.002
@@ -103,10 +105,16 @@ class PickCandidates:
     counts: dict
 
 
-def _corners(m: int) -> np.ndarray:
-    """[m, 24, 3] the corners of the open gripper's boxes (APPROACH_OPENING) in the grasp frame."""
+def approach_opening(width: np.ndarray) -> np.ndarray:
+    """m: the jaw opening a pick approaches with (pre-shaped), per grasp width [M] m: the width plus
+    PICK_CLEARANCE a side, at most the stroke. The clearance checks and `execute_pick` both use it."""
+    return np.minimum(np.asarray(width, float) + 2 * PICK_CLEARANCE, robot.GRIPPER_MAX_OPENING)
+
+
+def _corners(width: np.ndarray) -> np.ndarray:
+    """[M, 24, 3] the corners of the pre-shaped gripper's boxes (`approach_opening`) in the grasp frame."""
     out = []
-    for _, lo, hi in gripper_boxes(np.full(m, APPROACH_OPENING)):
+    for _, lo, hi in gripper_boxes(approach_opening(width)):
         for c in range(8):
             out.append(np.where([(c >> k) & 1 for k in range(3)], hi, lo))
     return np.stack(out, axis=1)
@@ -142,7 +150,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
     down = -R_wg[:, 2, 2] >= math.cos(MAX_APPROACH_TILT)
     counts["pointing_down"] = int(down.sum())
     # lowest gripper corner above the table; raise along -approach (world +z share -R_wg[2, 2])
-    corners = _corners(len(w))  # [M, 24, 3]
+    corners = _corners(w)  # [M, 24, 3]
     p_w = p @ T_wt[:3, :3].T + T_wt[:3, 3]
     z_low = p_w[:, 2] + np.einsum("mj,mcj->mc", R_wg[:, 2, :], corners).min(1)
     rise = np.maximum(-R_wg[:, 2, 2], 1e-6)
@@ -162,7 +170,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         for back in steps:
             if len(idx) == 0:
                 break
-            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], np.full(len(idx), APPROACH_OPENING),
+            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], approach_opening(w[idx]),
                                    PICK_MARGIN if j != index else 0.0)
             ok[idx[hit]] = False
             idx = idx[~hit]
@@ -298,7 +306,14 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
     tq = m.joint(f"tool_{index}").qposadr[0]
     d.qpos[arm_q] = q_path[0]
-    d.qpos[fq] = robot.GRIPPER_MAX_OPENING / 2
+    # the jaw pre-shaped to the opening the clearance checks assumed (pad faces INITIAL_SQUEEZE past qpos)
+    q_open = float(approach_opening(np.asarray(grasp.width, float).reshape(-1)[:1])[0]) / 2 - INITIAL_SQUEEZE
+    d.qpos[fq] = q_open
+    fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
+
+    def preshape() -> float:
+        f = PRESHAPE_GAIN * (d.qpos[fq].mean() - q_open) + PRESHAPE_DAMPING * d.qvel[fv].mean()
+        return float(np.clip(f, -OPEN_FORCE, OPEN_FORCE))
     mujoco.mj_forward(m, d)
     body = m.body(f"tool_{index}").id
     z0 = float(d.xipos[body][2])
@@ -313,16 +328,16 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     for k in range(nstep):
         t = (k + 1) * dt
         if t <= settle:
-            q, qd, f = q_path[0], np.zeros(6), -OPEN_FORCE
+            q, qd, f = q_path[0], np.zeros(6), preshape()
         elif t <= settle + t_app:
             s = (t - settle) / t_app * n_half
             i0 = min(int(s), n_half - 1)
             q = q_down[i0] + (s - i0) * (q_down[i0 + 1] - q_down[i0])
             qd = (q_down[i0 + 1] - q_down[i0]) * n_half / t_app
-            f = -OPEN_FORCE
+            f = preshape()
         elif t <= settle + t_app + t_close:
             q, qd = q_down[-1], np.zeros(6)
-            f = -OPEN_FORCE + (grip_force + OPEN_FORCE) * min((t - settle - t_app) / GRIP_RAMP, 1.0)
+            f = grip_force * min((t - settle - t_app) / GRIP_RAMP, 1.0)
         elif t <= settle + t_app + t_close + t_lift:
             s = (t - settle - t_app - t_close) / t_lift * n_half
             i0 = min(int(s), n_half - 1)

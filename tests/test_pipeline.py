@@ -199,7 +199,7 @@ def test_pick_candidates_point_down_and_clear_the_table(hammer_pick):
     R = pickup._quat_to_matrix(np.asarray(c.grasps.q_tool_grasp))
     approach_z = (T[:3, :3] @ R[:, :, 2].T)[2]
     assert np.all(-approach_z >= np.cos(pickup.MAX_APPROACH_TILT) - 1e-9)
-    corners = pickup._corners(len(c.index))
+    corners = pickup._corners(np.asarray(c.grasps.width))
     p_w = np.asarray(c.grasps.p_tool_grasp) @ T[:3, :3].T + T[:3, 3]
     z = p_w[:, 2, None] + np.einsum("mj,mcj->mc", (T[:3, :3] @ R)[:, 2, :], corners)
     assert z.min() >= pickup.TABLE_CLEARANCE - 1e-9
@@ -208,8 +208,10 @@ def test_pick_candidates_point_down_and_clear_the_table(hammer_pick):
 
 def _deepest_touch_of_other_tools(top, i, cands):
     """m: the deepest penetration, in MuJoCo, of the open gripper or arm into a table tool other than
-    tool i, over every candidate's pick path (pre-grasp to grasp) posed statically, the jaw fully open."""
-    from itup_jax.robot import ARM_JOINTS, GRIPPER_MAX_OPENING
+    tool i, over every candidate's pick path (pre-grasp to grasp) posed statically, the jaw pre-shaped
+    as `execute_pick` opens it."""
+    from itup_jax.robot import ARM_JOINTS
+    from itup_jax.simulate import INITIAL_SQUEEZE
 
     m, _ = pickup.pick_model(top, i)
     d = mujoco.MjData(m)
@@ -218,10 +220,10 @@ def _deepest_touch_of_other_tools(top, i, cands):
     others = {g for g in range(m.ngeom) if m.geom(g).name.startswith("tool_") and not m.geom(g).name.startswith(f"tool_{i}_")}
     robot_geoms = {g for g in range(m.ngeom) if m.geom(g).name.startswith(("gripper/", "ur5e/"))}
     deepest = 0.0
-    for path in cands.q_path:
+    for path, opening in zip(cands.q_path, pickup.approach_opening(np.asarray(cands.grasps.width))):
         for q in path[:pickup.PATH_SAMPLES + 1]:
             d.qpos[:] = m.qpos0
-            d.qpos[arm], d.qpos[fingers] = q, GRIPPER_MAX_OPENING / 2
+            d.qpos[arm], d.qpos[fingers] = q, opening / 2 - INITIAL_SQUEEZE
             mujoco.mj_forward(m, d)
             for c in d.contact[:d.ncon]:
                 pair = {int(c.geom1), int(c.geom2)}
@@ -231,7 +233,7 @@ def _deepest_touch_of_other_tools(top, i, cands):
 
 
 def test_the_open_gripper_approaches_clear_of_the_other_tools(tables):
-    """The clearance check assumes the jaw as the pick opens it (fully): posed along every candidate's
+    """The clearance check assumes the jaw as the pick opens it (pre-shaped): posed along every candidate's
     approach in MuJoCo, the gripper touches no other tool deeper than the check's point spacing allows."""
     for top, instruction in ((tables[4], "knock over the tower"), (tabletop.make_tabletop(clutter=4, seed=1), "drive the nail")):
         g = grounding.ground(instruction, top)
@@ -279,6 +281,28 @@ def test_a_pick_lifts_the_tool_in_the_pads_and_measures_the_grasp_it_achieved(ha
     poses[i, 1, 3] -= 0.4
     bad = pickup.execute_pick(dataclasses.replace(top, poses=poses), i, c.grasps[0:1], c.q_path[0])
     assert not bad.lifted and bad.achieved is None
+
+
+def test_the_jaw_approaches_pre_shaped_to_the_checked_opening(hammer_pick, monkeypatch):
+    """While the arm settles and descends, the pre-shape servo holds the pad faces at `approach_opening`
+    (the opening the clearance checks assumed), then the jaw closes on the tool."""
+    from itup_jax.simulate import INITIAL_SQUEEZE
+
+    top, i, tool, c = hammer_pick
+    seen, step = [], mujoco.mj_step
+    settle, t_app = pickup.PICK_PHASES[:2]
+
+    def watched(m, d, *a):
+        step(m, d, *a)
+        fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
+        seen.append((d.time, float(d.qpos[fq].mean())))
+
+    monkeypatch.setattr(pickup.mujoco, "mj_step", watched)
+    r = pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0])
+    target = float(pickup.approach_opening(np.asarray(c.grasps.width)[:1])[0]) / 2 - INITIAL_SQUEEZE
+    during = np.array([q for t, q in seen if 0.05 <= t <= settle + t_app])
+    assert np.abs(during - target).max() < 0.001
+    assert r.lifted and seen[-1][1] < target - 0.003  # closed on the tool
 
 
 # ---------------------------------------------------------------------------------------------- the chain
