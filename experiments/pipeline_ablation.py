@@ -12,7 +12,12 @@ the stage the run ended at (grounding, plan, pick, grip, task), with the success
 picked the tool up and the median full induced peak wrist torque of their task rollouts (the raw peak
 beside it). The paper's
 numbers (real robot, 10 trials per cell) are printed beside ours. Writes pipeline_ablation.json;
-`--from JSON [--first-trial K]` summarizes an earlier run's rows again (K: from table seed K on).
+`--from JSON [JSON ...] [--first-trial K]` summarizes earlier runs' rows again (K: from table seed K on),
+merging runs of different tasks, e.g. two processes on a 2-core machine:
+
+    python experiments/pipeline_ablation.py --tasks hammer sweep --out /tmp/a &
+    python experiments/pipeline_ablation.py --tasks knock reach --out /tmp/b; wait
+    python experiments/pipeline_ablation.py --from /tmp/a/pipeline_ablation.json /tmp/b/pipeline_ablation.json --out results/pipeline
 """
 
 from __future__ import annotations
@@ -102,6 +107,33 @@ def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
     return cells
 
 
+def merge_runs(paths: list[str]) -> dict:
+    """One run's document from the pipeline_ablation.json of runs of the same trials, clutter, methods and
+    samples (e.g. different --tasks run in parallel): their rows and tasks together. Exits 2 when they
+    differ in those settings or hold the same run twice."""
+    docs = []
+    for path in paths:
+        with open(path) as fh:
+            docs.append(json.load(fh))
+    same = ("trials", "clutter", "methods", "samples")
+    for path, d in zip(paths[1:], docs[1:]):
+        differ = [k for k in same if d.get(k) != docs[0].get(k)]
+        if differ:
+            print(f"pipeline_ablation: --from {path}: {', '.join(differ)} differ from {paths[0]}'s", file=sys.stderr)
+            raise SystemExit(2)
+    rows = [r for d in docs for r in d["rows"]]
+    keys = collections.Counter((r["clutter"], r["trial"], r["task"], r["method"]) for r in rows)
+    twice = [k for k, n in keys.items() if n > 1]
+    if twice:
+        print(f"pipeline_ablation: --from: {len(twice)} runs appear twice (e.g. clutter, trial, task, method = "
+              f"{twice[0]}); give runs of different tasks", file=sys.stderr)
+        raise SystemExit(2)
+    tasks = [t for t in INSTRUCTIONS if any(t in d["tasks"] for d in docs)]
+    # wall_s: the longest of the merged runs (their wall time when they ran side by side)
+    return {**docs[0], "tasks": tasks, "rows": rows, "wall_s": max(d.get("wall_s", 0.0) for d in docs),
+            "wall_s_runs": [d.get("wall_s") for d in docs]}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trials", type=int, default=50, help="tables per task and clutter setting")
@@ -110,18 +142,18 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
     ap.add_argument("--samples", type=int, default=2048)
     ap.add_argument("--quick", action="store_true", help="1 trial, the hammer, 2 methods, clutter 2, 256 samples (tests)")
-    ap.add_argument("--from", dest="from_json", default=None, metavar="JSON",
-                    help="summarize the rows of an earlier run's pipeline_ablation.json instead of running")
+    ap.add_argument("--from", dest="from_json", nargs="+", default=None, metavar="JSON",
+                    help="summarize the rows of earlier runs' pipeline_ablation.json instead of running; several "
+                    "are merged (e.g. runs of different --tasks in parallel processes)")
     ap.add_argument("--first-trial", type=int, default=0,
                     help="with --from: only trials from this seed on (e.g. tables not looked at while the "
                     "pipeline's filters were chosen)")
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
     if args.from_json:
-        with open(args.from_json) as fh:
-            old = json.load(fh)
+        old = merge_runs(args.from_json)
         rows = [r for r in old["rows"] if r["trial"] >= args.first_trial]
-        print(f"{args.from_json}: trials {args.first_trial}..{old['trials'] - 1}")
+        print(f"{', '.join(args.from_json)}: trials {args.first_trial}..{old['trials'] - 1}")
         cells = summarize(rows, old["tasks"], old["methods"], (0, old["clutter"]))
         out = {**old, "cells": cells, "rows": rows, "first_trial": args.first_trial}
         os.makedirs(args.out, exist_ok=True)

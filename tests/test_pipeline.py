@@ -373,3 +373,14 @@ def test_ablation_experiment_quick(tmp_path):
 
     with open(os.path.join(ROOT, "itup_jax", "schemas", "pipeline_ablation.schema.json")) as fh:
         jsonschema.validate(j, json.load(fh))
+    # runs of different tasks merge into one summary; the same run given twice is refused
+    other = dict(j, tasks=["knock"], rows=[dict(r, task="knock") for r in j["rows"]])
+    (tmp_path / "b.json").write_text(json.dumps(other))
+    first = str(tmp_path / "pipeline_ablation.json")
+    assert ns["main"](["--from", first, str(tmp_path / "b.json"), "--out", str(tmp_path / "m")]) == 0
+    merged = json.loads((tmp_path / "m" / "pipeline_ablation.json").read_text())
+    assert merged["tasks"] == ["hammer", "knock"] and len(merged["rows"]) == 8
+    assert merged["cells"]["0/total/itup"]["trials"] == 2
+    with pytest.raises(SystemExit) as e:
+        ns["main"](["--from", first, first, "--out", str(tmp_path / "n")])
+    assert e.value.code == 2 and not (tmp_path / "n").exists()
