@@ -39,3 +39,19 @@ def hammer_grasps(tools):
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)
+
+
+@pytest.fixture(scope="session")
+def user_mallet(tmp_path_factory):
+    """A user's mesh tool: a mallet (28 mm round handle, 90 x 40 x 40 mm head) written as STL, in metres,
+    handle along +z and face along +x, loaded through the spec path (`itup.load_tool`)."""
+    import trimesh
+
+    folder = tmp_path_factory.mktemp("user_mallet")
+    handle = trimesh.creation.cylinder(radius=0.014, height=0.28,
+                                       transform=trimesh.transformations.translation_matrix([0, 0, 0.14]))
+    head = trimesh.creation.box(extents=[0.09, 0.04, 0.04], transform=trimesh.transformations.translation_matrix([0, 0, 0.30]))
+    trimesh.boolean.union([handle, head], engine="manifold").export(folder / "mallet.stl")
+    spec = {"name": "my_mallet", "category": "mallet", "contact_point": [0.045, 0, 0.30], "contact_normal": [1, 0, 0],
+            "grasp_region": {"min": [-0.03, -0.03, 0], "max": [0.03, 0.03, 0.2]}}
+    return itup.load_tool(str(folder / "mallet.stl"), spec)

@@ -143,19 +143,11 @@ def test_a_mesh_geom_is_drawn_as_its_triangles():
     assert not prims["cubes"] and not prims["cylinders"] and not prims["spheres"]
 
 
-def test_a_users_mesh_tool_is_drawn_in_the_task_log(tmp_path):
+def test_a_users_mesh_tool_is_drawn_in_the_task_log(user_mallet):
     """A mesh tool has no primitives: the task log's tool entity carries its mesh, in the tool frame."""
-    import trimesh
-
     from itup_jax.mcap_log import _scene_update
 
-    handle = trimesh.creation.cylinder(radius=0.014, height=0.28,
-                                       transform=trimesh.transformations.translation_matrix([0, 0, 0.14]))
-    head = trimesh.creation.box(extents=[0.09, 0.04, 0.04], transform=trimesh.transformations.translation_matrix([0, 0, 0.30]))
-    trimesh.boolean.union([handle, head], engine="manifold").export(tmp_path / "mallet.stl")
-    spec = {"name": "my_mallet", "category": "mallet", "contact_point": [0.045, 0, 0.30], "contact_normal": [1, 0, 0],
-            "grasp_region": {"min": [-0.03, -0.03, 0], "max": [0.03, 0.03, 0.2]}}
-    tool = itup.load_tool(str(tmp_path / "mallet.stl"), spec)
+    tool = user_mallet
     assert not tool.primitives
     scene = build_scene(tool, itup.make_task("knock", tool))
     (ent,) = [e for e in _scene_update(scene, itup.make_task("knock", tool), 0.03)["entities"] if e["id"] == "tool"]

@@ -159,17 +159,8 @@ def test_same_seed_same_table_and_clear_errors(tables):
         tabletop.make_tabletop(targets=["cake"])
 
 
-def test_a_users_mesh_tool_lies_on_the_table_and_is_grounded_by_its_category(tmp_path):
-    import trimesh
-
-    handle = trimesh.creation.cylinder(radius=0.014, height=0.28,
-                                       transform=trimesh.transformations.translation_matrix([0, 0, 0.14]))
-    head = trimesh.creation.box(extents=[0.09, 0.04, 0.04], transform=trimesh.transformations.translation_matrix([0, 0, 0.30]))
-    trimesh.boolean.union([handle, head], engine="manifold").export(tmp_path / "mallet.stl")
-    spec = {"name": "my_mallet", "category": "mallet", "contact_point": [0.045, 0, 0.30], "contact_normal": [1, 0, 0],
-            "grasp_region": {"min": [-0.03, -0.03, 0], "max": [0.03, 0.03, 0.2]}}
-    mine = itup.load_tool(str(tmp_path / "mallet.stl"), spec)
-    top = tabletop.make_tabletop(["hammer", mine], seed=1)
+def test_a_users_mesh_tool_lies_on_the_table_and_is_grounded_by_its_category(user_mallet):
+    top = tabletop.make_tabletop(["hammer", user_mallet], seed=1)
     assert top.rest_speed < tabletop.REST_SPEED and abs(top.poses[1][2, 2]) < 0.35  # lying
     g = grounding.ground("knock over the tower with the mallet", top)
     assert (g.tool_name, g.work_part, g.grasp_part) == ("my_mallet", "head", "handle")
