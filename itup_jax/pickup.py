@@ -160,6 +160,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
     p_s = p - shift[:, None] * R_tg[:, :, 2]
     # the open gripper against every tool at the grasp and along the approach (in this tool's frame)
     T_tw = np.linalg.inv(T_wt)
+    opening = approach_opening(w)
     for j, (other, T_wo) in enumerate(zip(top.tools, top.poses)):
         if not ok.any():
             break
@@ -170,7 +171,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         for back in steps:
             if len(idx) == 0:
                 break
-            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], approach_opening(w[idx]),
+            hit = gripper_collides(pts, R_tg[idx], p_s[idx] - back * R_tg[idx, :, 2], opening[idx],
                                    PICK_MARGIN if j != index else 0.0)
             ok[idx[hit]] = False
             idx = idx[~hit]

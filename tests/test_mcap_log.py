@@ -149,8 +149,8 @@ def test_a_users_mesh_tool_is_drawn_in_the_task_log(user_mallet):
 
     tool = user_mallet
     assert not tool.primitives
-    scene = build_scene(tool, itup.make_task("knock", tool))
-    (ent,) = [e for e in _scene_update(scene, itup.make_task("knock", tool), 0.03)["entities"] if e["id"] == "tool"]
+    task = itup.make_task("knock", tool)
+    (ent,) = [e for e in _scene_update(build_scene(tool, task), task, 0.03)["entities"] if e["id"] == "tool"]
     (tri,) = ent["triangles"]
     pts = np.array([[p["x"], p["y"], p["z"]] for p in tri["points"]])
     np.testing.assert_allclose(pts, tool.mesh.vertices)
