@@ -606,7 +606,7 @@ def cmd_demo(args) -> int:
 def cmd_run(args) -> int:
     """The whole chain from an instruction: grounding, pick from the table, the task (`pipeline.run`)."""
     import itup_jax as itup
-    from itup_jax import tabletop
+    from itup_jax import pickup, tabletop
     from itup_jax.grounding import GroundingError
 
     _check_out_dir("--out", args.out)
@@ -641,7 +641,10 @@ def cmd_run(args) -> int:
     c = r.counts
     if c:
         print(f"grasps: {c['sampled']} sampled, {c.get('pick_reachable', 0)} can be picked from the rest pose, "
-              f"{c.get('task_reachable', 0)} of those can be carried through the task")
+              f"{c.get('task_reachable', 0)} of those can be carried through the task, {c.get('lift_within_share', 0)} "
+              f"of those load the pads' torsional grip in the lift within {pickup.LIFT_TORQUE_SHARE:.0%} of its capacity")
+        if c.get("scored") and not c.get("lift_within_share"):
+            print(f"  none does: scored the {c['scored']} that load it least (the tool may turn in the pads)")
     if r.pick is not None:
         p = r.pick
         print(f"pick: {'lifted' if p.lifted else 'failed'} (rose {p.rise * 1000:.0f} mm); achieved grasp "

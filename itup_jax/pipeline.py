@@ -12,7 +12,10 @@ The stages (the paper's six, in simulation):
        Omega's c_obj and d);
   4.   grasp sampling on the grounded tool (`grasp_sampler`), kept where the arm can pick them from the
        tool's rest pose (`pickup.pick_candidates`) and carry them through the task with a margin for the
-       pick's error (`pickup.reachable_with_margin`);
+       pick's error (`pickup.reachable_with_margin`); of those, the ones whose lift loads the pads'
+       torsional grip within `pickup.LIFT_TORQUE_SHARE` of its capacity (the tool's weight and the
+       other tools' loads over a simulated lift, `pickup.lift_torque`), or, when there are none, the
+       MIN_CANDIDATES that load it least (the weight alone always within `pickup.LIFT_TORQUE_LIMIT`);
   5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
        it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
@@ -83,8 +86,10 @@ class RunResult:
       message: one sentence on why it ended there.
       grounding: `grounding.Grounding` (None when grounding failed).
       tabletop: the `Tabletop`.  tool: the grounded tool (None before).
-      counts: candidates at each filter (sampled, pickable, task-reachable).
-      choice: the chosen candidate's index among the task-reachable ones and its score.
+      counts: candidates at each filter (sampled, pickable, task-reachable, within the lift torque
+        share, scored).
+      choice: the chosen candidate's index among the scored ones, its score and its lift load
+        (`pickup.lift_torque`).
       pick: `pickup.PickResult` (None when no pick ran).
       labels: the task rollout's labels as {name: value} (None when none ran).
       seed: the run's seed (sampling, physics).  wall_s: seconds.
@@ -185,7 +190,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     """
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
-    from itup_jax.pickup import execute_pick, pick_candidates, reachable_with_margin
+    from itup_jax.pickup import LIFT_TORQUE_SHARE, execute_pick, pick_candidates, reachable_with_margin
     from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
 
     if method not in METHODS:
@@ -212,15 +217,17 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         task = itup.make_task(g.task, tool)
     except InputError as exc:
         return end("plan", str(exc), grounding=g, tool=tool)
-    # rounds of `samples` grasps until MIN_CANDIDATES can be picked and carried through the task
+    # rounds of `samples` grasps until MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried
+    # through the task
     counts: dict = {"sampled": 0, "rounds": 0}
-    found = []  # (grasps, shift, q_path) of each round's pickable, task-reachable candidates
+    found = []  # (grasps, shift, q_path, lift_load) of each round's pickable, task-reachable candidates
     for r in range(SAMPLE_ROUNDS):
         try:
             grasps = itup.sample_grasps(tool, int(samples), seed=int(seed) * SAMPLE_ROUNDS + r)
         except SamplingError as exc:
             return end("plan", str(exc), grounding=g, tool=tool, counts=counts)
-        cands = pick_candidates(top, g.tool_index, tool, grasps, grip_force=grip_force)
+        cands = pick_candidates(top, g.tool_index, tool, grasps, grip_force=grip_force,
+                                lift_torque_share=math.inf)
         counts["sampled"] += int(samples)
         counts["rounds"] += 1
         for k, v in cands.counts.items():
@@ -230,8 +237,10 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         counts["task_reachable"] = counts.get("task_reachable", 0) + int(ok.sum())
         if ok.any():
             keep = np.nonzero(ok)[0]
-            found.append((cands.grasps[keep], cands.shift[keep], cands.q_path[keep]))
-        if counts["task_reachable"] >= MIN_CANDIDATES:
+            found.append((cands.grasps[keep], cands.shift[keep], cands.q_path[keep], cands.lift_load[keep]))
+            counts["lift_within_share"] = counts.get("lift_within_share", 0) + int(
+                (cands.lift_load[keep] <= LIFT_TORQUE_SHARE).sum())
+        if counts.get("lift_within_share", 0) >= MIN_CANDIDATES:
             break
     if not found:
         what = (f"none of {counts['sampled']} grasps on the {tool.name} can be picked from its rest pose"
@@ -243,12 +252,22 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
                                 width=np.concatenate([np.asarray(f[0].width) for f in found]))
     shifts = np.concatenate([f[1] for f in found])
     q_paths = np.concatenate([f[2] for f in found])
+    lift_load = np.concatenate([f[3] for f in found])
+    # plan within the lift torque share where any grasp allows it (else among the MIN_CANDIDATES that
+    # load the lift least)
+    if counts.get("lift_within_share"):
+        keep = np.nonzero(lift_load <= LIFT_TORQUE_SHARE)[0]
+    else:
+        keep = np.sort(np.argsort(lift_load, kind="stable")[:MIN_CANDIDATES])
+    grasps_k, shifts, q_paths, lift_load = grasps_k[keep], shifts[keep], q_paths[keep], lift_load[keep]
+    counts["scored"] = len(keep)
     scorer = METHODS[method][1]
     scores = itup.score(tool, task, grasps_k, model=model if (scorer == "sdgnet" and model is not None) else scorer,
                         seed=int(seed))
     total = np.asarray(scores.total, float)
     best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
     choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(shifts[best]),
+              "lift_load": round(float(lift_load[best]), 4),
               "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
     pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
                         record_every=PICK_LOG_EVERY if traces else None)

@@ -105,8 +105,15 @@ def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> li
 
 
 def _drop_model(tools: Sequence[Tool], poses: np.ndarray) -> mujoco.MjModel:
+    return _tools_spec(Tabletop(tools=tuple(tools), poses=poses, targets=(), seed=0, clutter=0, settle_time=0.0,
+                                rest_speed=0.0), DROP_TIMESTEP).compile()
+
+
+def _tools_spec(top: Tabletop, timestep: float) -> mujoco.MjSpec:
+    """The table and the tools at `top.poses`, free, with the drop's contact options (step `timestep`)."""
+    tools, poses = top.tools, top.poses
     spec = mujoco.MjSpec()
-    spec.option.timestep = DROP_TIMESTEP
+    spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     # soft contacts let a tool resting across others creep (millimetres a second): impratio and a few
@@ -117,7 +124,7 @@ def _drop_model(tools: Sequence[Tool], poses: np.ndarray) -> mujoco.MjModel:
                             friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], contype=1, conaffinity=1, condim=6)
     for i, (t, T) in enumerate(zip(tools, poses)):
         _add_tool_body(spec, i, t, T)
-    return spec.compile()
+    return spec
 
 
 def _lying_pose(tool: Tool, xy: np.ndarray, yaw: float, roll: float, z_gap: float) -> np.ndarray:
@@ -262,6 +269,31 @@ def drop(tools: Sequence[Tool], poses: np.ndarray) -> tuple[np.ndarray, float, f
         out[i][:3, :3] = d.xmat[b].reshape(3, 3)
         out[i][:3, 3] = d.xpos[b]
     return out, t, speed
+
+
+def rest_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray]:
+    """The forces the other tools exert on tool `index` where they touch it, at rest: (points [K, 3] m,
+    forces [K, 3] N), world frame, one row per MuJoCo contact (a tool lying across it presses down on
+    it; the table's own contacts are left out). Solved by MuJoCo's constraint solver at the rest poses
+    (`mj_forward`: each tool's contact forces balance its weight)."""
+    if not 0 <= index < len(top.tools):
+        raise InputError(f"rest_loads: index {index} is not one of the table's 0-{len(top.tools) - 1}")
+    m = _drop_model(top.tools, top.poses)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    body = m.body(f"tool_{index}").id
+    points, forces = [], []
+    f6 = np.zeros(6)
+    for k in range(d.ncon):
+        c = d.contact[k]
+        b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+        if body not in (b1, b2) or 0 in (b1, b2):
+            continue
+        mujoco.mj_contactForce(m, d, k, f6)
+        f = c.frame.reshape(3, 3).T @ f6[:3]  # on geom2's body, from geom1's (world)
+        points.append(np.array(c.pos))
+        forces.append(f if body == b2 else -f)
+    return np.reshape(points, (-1, 3)), np.reshape(forces, (-1, 3))
 
 
 def _as_tools(tools: Sequence[Tool | str] | None) -> list[Tool]:

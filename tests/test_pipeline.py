@@ -229,7 +229,8 @@ def test_the_open_gripper_approaches_clear_of_the_other_tools(tables):
     for top, instruction in ((tables[4], "knock over the tower"), (tabletop.make_tabletop(clutter=4, seed=1), "drive the nail")):
         g = grounding.ground(instruction, top)
         tool = g.grounded_tool(top)
-        c = pickup.pick_candidates(top, g.tool_index, tool, itup.sample_grasps(tool, 1024, seed=0))
+        c = pickup.pick_candidates(top, g.tool_index, tool, itup.sample_grasps(tool, 1024, seed=0),
+                                   lift_torque_share=np.inf, lift_torque_limit=np.inf)  # every clear one
         assert c.grasps is not None and len(c.index) > 0
         assert _deepest_touch_of_other_tools(top, g.tool_index, c) < 0.002, instruction
 
@@ -296,16 +297,129 @@ def test_the_jaw_approaches_pre_shaped_to_the_checked_opening(hammer_pick, monke
     assert r.lifted and seen[-1][1] < target - 0.003  # closed on the tool
 
 
+@pytest.fixture(scope="module")
+def loaded_table():
+    """A table where a heavy tool lies across the hammer (clutter 4, seed 7)."""
+    return tabletop.make_tabletop(clutter=4, seed=7)
+
+
+def test_rest_loads_are_action_and_reaction_and_balance_each_tool_with_the_table(loaded_table):
+    top = loaded_table
+    loads = [tabletop.rest_loads(top, i) for i in range(len(top.tools))]
+    # every tool-on-tool contact is counted once on each tool, the forces opposite (Newton's third law)
+    assert sum(len(a) for a, _ in loads) % 2 == 0 and sum(len(a) for a, _ in loads) > 0
+    assert np.allclose(sum(f.sum(0) for _, f in loads), 0.0, atol=1e-6)
+    # each tool's weight is carried by the table and the loads of the other tools (MuJoCo's own contacts)
+    m, d = _rest_model(top)
+    mujoco.mj_forward(m, d)
+    table_up = np.zeros(len(top.tools))
+    f6 = np.zeros(6)
+    for k in range(d.ncon):
+        c = d.contact[k]
+        if m.geom_bodyid[c.geom1] == 0:
+            mujoco.mj_contactForce(m, d, k, f6)
+            table_up[int(m.body(int(m.geom_bodyid[c.geom2])).name.split("_")[1])] += (c.frame.reshape(3, 3).T @ f6[:3])[2]
+    for i, (t, (_, f)) in enumerate(zip(top.tools, loads)):
+        assert table_up[i] + f[:, 2].sum() == pytest.approx(float(t.params.mass) * 9.80665, rel=1e-3, abs=1e-3), t.name
+    hammer = [t.name for t in top.tools].index("hammer")
+    assert loads[hammer][1][:, 2].sum() < -float(top.tools[hammer].params.mass) * 9.80665  # pressed down by more than its weight
+    with pytest.raises(InputError, match="index 9"):
+        tabletop.rest_loads(top, 9)
+
+
+def test_the_simulated_lift_starts_from_the_rest_loads_and_carries_what_lies_across(loaded_table, tables):
+    top = loaded_table
+    i = [t.name for t in top.tools].index("hammer")
+    t, h, F, M = pickup.lift_loads(top, i)
+    assert h[0] == 0.0 and h[-1] == pytest.approx(pickup.PICK_LIFT) and np.all(np.diff(h) >= 0)
+    assert t[-1] == pytest.approx(pickup.PICK_PHASES[3] + pickup.PICK_PHASES[4])
+    # at the start, the tools resting on it press down as at rest (the hammer held fixed shares their
+    # weight with the table differently than free); held up, it still carries more than its own weight
+    rest = tabletop.rest_loads(top, i)[1].sum(0)
+    assert 0 < -F[0, 2] == pytest.approx(-rest[2], rel=0.35)
+    assert -F[-1, 2] > float(top.tools[i].params.mass) * 9.80665
+    assert pickup.lift_loads(top, i) is pickup.lift_loads(top, i)  # cached per table
+    free = tables[0]
+    j = [k for k in range(len(free.tools)) if len(tabletop.rest_loads(free, k)[0]) == 0][0]
+    assert np.all(pickup.lift_loads(free, j)[2] == 0.0)  # nothing near: nothing carried
+    with pytest.raises(InputError, match="loads must be"):
+        pickup.lift_torque(top, i, top.tools[i], np.zeros((1, 3)), np.eye(3)[None], loads="all")
+
+
+def test_the_lift_torque_of_the_weight_is_the_moment_about_the_closure_axis(tables):
+    """Closed form: a grasp at distance s from the centre of mass along the handle, its closure axis
+    horizontal and across the handle, holds m g s |h_xy| (h: the handle's world direction) about it."""
+    top = tables[0]
+    i = [t.name for t in top.tools].index("hammer")
+    tool, T = top.tools[i], top.poses[i]
+    h = T[:3, 2]
+    y = np.cross(h, [0.0, 0.0, 1.0])
+    y /= np.linalg.norm(y)
+    x_t, y_t = np.array([0.0, 0.0, 1.0]), T[:3, :3].T @ y
+    R = np.stack([x_t, y_t, np.cross(x_t, y_t)], axis=1)
+    s = np.array([0.0, 0.05, -0.1, 0.2])
+    p = np.asarray(tool.params.com, float) + s[:, None] * x_t
+    share = pickup.lift_torque(top, i, tool, p, np.repeat(R[None], len(s), 0), grip_force=100.0, loads=None)
+    expected = float(tool.params.mass) * 9.80665 * np.abs(s) * np.linalg.norm(h[:2]) / (2 * pickup.robot.PAD_TORSION * 100.0)
+    assert share == pytest.approx(expected, abs=1e-9)
+    assert share[3] > 0.2  # not trivially zero
+    # twice the grip, half the share; a closure axis along the handle holds none of the weight's moment
+    assert pickup.lift_torque(top, i, tool, p, np.repeat(R[None], len(s), 0), grip_force=200.0, loads=None) == pytest.approx(expected / 2)
+    R_along = np.stack([np.cross(y_t, x_t), x_t, y_t], axis=1)
+    assert pickup.lift_torque(top, i, tool, p, np.repeat(R_along[None], len(s), 0), loads=None) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_tool_lying_across_turns_a_grasp_the_weight_alone_would_allow(loaded_table):
+    """The hammer under a heavy tool: the grasp nearest its centre of mass (the weight alone loads it
+    least) turns past the grip failure threshold in the pads as it comes up; the grasp the lift's loads
+    load least comes up held. The pick filter keeps the second kind only."""
+    from itup_jax.simulate import SimConfig
+
+    top = loaded_table
+    g = grounding.ground("drive the nail", top)
+    tool = g.grounded_tool(top)
+    c = pickup.pick_candidates(top, g.tool_index, tool, itup.sample_grasps(tool, 2048, seed=0), lift_torque_share=np.inf)
+    R = pickup._quat_to_matrix(np.asarray(c.grasps.q_tool_grasp))
+    weight_only = pickup.lift_torque(top, g.tool_index, tool, np.asarray(c.grasps.p_tool_grasp), R, loads=None)
+    near, least = int(np.argmin(weight_only)), int(np.argmin(c.lift_load))
+    assert c.lift_load[near] > pickup.LIFT_TORQUE_SHARE > weight_only[near]
+    turned = pickup.execute_pick(top, g.tool_index, c.grasps[near:near + 1], c.q_path[near])
+    held = pickup.execute_pick(top, g.tool_index, c.grasps[least:least + 1], c.q_path[least])
+    limit = SimConfig().rotation_threshold
+    assert turned.angle_error > limit and held.lifted and held.angle_error < limit
+    kept = pickup.pick_candidates(top, g.tool_index, tool, itup.sample_grasps(tool, 2048, seed=0))
+    assert np.all(kept.lift_load <= pickup.LIFT_TORQUE_SHARE)
+
+
+def test_the_lift_torque_calibration_runs_quick(tmp_path):
+    ns = runpy.run_path(os.path.join(ROOT, "experiments", "lift_torque.py"))
+    assert ns["main"](["--quick", "--out", str(tmp_path)]) == 0
+    j = json.loads((tmp_path / "lift_torque.json").read_text())
+    assert len(j["rows"]) == 4 and {"share", "share_weight", "lifted", "held"} <= set(j["rows"][0])
+    assert sum(b["picks"] for b in j["summary"]["all"]["bands_share"]) == 4
+    assert ns["auc"](np.array([0.1, 0.9, 0.5]), np.array([False, True, False])) == 1.0
+
+
 # ---------------------------------------------------------------------------------------------- the chain
 def test_run_does_the_hammer_task_from_the_table(tables):
     r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024)
     assert r.stage == "done" and r.success and r.labels["success"] and not r.labels["failed"]
     j = r.to_json()
     assert j["grounding"]["tool"] == "hammer" and j["pick"]["lifted"] and j["counts"]["task_reachable"] > 0
+    # scored only grasps whose lift loads the pads' torsion within the share
+    assert 0 < j["counts"]["scored"] == j["counts"]["lift_within_share"] and j["choice"]["lift_load"] <= pickup.LIFT_TORQUE_SHARE
     import jsonschema
 
     with open(os.path.join(ROOT, "itup_jax", "schemas", "run.schema.json")) as fh:
         jsonschema.validate(json.loads(json.dumps(j)), json.load(fh))
+
+
+def test_run_scores_the_least_loaded_grasps_when_none_is_within_the_share(tables, monkeypatch):
+    monkeypatch.setattr(pickup, "LIFT_TORQUE_SHARE", 1e-9)
+    r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=512)
+    c = r.counts
+    assert c["lift_within_share"] == 0 and c["rounds"] == 4 and c["scored"] == min(c["task_reachable"], 16) > 0
+    assert r.choice["lift_load"] > 0 and r.pick is not None
 
 
 def test_run_reports_the_stage_it_ended_at(tables):
