@@ -60,6 +60,7 @@ from itup_jax.tabletop import (
     _add_tool_body,
     _tools_spec,
     rest_loads,
+    tool_contacts,
 )
 from itup_jax.tool import Tool
 
@@ -187,21 +188,12 @@ def lift_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray, np.nd
     t = np.arange(n + 1) * LIFT_SIM_STEP
     h = PICK_LIFT * np.minimum(t / t_lift, 1.0)
     F, M = np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
-    f6 = np.zeros(6)
     for s in range(n + 1):
         if s:
             d.mocap_pos[mocap] = start + [0.0, 0.0, h[s]]
             mujoco.mj_step(m, d)
-        for k in range(d.ncon):
-            c = d.contact[k]
-            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
-            if body not in (b1, b2) or 0 in (b1, b2):
-                continue
-            mujoco.mj_contactForce(m, d, k, f6)
-            f = c.frame.reshape(3, 3).T @ f6[:3]
-            f = f if body == b2 else -f
-            F[s] += f
-            M[s] += np.cross(c.pos, f)
+        at, f = tool_contacts(m, d, body)
+        F[s], M[s] = f.sum(0), np.cross(at, f).sum(0)
     return t, h, F, M
 
 

@@ -281,7 +281,12 @@ def rest_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray]:
     m = _drop_model(top.tools, top.poses)
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    body = m.body(f"tool_{index}").id
+    return tool_contacts(m, d, m.body(f"tool_{index}").id)
+
+
+def tool_contacts(m: mujoco.MjModel, d: mujoco.MjData, body: int) -> tuple[np.ndarray, np.ndarray]:
+    """The contacts of `body` with other bodies than the world's (the table) in MuJoCo's current state:
+    (points [K, 3] m, forces on `body` [K, 3] N), world frame."""
     points, forces = [], []
     f6 = np.zeros(6)
     for k in range(d.ncon):
