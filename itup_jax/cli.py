@@ -642,7 +642,8 @@ def cmd_run(args) -> int:
     if c:
         print(f"grasps: {c['sampled']} sampled, {c.get('pick_reachable', 0)} can be picked from the rest pose, "
               f"{c.get('task_reachable', 0)} of those can be carried through the task, {c.get('lift_within_share', 0)} "
-              f"of those load the pads' torsional grip in the lift within {pickup.LIFT_TORQUE_SHARE:.0%} of its capacity")
+              f"of those the pads' torsional grip holds through the lift (its load at most "
+              f"{pickup.LIFT_TORQUE_SHARE:.0%} of the grip's capacity)")
         if c.get("scored") and not c.get("lift_within_share"):
             print(f"  none does: scored the {c['scored']} that load it least (the tool may turn in the pads)")
     if r.pick is not None:
