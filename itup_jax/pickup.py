@@ -174,7 +174,7 @@ def lift_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray, np.nd
     immutable)."""
     if not 0 <= index < len(top.tools):
         raise InputError(f"lift_loads: index {index} is not one of the table's 0-{len(top.tools) - 1}")
-    spec = _tools_spec(top, LIFT_SIM_STEP)
+    spec = _tools_spec(top.tools, top.poses, LIFT_SIM_STEP)
     spec.delete(spec.joint(f"tool_{index}"))
     spec.body(f"tool_{index}").mocap = True
     m = spec.compile()
@@ -194,6 +194,8 @@ def lift_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray, np.nd
             mujoco.mj_step(m, d)
         at, f = tool_contacts(m, d, body)
         F[s], M[s] = f.sum(0), np.cross(at, f).sum(0)
+    for a in (t, h, F, M):  # cached: shared by every caller
+        a.flags.writeable = False
     return t, h, F, M
 
 
@@ -215,17 +217,20 @@ def lift_torque(top: Tabletop, index: int, tool: Tool, p_tool_grasp: np.ndarray,
     com_w = T_wt[:3, :3] @ np.asarray(tool.params.com, float) + T_wt[:3, 3]
     weight = np.array([0.0, 0.0, -float(tool.params.mass) * units.STANDARD_GRAVITY])
     tau = np.einsum("mj,mj->m", np.cross(com_w - p_w, weight), closure)  # the weight's: the same all along
-    if loads == "rest":
-        for c, f in zip(*rest_loads(top, index)):
-            tau = tau + np.einsum("mj,mj->m", np.cross(c - p_w, f), closure)
-    elif loads == "lift":
-        _, h, F, M = lift_loads(top, index)
+    if loads is not None and len(tau):
+        # the other tools' loads as a series (h [S] m risen, F [S, 3] N, M [S, 3] N m about the origin):
+        # the simulated lift's, or the rest loads as one step
+        if loads == "lift":
+            _, h, F, M = lift_loads(top, index)
+        else:
+            c, f = rest_loads(top, index)
+            h, F, M = np.zeros(1), f.sum(0)[None], np.cross(c, f).sum(0)[None]
         # about the grasp point as it rises: M - (p + h z) x F, on the closure axis (it does not turn)
         lever = p_w[None, :, :] + h[:, None, None] * np.array([0.0, 0.0, 1.0])
         on_axis = np.einsum("sj,mj->sm", M, closure) - np.einsum("smj,mj->sm", np.cross(lever, F[:, None, :]), closure)
         w = min(max(int(round(LIFT_WINDOW / LIFT_SIM_STEP)), 1), len(h))
         run = np.cumsum(np.concatenate([np.zeros((1, len(tau))), tau[None, :] + on_axis]), axis=0)
-        tau = np.abs((run[w:] - run[:-w]) / w).max(axis=0) if len(tau) else tau
+        tau = np.abs((run[w:] - run[:-w]) / w).max(axis=0)
     return np.abs(tau) / (2 * robot.PAD_TORSION * float(grip_force))
 
 

@@ -105,13 +105,11 @@ def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> li
 
 
 def _drop_model(tools: Sequence[Tool], poses: np.ndarray) -> mujoco.MjModel:
-    return _tools_spec(Tabletop(tools=tuple(tools), poses=poses, targets=(), seed=0, clutter=0, settle_time=0.0,
-                                rest_speed=0.0), DROP_TIMESTEP).compile()
+    return _tools_spec(tools, poses, DROP_TIMESTEP).compile()
 
 
-def _tools_spec(top: Tabletop, timestep: float) -> mujoco.MjSpec:
-    """The table and the tools at `top.poses`, free, with the drop's contact options (step `timestep`)."""
-    tools, poses = top.tools, top.poses
+def _tools_spec(tools: Sequence[Tool], poses: np.ndarray, timestep: float) -> mujoco.MjSpec:
+    """The table and `tools` at `poses` [N, 4, 4], free, with the drop's contact options (step `timestep`)."""
     spec = mujoco.MjSpec()
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
