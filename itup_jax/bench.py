@@ -395,3 +395,55 @@ def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0, families: tup
                          "warm_s": round(warm_s, 3), "sample_only_s": round(plain_s, 3),
                          "ik_share": round(max(0.0, 1.0 - plain_s / warm_s), 2)})
     return {"benchmark": "reachable", "n": n, "repeats": repeats, "families": rows, "machine": machine_info()}
+
+
+#: The wall-time goals of a repeated command (s, on a 2-core laptop-class CPU): printed beside the
+#: measurements, not enforced.
+STARTUP_GOALS_S = {"plan": 3.0, "demo": 5.0}
+
+
+def bench_startup(repeats: int = 5, task_kind: str = "hammer") -> dict[str, Any]:
+    """Wall time of the command line from a shell, each run a fresh Python process: `itup --help` (Python,
+    JAX and the package imported, no work: the floor of every command, the reference), then `itup plan
+    --task T` and `itup demo --task T --out <tmp>` without the caches kept between runs
+    (`--no-compile-cache`), once with empty caches (the first run: it fills them) and `repeats` times
+    repeated. The caches live in a temporary folder (ITUP_COMPILE_CACHE_DIR, ITUP_TASK_CACHE_DIR), so a
+    user's own are neither read nor changed. Medians, minima and maxima in s."""
+    import subprocess
+    import tempfile
+
+    from itup_jax import compile_cache, task_cache
+
+    def runs(args: list[str], count: int, env: dict) -> list[float]:
+        out = []
+        for _ in range(count):
+            t0 = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "itup_jax.cli", *args], env=env, capture_output=True,
+                                  text=True, timeout=600)
+            out.append(time.perf_counter() - t0)
+            if done.returncode != 0:
+                raise RuntimeError(f"bench startup: `itup {' '.join(args)}` exited {done.returncode}: "
+                                   f"{done.stderr[-1000:]}")
+        return out
+
+    def summary(ts: list[float]) -> dict[str, float]:
+        return {"median_s": round(statistics.median(ts), 2), "min_s": round(min(ts), 2), "max_s": round(max(ts), 2)}
+
+    rows = {}
+    with tempfile.TemporaryDirectory(prefix="itup-bench-startup-") as tmp:
+        env = {k: v for k, v in os.environ.items() if k != compile_cache.ENV_SWITCH}
+        env[compile_cache.ENV_DIR] = os.path.join(tmp, "jax")
+        env[task_cache.ENV_DIR] = os.path.join(tmp, "tasks")
+        _progress("itup --help")
+        rows["help"] = summary(runs(["--help"], repeats, env))
+        for name, args in (("plan", ["plan", "--task", task_kind]),
+                           ("demo", ["demo", "--task", task_kind, "--out", os.path.join(tmp, "demo")])):
+            _progress(f"itup {' '.join(args[:3])}")
+            no_cache = runs(["--no-compile-cache", *args], 1, env)[0]
+            first = runs(args, 1, env)[0]
+            repeated = runs(args, repeats, env)
+            rows[name] = {"no_cache_s": round(no_cache, 2), "first_s": round(first, 2), **summary(repeated),
+                          "goal_s": STARTUP_GOALS_S[name], "over_import_floor_s": round(
+                              statistics.median(repeated) - rows["help"]["median_s"], 2)}
+    return {"benchmark": "startup", "task": task_kind, "repeats": repeats, "commands": rows,
+            "machine": machine_info()}

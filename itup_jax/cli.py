@@ -9,6 +9,7 @@
   itup bench verify [--n 1000] [--k 5] [--json]
   itup bench sample [--n 4096] [--json]
   itup bench reachable [--n 256] [--families F,...] [--json]
+  itup bench startup [--repeats 5] [--json]
   itup ensemble --models M.npz M.npz ... --out E.npz
   itup tools
 
@@ -48,6 +49,7 @@ EXAMPLES = """examples:
   itup bench score --n 10000 --json
   itup bench verify --json
   itup bench sample --json
+  itup bench startup --json                   # wall time of plan and demo from a shell, first and repeated
   itup generate --out data/ --tasks hammer,reach --tools-per-task 4 --grasps 128
   itup generate --out data/ --tasks hammer --tools-per-task 2 --grasps 64 --mcap logs/
   itup generate --out data/ --tools-per-task 64 --process-index 0 --process-count 2   # and --process-index 1, elsewhere
@@ -98,6 +100,17 @@ def _load_tool_arg(args) -> Any:
     return itup.load_tool(args.tool, spec=args.tool_spec)
 
 
+def _make_task(args, tool) -> Any:
+    """The task of `--task` for `tool`: from the task cache kept between runs when the compile cache is on
+    (`task_cache`: the same arrays, without their ~0.5 s of op-by-op dispatch in a fresh process)."""
+    from itup_jax import compile_cache, task_cache
+    from itup_jax.task import make_task
+
+    if compile_cache.wanted(args.no_compile_cache):
+        return task_cache.make_task(args.task, tool)
+    return make_task(args.task, tool)
+
+
 def cmd_plan(args) -> int:
     """`itup plan`: `planning.plan_grasp` and a printout."""
     import itup_jax as itup
@@ -109,7 +122,7 @@ def cmd_plan(args) -> int:
     given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip")
              if getattr(args, k) is not None}
     tool = _load_tool_arg(args)
-    task = itup.make_task(args.task, tool)
+    task = _make_task(args, tool)
     try:
         plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
                           torque_first=args.torque_first, top=args.top, verify=args.verify,
@@ -182,7 +195,7 @@ def _print_plan(args, plan) -> None:
               + (f"{c['grip']:>7.1f} " if grip else "")
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
               + f"{c['total']:>9.3f} {'yes' if plan.reachable[i] else 'no':>5}  "
-              f"{np.asarray(grasps.p_tool_grasp[i], float).round(4).tolist()}"
+              f"{np.asarray(grasps.p_tool_grasp)[i].astype(float).round(4).tolist()}"
               f"{' <- pick' if i == best and marked else ''}")
     if plan.status == "no_reachable_candidate":
         print(f"no pick: none of the {plan.n} candidates is reachable for the arm along the task (closed-form IK); "
@@ -451,6 +464,23 @@ def cmd_bench_reachable(args) -> int:
     return 0
 
 
+def cmd_bench_startup(args) -> int:
+    from itup_jax.bench import bench_startup
+
+    if args.repeats < 1:
+        raise_input(f"bench startup: --repeats must be >= 1, got {args.repeats}")
+    res = bench_startup(repeats=args.repeats, task_kind=args.task)
+    c = res["commands"]
+    lines = [f"startup itup --help: {c['help']['median_s']:.2f} s (Python, JAX and the package imported: the floor)"]
+    for name in ("plan", "demo"):
+        r = c[name]
+        lines.append(f"startup itup {name} --task {res['task']}: repeated {r['median_s']:.2f} s (median of {res['repeats']}, "
+                     f"{r['min_s']:.2f}-{r['max_s']:.2f}; goal {r['goal_s']:g} s), first run {r['first_s']:.2f} s, "
+                     f"without the caches {r['no_cache_s']:.2f} s; {r['over_import_floor_s']:.2f} s over the floor")
+    print(json.dumps(res) if args.json else "\n".join(lines))
+    return 0
+
+
 def _print_eval_table(res: dict) -> None:
     """Per method, mean ± std over its rollouts: the full induced peak wrist torque (the headline), the raw
     peak, the induced torque's grasp-frame components at its peak (about the jaw's closure axis, the
@@ -479,7 +509,6 @@ def _print_eval_table(res: dict) -> None:
 
 
 def cmd_evaluate(args) -> int:
-    import itup_jax as itup
     from itup_jax.evaluate import METHODS, evaluate
 
     methods = tuple(m for m in args.methods.split(",") if m)
@@ -492,7 +521,7 @@ def cmd_evaluate(args) -> int:
         _check_out_folder("--json", args.json)
     model = _check_model_arg(args)
     tool = _load_tool_arg(args)
-    task = itup.make_task(args.task, tool)
+    task = _make_task(args, tool)
     res = evaluate(tool, task, methods, n=args.n, seeds=args.seeds, seed=args.seed, model=model,
                    grip_force=args.grip_force)
     res = {"schema": "itup.evaluate/1", **res}
@@ -557,7 +586,7 @@ def cmd_demo(args) -> int:
     model = _check_model_arg(args)
     os.makedirs(args.out, exist_ok=True)
     tool = _load_tool_arg(args)
-    task = itup.make_task(args.task, tool)
+    task = _make_task(args, tool)
     scene = build_scene(tool, task)
     print(f"itup demo: task {args.task}, tool {tool.name} ({tool.mass:.3f} kg); sampling {args.n} reachable "
           "antipodal candidates ...", flush=True)
@@ -752,8 +781,9 @@ def build_parser() -> argparse.ArgumentParser:
                                  "0 done, 2 bad input, 3 no acceptable grasp (plan; evaluate's verified methods)",
                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--no-compile-cache", action="store_true",
-                    help="do not keep compiled kernels between runs (default: kept in ~/.cache/itup-jax/jax, "
-                    "or $ITUP_COMPILE_CACHE_DIR; ITUP_COMPILE_CACHE=0 also turns it off)")
+                    help="do not keep compiled kernels and built tasks between runs (default: kept in "
+                    "~/.cache/itup-jax/jax and ~/.cache/itup-jax/tasks, or $ITUP_COMPILE_CACHE_DIR and "
+                    "$ITUP_TASK_CACHE_DIR; ITUP_COMPILE_CACHE=0 also turns them off)")
     sub = ap.add_subparsers(dest="cmd", required=True)
 
     p = sub.add_parser("plan", help="best reachable grasp for a task (SDG-Net by default)", epilog=EXAMPLES,
@@ -854,6 +884,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="reachable candidates per tool (default %(default)s)")
     bp.add_argument("--repeats", type=int, default=_default(bench.bench_reachable, "repeats"))
     bp.add_argument("--families", default=None, help="comma-separated tool families (default: every one)")
+
+    bp = bench_parser("startup", bench.bench_startup, cmd_bench_startup,
+                      "wall time of itup plan and itup demo from a shell, first and repeated")
+    bp.add_argument("--task", default=_default(bench.bench_startup, "task_kind"), choices=TASK_KINDS)
+    bp.add_argument("--repeats", type=int, default=_default(bench.bench_startup, "repeats"),
+                    help="repeated runs per command (default %(default)s)")
 
     gen = sub.add_parser("generate", help="label dataset: shards + manifest; resumes after a kill")
     gen.add_argument("--out", required=True, help="dataset folder (created; resumed if it holds a manifest)")

@@ -33,7 +33,7 @@ import trimesh
 
 from itup_jax.grasp import Grasps, rotation_matrix
 from itup_jax.precision import full_precision
-from itup_jax.shapes import pad_zeros_high
+from itup_jax.shapes import pad_zeros_high, to_device
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads
 
@@ -59,7 +59,7 @@ class FeatureSpec:
 def surface_sample(tool: Tool, spec: FeatureSpec) -> jax.Array:
     """[P, 3] fixed, area-uniform points on the tool's surface (tool frame), deterministic for the seed."""
     pts, _ = trimesh.sample.sample_surface(tool.mesh, spec.num_points, seed=spec.seed)
-    return jnp.asarray(np.asarray(pts, float))
+    return to_device(np.asarray(pts, float))
 
 
 @jax.tree_util.register_dataclass
@@ -107,7 +107,7 @@ def density_field(points_tool: np.ndarray | jax.Array, spec: FeatureSpec) -> Den
     # zeros beyond the grid's high ends up to a size bucket: the same reads (map_coordinates' cval is 0),
     # one compile of the features for every tool in the bucket instead of one per tool (shapes.py)
     values = pad_zeros_high(values, FIELD_BUCKET_BITS)
-    return DensityField(values=jnp.asarray(values), origin=jnp.asarray(lo), spacing=float(h))
+    return DensityField(values=to_device(values), origin=to_device(lo), spacing=float(h))
 
 
 def tool_field(tool: Tool, spec: FeatureSpec) -> DensityField:

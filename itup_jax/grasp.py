@@ -35,6 +35,7 @@ import numpy as np
 
 from itup_jax import robot
 from itup_jax.errors import InputError
+from itup_jax.shapes import to_device
 
 #: Column permutation from our grasp frame to graspnet's: graspnet (x, y, z) = ours (z, y, -x).
 GRASPNET_FROM_OURS = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
@@ -95,6 +96,12 @@ def rotation_matrix(q_wxyz: jax.Array) -> jax.Array:
     return fn(q)
 
 
+#: [N, 3, 3] -> [N, 4] (w, x, y, z), the outer call of a host-side helper: one compiled kernel instead of
+#: its ~15 ops dispatched one by one (each a compile of its own in a fresh process); the same float32
+#: values as op by op (elementwise arithmetic, no reductions).
+_matrix_to_wxyz = jax.jit(jax.vmap(lambda m: jaxlie.SO3.from_matrix(m).wxyz))
+
+
 def make_grasps(p_tool_grasp: Any, R_tool_grasp: Any = None, width: Any = None, *,
                 q_tool_grasp: Any = None) -> Grasps:
     """Validated `Grasps` from positions [N, 3], rotations [N, 3, 3] (or quaternions) and widths [N].
@@ -114,7 +121,7 @@ def make_grasps(p_tool_grasp: Any, R_tool_grasp: Any = None, width: Any = None, 
         err = np.abs(np.einsum("nij,nkj->nik", R, R) - np.eye(3)).max(axis=(1, 2))
         if R.shape[0] != n or np.any(err > 1e-5) or np.any(np.linalg.det(R) < 0):
             raise InputError("grasps.R_tool_grasp: expected [N, 3, 3] proper rotation matrices")
-        q = np.asarray(jax.vmap(lambda m: jaxlie.SO3.from_matrix(m).wxyz)(jnp.asarray(R)))
+        q = np.asarray(_matrix_to_wxyz(to_device(R)))
     else:
         q = np.atleast_2d(np.asarray(q_tool_grasp, dtype=float))
         _check_finite(q, "grasps.q_tool_grasp")
@@ -130,7 +137,7 @@ def make_grasps(p_tool_grasp: Any, R_tool_grasp: Any = None, width: Any = None, 
             f"grasps.width: must lie in [0, {robot.GRIPPER_MAX_OPENING}] m (the gripper's stroke), "
             f"got range [{w.min():.4f}, {w.max():.4f}]"
         )
-    f = lambda a: jnp.asarray(a, dtype=float)  # noqa: E731
+    f = lambda a: to_device(a, dtype=float)  # noqa: E731
     return Grasps(p_tool_grasp=f(p), q_tool_grasp=f(q), width=f(w))
 
 

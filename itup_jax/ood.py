@@ -43,6 +43,7 @@ from itup_jax.errors import InputError
 from itup_jax.features import FeatureSpec, _batched
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.precision import full_precision
+from itup_jax.shapes import to_device
 from itup_jax.wrench import task_loads
 
 #: The feature groups, in feature order (`features.grasp_features`): geometry [G^3], loads [12],
@@ -237,8 +238,8 @@ def check(tool, task, grasps: Grasps, model: Any = None, *, threshold: float | N
         return None
     z_ref, scale = _standardised(path, task.kind, x_mean.tobytes(), x_std.tobytes(), k)
     dt = jnp.float32
-    d, groups = guard_distances_jit(_tool_field(tool, spec, dt), tool.params, task, grasps, jnp.asarray(x_mean),
-                                    jnp.asarray(x_std), jnp.asarray(z_ref), spec=spec, k=k)
+    d, groups = guard_distances_jit(_tool_field(tool, spec, dt), tool.params, task, grasps, to_device(x_mean),
+                                    to_device(x_std), to_device(z_ref), spec=spec, k=k)
     ratio = np.asarray(d, float) / scale
     score = float(np.median(ratio))
     threshold = GUARD_THRESHOLD if threshold is None else float(threshold)

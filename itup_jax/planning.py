@@ -96,16 +96,17 @@ class GraspPlan:
 
     def row(self, i: int) -> dict[str, Any]:
         """The JSON row of candidate i: pose, width, reachability, graspnet rotation, scores."""
-        s = self.scores
+        s, g = self.scores, self.grasps
+        host = lambda a: np.asarray(a)[i]  # noqa: E731 - indexed on the host: no device op per field
         return {
             "index": int(i),
-            "p_tool_grasp_m": np.asarray(self.grasps.p_tool_grasp[i], float).round(6).tolist(),
-            "q_tool_grasp_wxyz": np.asarray(self.grasps.q_tool_grasp[i], float).round(6).tolist(),
-            "width_m": round(float(self.grasps.width[i]), 6),
+            "p_tool_grasp_m": host(g.p_tool_grasp).astype(float).round(6).tolist(),
+            "q_tool_grasp_wxyz": host(g.q_tool_grasp).astype(float).round(6).tolist(),
+            "width_m": round(float(host(g.width)), 6),
             "reachable": self.reachable.get(int(i)),
             "graspnet_rotation_matrix": np.asarray(self.graspnet_rotation[i], float).round(6).tolist(),
-            "costs": {k: round(float(getattr(s, k)[i]), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
-                                                                      "grip", "p_success", "p_failed")
+            "costs": {k: round(float(host(getattr(s, k))), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
+                                                                         "grip", "p_success", "p_failed")
                       if getattr(s, k, None) is not None},
         }
 

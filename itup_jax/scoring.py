@@ -27,6 +27,7 @@ from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.objective import WRENCH, costs_of
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet import PAPER_MODEL, Model, load_model, predict_from_features
+from itup_jax.shapes import to_device
 from itup_jax.task import Task
 from itup_jax.tool import Tool
 from itup_jax.wrench import task_loads
@@ -79,13 +80,13 @@ class ScoreWeights:
 
     def costs(self, dtype=jnp.float32) -> jax.Array:
         """[4] weights of the cost columns (tau, slip, align, grip: `objective.COST_COLUMNS`)."""
-        return jnp.asarray([self.w_tau, self.w_slip, self.w_align, self.w_grip], dtype)
+        return to_device([self.w_tau, self.w_slip, self.w_align, self.w_grip], dtype)
 
     def heads(self, class_heads, dtype=jnp.float32) -> jax.Array:
         """[K, 2] (a, b) per binary head of a model (`Model.class_heads`): its term is a + b p. Success:
         w_task (1 - p); failure: w_fail p."""
         coef = {"label_success": (self.w_task, -self.w_task), "label_failed": (0.0, self.w_fail)}
-        return jnp.asarray([coef[h] for h in class_heads], dtype).reshape(len(class_heads), 2)
+        return to_device(np.reshape([coef[h] for h in class_heads], (len(class_heads), 2)), dtype)
 
 
 def sdgnet_total(costs, probs, w_costs, head_coef):
@@ -134,7 +135,7 @@ def _tool_field(tool: Tool, spec, dt) -> DensityField:
     per_tool = _FIELDS.setdefault(tool, {})
     if spec not in per_tool:
         f = tool_field(tool, spec)
-        per_tool[spec] = DensityField(jnp.asarray(f.values, dt), jnp.asarray(f.origin, dt), f.spacing)
+        per_tool[spec] = DensityField(to_device(f.values, dt), to_device(f.origin, dt), f.spacing)
     return per_tool[spec]
 
 
@@ -144,10 +145,10 @@ def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: 
     spec = model.feature_spec
     dt = jnp.float32
     s = model.spec
-    params = [(jnp.asarray(W, dt), jnp.asarray(b, dt)) for W, b in model.params]
+    params = [(to_device(W, dt), to_device(b, dt)) for W, b in model.params]
     args = (_tool_field(tool, spec, dt), tool.params, task, grasps, params,
-            jnp.asarray(s["x_mean"], dt), jnp.asarray(s["x_std"], dt), jnp.asarray(s["y_mean"], dt),
-            jnp.asarray(s["y_std"], dt), jnp.asarray(s["target_scales"], dt), weights.costs(dt),
+            to_device(s["x_mean"], dt), to_device(s["x_std"], dt), to_device(s["y_mean"], dt),
+            to_device(s["y_std"], dt), to_device(s["target_scales"], dt), weights.costs(dt),
             weights.heads(model.class_heads, dt))
     return args, {"spec": spec, "objective": model.objective}
 

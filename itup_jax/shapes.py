@@ -7,10 +7,16 @@ each executable: `itup generate` compiled three kernels for every shard and its 
 Padding a size up to a bucket with values that cannot change the kernel's result (a repeated point
 under any / min / max, zeros under `map_coordinates`' zero `cval`) bounds the compiles to a few per
 octave of size, and leaves every result bit for bit as it was.
+
+`to_device` keeps another compile away: `jnp.asarray` of a NumPy float32 array compiles a copy kernel
+per shape (JAX's "stage"), ~5 ms each in a fresh process; a host array put on the device as it is
+costs none.
 """
 
 from __future__ import annotations
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from itup_jax.errors import InputError, is_integer
@@ -42,3 +48,14 @@ def pad_zeros_high(a: np.ndarray, bits: int) -> np.ndarray:
     """a [n_0, n_1, ...] zero-padded at the high end of every axis to [bucket(n_0), bucket(n_1), ...]."""
     a = np.asarray(a)
     return np.pad(a, [(0, bucket(n, bits) - n) for n in a.shape])
+
+
+def to_device(a, dtype=None) -> jax.Array:
+    """`jnp.asarray(a, dtype)` for host data (NumPy arrays, Python numbers and lists) without a compile:
+    converted to JAX's canonical dtype on the host (float64 -> float32 unless x64 is on), copied, and
+    put on the default device. Values bit for bit those of `jnp.asarray`. A JAX array (or a tracer)
+    goes through `jnp.asarray` unchanged."""
+    if isinstance(a, jax.Array):
+        return jnp.asarray(a, dtype)
+    x = np.asarray(a) if dtype is None else np.asarray(a, dtype=dtype)
+    return jax.device_put(np.array(x, dtype=jax.dtypes.canonicalize_dtype(x.dtype), copy=True))

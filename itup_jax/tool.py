@@ -26,12 +26,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import trimesh
 
 from itup_jax import priors
 from itup_jax.errors import InputError
+from itup_jax.shapes import to_device
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -88,7 +88,7 @@ def make_tool_params(
         raise InputError(f"{what}.mu: friction coefficient must be >= 0, got {mu}")
     if not (math.isfinite(float(restitution)) and 0.0 <= float(restitution) <= 1.0):
         raise InputError(f"{what}.restitution: must lie in [0, 1], got {restitution}")
-    f = lambda x: jnp.asarray(x, dtype=float)  # noqa: E731  (dtype follows jax_enable_x64)
+    f = lambda x: to_device(x, dtype=float)  # noqa: E731  (dtype follows jax_enable_x64)
     return ToolParams(
         mass=f(mass), com=f(com_a), inertia=f(inertia_a), restitution=f(restitution),
         mu=f(mu), contact_duration=f(contact_duration),

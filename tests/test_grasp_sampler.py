@@ -204,3 +204,39 @@ def test_bad_contact_model_is_refused(tools):
         itup.sample_grasps(tools["hammer"], 5, config=SamplerConfig(contact="soft"))
     with pytest.raises(itup.InputError, match="flat_angle"):
         itup.sample_grasps(tools["hammer"], 5, config=SamplerConfig(contact="flat", flat_angle=-0.1))
+
+
+def _as_set(loc, ray, tri):
+    return sorted(zip(np.asarray(ray).tolist(), np.asarray(tri).tolist(), map(tuple, np.asarray(loc).tolist())))
+
+
+@pytest.mark.parametrize("chunk", [None, 1000])
+def test_ray_hits_are_trimeshs_hits(tools, chunk, monkeypatch):
+    """The sampler's vectorised broad phase finds every hit trimesh's R-tree path finds, the same floats,
+    on the built-in tools and a finely tessellated sphere (also in chunks smaller than one ray's pairs)."""
+    from itup_jax import grasp_sampler
+
+    if chunk is not None:
+        monkeypatch.setattr(grasp_sampler, "RAY_PAIRS_PER_CHUNK", chunk)
+    rng = np.random.default_rng(0)
+    for mesh in [tools[n].mesh for n in ("hammer", "broom")] + [trimesh.creation.icosphere(3, radius=0.03)]:
+        p, face = trimesh.sample.sample_surface(mesh, 400, seed=1)
+        d = -mesh.face_normals[face] + 0.4 * rng.normal(size=(400, 3))  # into the tool, spread like the cone
+        d[:20] = rng.normal(size=(20, 3))  # some outward: they hit nothing past their start
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        ours = grasp_sampler.ray_hits(mesh, p, d)
+        assert len(ours[0]) > 300
+        assert _as_set(*ours) == _as_set(*mesh.ray.intersects_location(p, d, multiple_hits=True))
+    none = grasp_sampler.ray_hits(tools["hammer"].mesh, np.array([[5.0, 5.0, 5.0]]), np.array([[1.0, 0.0, 0.0]]))
+    assert [len(a) for a in none] == [0, 0, 0]
+
+
+def test_grasp_quaternions_are_the_op_by_op_ones(hammer_grasps):
+    """make_grasps converts rotations in one compiled kernel: the same float32 bits as op by op."""
+    import jax.numpy as jnp
+    import jaxlie
+
+    R = np.asarray(hammer_grasps.rotation)
+    eager = np.asarray(jax.vmap(lambda m: jaxlie.SO3.from_matrix(m).wxyz)(jnp.asarray(R)))
+    assert np.asarray(itup.make_grasps(hammer_grasps.p_tool_grasp, R, hammer_grasps.width).q_tool_grasp).tobytes() \
+        == eager.tobytes()

@@ -118,3 +118,21 @@ def test_field_padding_changes_no_feature(tasks, monkeypatch):
     assert cut.values.shape == padded.values.shape
     features.batched_features(cut, loads, tool.params, grasps, spec=spec)
     assert features.batched_features._cache_size() == before
+
+
+def test_to_device_is_jnp_asarray_without_a_compile():
+    from itup_jax.shapes import to_device
+
+    rng = np.random.default_rng(0)
+    for a, dt in [(rng.random((5, 3)), None), (rng.random((4, 2)).astype(np.float32), None), (1.2345678901, float),
+                  ([1, 2, 3], None), (np.arange(4), None), (np.array([True, False]), None), (rng.random(3), jnp.float32),
+                  (-0.0, float)]:
+        want, got = jnp.asarray(a, dt), to_device(a, dt)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert np.asarray(got).tobytes() == np.asarray(want).tobytes()  # bit for bit, the sign of zero too
+    host = np.ones(3, np.float32)
+    on_device = to_device(host)
+    host[0] = 5.0  # a copy: the host array's later changes do not reach it
+    assert np.asarray(on_device).tolist() == [1.0, 1.0, 1.0]
+    traced = jax.jit(lambda x: to_device(x, jnp.float32) * 2)(jnp.ones(2))  # a tracer passes through
+    assert np.asarray(traced).tolist() == [2.0, 2.0]
