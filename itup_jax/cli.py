@@ -164,9 +164,15 @@ def _print_plan(args, plan) -> None:
               f"fewer than the {sm['requested']} asked for (--budget {sm['budget']} spent)")
     g = plan.guard
     if g is not None and g.fired:
-        print("warning: " + g.message(tool.name, plan.task.kind) + "; " + (
-            f"the {plan.verify_k} best grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
-            "trust the learned score)" if plan.guard_verified else "the --verify rollouts decide the pick"))
+        if plan.guard_verified:
+            what = (f"{plan.verify_k} grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
+                    "trust the learned score)")
+        else:
+            what = ("the --verify rollouts decide the pick" if plan.verified is not None
+                    else "--no-guard: the learned score decides the pick")
+        if plan.shortlist_rule == "guard_mixed":
+            what += "; the grasps verified are SDG-Net's best and, for 2 in 5, the analytic wrench cost's best"
+        print("warning: " + g.message(tool.name, plan.task.kind) + "; " + what)
     if costs is None:  # the reachable sampler found none: nothing was scored
         print(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
               "(closed-form IK); " + "; ".join(plan.advice))
@@ -211,7 +217,8 @@ def _print_plan(args, plan) -> None:
     draws = plan.verify_draws
     print(f"MuJoCo ({plan.physics} physics{', seed ' + str(args.seed) if plan.physics == 'random' else ''}"
           f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
-          f"by the scorer: the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
+          + ("by the scorer" if plan.shortlist_rule == "scorer" else "by SDG-Net and by the analytic wrench cost")
+          + f": the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
     print(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
           f"{'failed':>6} {'success':>7} {'measured C':>10}")
     for j, row in enumerate(plan.verify_rows):
@@ -223,7 +230,8 @@ def _print_plan(args, plan) -> None:
               f"{row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
               f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
               f"{str(row['failed']):>6} {str(row['success']):>7} {mean}")
-    ahead = int(np.sum(total[v.unreachable] <= total[v.shortlist[-1]])) if len(v.shortlist) else len(v.unreachable)
+    ahead = (int(np.sum(total[v.unreachable] <= total[v.shortlist].max())) if len(v.shortlist)
+             else len(v.unreachable))
     if ahead:
         print(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
     if v.chosen_by == "score":
@@ -833,7 +841,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet (the shipped checkpoint, default), sdgnet_paper (the paper objective's checkpoint), "
                    "analytic (the paper's cost), analytic_wrench (its grip-demand form), or a baseline")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint for --scorer sdgnet (default: shipped)")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/5)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/6)")
     p.set_defaults(fn=cmd_plan)
 
     b = sub.add_parser("bench", help="benchmarks, each with its own flags: costs, rollout, score, verify, sample")

@@ -6,7 +6,7 @@ and optionally check the best ones in MuJoCo. `itup plan` is this function and a
                            # the arm can carry through the task (sampling="all": n drawn, reachability walked)
     plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
     plan.pick              # index into plan.grasps of the recommended grasp (None unless status is "ok")
-    plan.to_json()         # the `itup.plan/5` document (itup_jax/schemas/plan.schema.json)
+    plan.to_json()         # the `itup.plan/6` document (itup_jax/schemas/plan.schema.json)
 
 Host-side orchestration: the scorers and the rollouts it calls jit themselves at their outer calls.
 """
@@ -32,6 +32,13 @@ DEFAULT_TOP = 5
 SAMPLING_MODES = ("reachable", "all")
 #: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and no --verify was asked for.
 GUARD_VERIFY_K = 5
+#: The share of a verified shortlist the analytic wrench cost chooses when the guard fired (`guard_order`):
+#: 2 of 5. Chosen on the held-out families' calibration tools (`experiments/guard_shortlist.py`, rule
+#: fixed before the run): picks that did the task and held in 3 random draws, 35 tools: SDG-Net's 5 best
+#: 29, this mix 35, the analytic cost's 5 best 35, the best by SDG-Net along the handle 31.
+GUARD_ANALYTIC_SHARE = 0.4
+#: How a verified shortlist was chosen (`GraspPlan.shortlist_rule`).
+SHORTLIST_RULES = ("scorer", "guard_mixed")
 #: Statuses of a plan (`GraspPlan.status`).
 STATUSES = ("ok", "no_reachable_candidate", "no_verified_success")
 #: The measured labels reported per verification rollout.
@@ -57,6 +64,8 @@ class GraspPlan:
         verified grasps did the task and held in all of its rollouts).
       advice: what to try when `status` is not "ok".
       verified: `verify.Verified` of the MuJoCo check, or None.
+      shortlist_rule: how the verified grasps were chosen: "scorer" (the best by the scorer) or "guard_mixed"
+        (the guard fired: `guard_order`).
       verify_rows: one dict per verification rollout (`VERIFY_FIELDS`, index, draw, measured_total).
       weights: the scorer's weights as given to it (None for a baseline).  measure_weights: the
         `ScoreWeights` of the measured total (verification).  physics: "nominal" or "random".
@@ -88,6 +97,7 @@ class GraspPlan:
     sampling: dict = dataclasses.field(default_factory=dict)
     guard: Any = None
     guard_verified: bool = False
+    shortlist_rule: str = "scorer"
 
     @property
     def best_index(self) -> int:
@@ -111,10 +121,10 @@ class GraspPlan:
         }
 
     def to_json(self) -> dict[str, Any]:
-        """The `itup.plan/5` document."""
+        """The `itup.plan/6` document."""
         s = self.scores
         out = {
-            "schema": "itup.plan/5",
+            "schema": "itup.plan/6",
             "task": self.task.kind,
             "tool": {"name": self.tool.name, "category": self.tool.category, "mass_kg": round(self.tool.mass, 6)},
             "regime": self.regime,
@@ -142,7 +152,7 @@ class GraspPlan:
                 "weights": dataclasses.asdict(self.measure_weights),
                 "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
                                for i, m in zip(v.shortlist, v.measured_total)],
-                "chosen_by": v.chosen_by,
+                "chosen_by": v.chosen_by, "shortlist_rule": self.shortlist_rule,
                 "pick": {**self.row(v.index), "reachable": v.chosen_by == "measured" or None} if ok else None,
                 "labels": list(self.verify_rows),
             }
@@ -164,6 +174,22 @@ def first_reachable(task, grasps: Grasps, ranking: np.ndarray, *, check_first: i
         if rank_found is not None and rank + 1 >= check_first:
             break
     return rank_found, reachable
+
+
+def guard_order(scorer_total: np.ndarray, analytic_total: np.ndarray, k: int) -> np.ndarray:
+    """[N] the order in which the verifier tries candidates when the out-of-distribution guard fired: the
+    k - m best by the scorer, then the m = floor(GUARD_ANALYTIC_SHARE k) best by the analytic wrench cost
+    (`costs.wrench_costs`, the grip-demand form: physics, no training data) that are not among them, then
+    the rest by the scorer (replacements for rollouts that are not valid). Outside its training data
+    SDG-Net's best can all lie where it extrapolates furthest; the analytic cost's best lie elsewhere.
+    scorer_total, analytic_total: [N], lower is better."""
+    net = np.argsort(np.asarray(scorer_total, np.float64), kind="stable")
+    m = int(GUARD_ANALYTIC_SHARE * k)
+    head = net[: k - m]
+    taken = set(head.tolist())
+    physics = [int(i) for i in np.argsort(np.asarray(analytic_total, np.float64), kind="stable") if int(i) not in taken][:m]
+    taken.update(physics)
+    return np.concatenate([head, np.asarray(physics, np.int64), [i for i in net if int(i) not in taken]]).astype(np.int64)
 
 
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
@@ -192,7 +218,9 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         (verify_physics "random", the default then) and keeps the lowest mean.
       guard: an SDG-Net scorer's plan reads the out-of-distribution guard (`ood.check`) always; with guard
         True, when the tool lies outside the network's training data and verify is 0, it verifies
-        GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`).
+        GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`), and
+        whenever it fired the verified grasps mix the analytic wrench cost's best into SDG-Net's
+        (`guard_order`; the plan's `shortlist_rule` "guard_mixed").
     Returns:
       `GraspPlan`; its status says whether a grasp is recommended.
     Raises:
@@ -296,8 +324,13 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
     # weights, whatever the scorer (the analytic cost's weights are for N, not m)
     measure_w = sw if scorer in SDGNET_SCORERS else ScoreWeights()
+    order, rule = None, "scorer"
+    if guard and reading is not None and reading.fired:
+        analytic = itup.wrench_costs(tool, task, grasps, OBJECTIVES["wrench"].analytic)
+        order, rule = guard_order(total, np.asarray(analytic.total), verify), "guard_mixed"
     v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
-                            weights=measure_w, randomize=None if physics == "nominal" else Randomization())
+                            weights=measure_w, randomize=None if physics == "nominal" else Randomization(),
+                            order=order)
     L = v.labels
     per_rollout = measured_total(L, measure_w, objective_of(scores))
     rows = []
@@ -317,7 +350,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                   "a stronger grip, or another tool: none of the rolled-out grasps did the task and held")
     return GraspPlan(**base, pick_rank=rank_found, pick=int(v.index) if status == "ok" else None, status=status,
                      advice=advice, verified=v, verify_rows=tuple(rows), verify_k=verify, verify_draws=verify_draws,
-                     measure_weights=measure_w, physics=physics)
+                     measure_weights=measure_w, physics=physics, shortlist_rule=rule)
 
 
 def _unreachable_advice(n: int) -> tuple[str, ...]:

@@ -117,7 +117,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
                         seed: int = 0,
                         randomize: Randomization | None = None, weights: ScoreWeights = ScoreWeights(),
                         scores: Any = None, scene: Scene | None = None, backend: str | None = None,
-                        nthread: int | None = None) -> Verified:
+                        nthread: int | None = None, order: Any = None) -> Verified:
     """Score every grasp, roll the k best reachable ones out in MuJoCo, pick the lowest measured total.
 
     The candidates are walked in score order: a grasp whose task trajectory the arm cannot follow
@@ -139,6 +139,9 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
       scores: precomputed scores of these grasps (`score(...)`, `wrench_costs(...)`, any object with a
         `total` [N], lower is better); skips scoring.
       scene, backend, nthread: passed to `simulate` (scene: a prebuilt `build_scene(tool, task)`).
+      order: the candidates in the order to try, [M] distinct indices into grasps (default: by the
+        scores' total, lowest first); the pick is still the lowest measured total among those rolled out
+        (`planning.guard_order`: the planner's shortlist when the out-of-distribution guard fired).
     """
     validate_grasps(grasps)
     if not is_integer(k) or k < 1:
@@ -155,8 +158,15 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     if total.shape != (len(grasps),):
         raise InputError(f"best_grasp_verified: scores.total must have shape ({len(grasps)},) like the grasps, "
                          f"got {total.shape}")
+    if order is None:
+        order = np.argsort(total, kind="stable")
+    else:
+        order = np.asarray(order)
+        if (order.ndim != 1 or not np.issubdtype(order.dtype, np.integer) or len(np.unique(order)) != len(order)
+                or (len(order) and (order.min() < 0 or order.max() >= len(grasps)))):
+            raise InputError(f"best_grasp_verified: order must list distinct candidate indices in [0, {len(grasps)}), "
+                             f"got {np.asarray(order).tolist()[:8]}{'...' if np.size(order) > 8 else ''}")
     scene = scene or build_scene(tool, task)
-    order = np.argsort(total, kind="stable")
     # reachability is checked this many candidates at a time (IK ~0.2 ms each, warm)
     walk = reachability_in_order(task, grasps, order, chunk=max(4 * int(k), 16))
     queue: list[int] = []  # reachable, not yet rolled out, in score order

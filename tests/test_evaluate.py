@@ -609,6 +609,26 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
     assert held["verified"] == held["guard_fired"] and held["status"] in ("ok", "no_verified_success")
 
 
+def test_guard_shortlist_quick(tmp_path, monkeypatch):
+    """One held-out tool: every rule's shortlist of 5 distinct candidates, its pick among them (or none),
+    and the selection by the rule written in the experiment."""
+    _run_experiment("guard_shortlist.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "guard_shortlist_calibration.json").read_text())
+    jsonschema.validate(doc, load_schema("guard_shortlist"))
+    row = doc["rows"][0]
+    assert len(doc["rows"]) == 2 and {r["family"] for r in doc["rows"]} == {"screwdriver"}
+    for rule, short in row["shortlists"].items():
+        assert len(set(short)) == 5 and all(0 <= i < row["candidates"] for i in short)
+        assert row["picks"][rule] is None or row["picks"][rule] in short
+    assert row["shortlists"]["mixed"][:3] == row["shortlists"]["sdgnet"][:3]
+    counts = doc["all"]["ok"]
+    assert counts[doc["all"]["rule"]] == max(counts.values())
+    from experiments.guard_shortlist import choose
+
+    tie = [{"ok": {"sdgnet": False, "mixed": True, "analytic": True, "spread": False}}]
+    assert choose(tie)["rule"] == "mixed" and choose([{"ok": dict.fromkeys(counts, True)}])["rule"] == "sdgnet"
+
+
 def test_leave_family_out_quick(tmp_path, monkeypatch):
     """Two tiny families: the shipped checkpoint adapted on both and on each alone, every model judged on
     the same rollouts of each family's tools, each adapted checkpoint written with its guard reference."""

@@ -104,9 +104,33 @@ def test_plan_switches_to_verified_picking_when_the_guard_fires(tmp_path, capsys
     assert g["fired"] and g["verified"] and g["score"] > g["threshold"]
     assert res["verified"]["k"] == 5 and len(res["verified"]["labels"]) >= 5
     text = capsys.readouterr().out
-    assert "outside SDG-Net's training data" in text and "the 5 best grasps are rolled out in MuJoCo" in text
+    assert "outside SDG-Net's training data" in text and "5 grasps are rolled out in MuJoCo" in text
+    assert "the analytic wrench cost's best" in text and res["verified"]["shortlist_rule"] == "guard_mixed"
     assert code == (0 if res["status"] == "ok" else 3)
     # --no-guard reports the reading and trusts the learned score
     assert main(["plan", "--task", "knock", "--n", "24", "--no-guard", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
     assert res["guard"]["fired"] and not res["guard"]["verified"] and "verified" not in res
+    assert "--no-guard: the learned score decides the pick" in capsys.readouterr().out
+
+
+def test_the_guards_shortlist_mixes_in_the_analytic_costs_best(far_tool):
+    """When the guard fired, the verified grasps are SDG-Net's 3 best and the analytic wrench cost's 2 best
+    of the others (`planning.guard_order`), in that order; the pick is the lowest measured total."""
+    from itup_jax.objective import OBJECTIVES
+    from itup_jax.planning import guard_order, plan_grasp
+
+    task = itup.make_task("knock", far_tool)
+    plan = plan_grasp(far_tool, task, n=24)
+    assert plan.guard.fired and plan.guard_verified and plan.shortlist_rule == "guard_mixed"
+    net = np.asarray(plan.scores.total)
+    physics = np.asarray(itup.wrench_costs(far_tool, task, plan.grasps, OBJECTIVES["wrench"].analytic).total)
+    order = guard_order(net, physics, 5)
+    v = plan.verified
+    assert v.shortlist.tolist() == order[: len(v.shortlist)].tolist()  # every rollout valid: the first 5
+    assert set(order[:3].tolist()) == set(np.argsort(net, kind="stable")[:3].tolist())
+    assert v.index == v.shortlist[int(np.argmin(v.measured_total))]
+    # the same candidates verified at the user's request with --no-guard: the scorer's 5 best
+    plain = plan_grasp(far_tool, task, n=24, verify=5, guard=False)
+    assert plain.shortlist_rule == "scorer"
+    assert plain.verified.shortlist.tolist() == np.argsort(net, kind="stable")[: len(plain.verified.shortlist)].tolist()

@@ -49,3 +49,30 @@ def test_bad_options_are_refused_before_any_work(tasks, kw, match, monkeypatch):
     monkeypatch.setattr(itup, "sample_grasps", lambda *a, **k: pytest.fail("sampled before the check"))
     with pytest.raises(itup.InputError, match=match):
         itup.plan_grasp(tool, task, **kw)
+
+
+def test_guard_order_takes_the_analytic_costs_best_beside_the_scorers():
+    from itup_jax.planning import guard_order
+
+    net = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])  # the scorer's order: 0, 1, 2, ...
+    physics = np.array([0.0, 9.0, 8.0, 7.0, 6.0, 5.0, 1.0, 2.0])  # the analytic cost's: 0, 6, 7, 5, ...
+    order = guard_order(net, physics, 5)
+    assert order.tolist() == [0, 1, 2, 6, 7, 3, 4, 5]  # 3 by the scorer, 2 by the cost not among them, the rest
+    assert sorted(order.tolist()) == list(range(8))
+    assert guard_order(net, physics, 1).tolist() == list(range(8))  # K = 1: the scorer's best alone
+    assert guard_order(net, physics, 10)[:6].tolist() == [0, 1, 2, 3, 4, 5]  # 6 by the scorer, then 4 by the cost
+    assert guard_order(net, physics, 10)[6:].tolist() == [6, 7]
+
+
+def test_a_verification_order_is_checked_and_followed(tasks):
+    from itup_jax.verify import best_grasp_verified
+
+    tool, task = tasks["sweep"]
+    g = itup.sample_grasps(tool, 64, seed=3)
+    ok = np.nonzero(reachable(task, g))[0]
+    order = ok[::-1][:3]  # the last reachable ones first
+    v = best_grasp_verified(tool, task, g, k=2, order=order)
+    assert v.shortlist.tolist() == order[:2].tolist()  # not the scores' order: the given one
+    for bad in ([0, 0], [64], [-1], np.array([0.5])):
+        with pytest.raises(itup.InputError, match="order must list distinct candidate indices"):
+            best_grasp_verified(tool, task, g, k=2, order=bad)
