@@ -142,12 +142,19 @@ def grasp_features(field: DensityField, loads: Loads, tool: ToolParams, grasp: G
         matmuls, measured 2.5x slower for 10,000 grasps (docs/benchmarks.md)."""
         return v[..., 0:1] * R[0] + v[..., 1:2] * R[1] + v[..., 2:3] * R[2]
 
+    def to_grasp_t(vt):
+        """Columns vt [3, T] -> R^T vt [3, T]: `to_grasp` transposed, the same products summed in the same
+        order (the same bits), with the time axis minor: vmapped over grasps it vectorises along T
+        instead of along a minor axis of 3."""
+        return R[0][:, None] * vt[0:1] + R[1][:, None] * vt[1:2] + R[2][:, None] * vt[2:3]
+
     occ = occupancy(field, p, R, spec)
-    # loads about the grasp origin, grasp-frame axes
-    F = to_grasp(loads.force_tool)  # [T, 3]
-    tau = to_grasp(loads.moment_tool - jnp.cross(p, loads.force_tool))
-    k = jnp.argmax(jnp.sum(tau * tau, axis=-1))
-    load_feats = jnp.concatenate([jnp.abs(F).max(0), jnp.abs(tau).max(0), F[k], tau[k]])
+    # loads about the grasp origin, grasp-frame axes, [3, T]
+    ft = loads.force_tool.T
+    F = to_grasp_t(ft)
+    tau = to_grasp_t(loads.moment_tool.T - jnp.cross(p, ft, axisb=0, axisc=0))
+    k = jnp.argmax(tau[0] * tau[0] + tau[1] * tau[1] + tau[2] * tau[2])
+    load_feats = jnp.concatenate([jnp.abs(F).max(1), jnp.abs(tau).max(1), F[:, k], tau[:, k]])
     # contact geometry
     contact = jnp.concatenate([to_grasp(loads.contact_point_tool - p), to_grasp(loads.normal_tool[k]),
                                to_grasp(tool.com - p)])

@@ -15,6 +15,8 @@ written atomically. The warnings the build raised (the UR5e's speed limits) are 
 and raised again when the entry is read.
 
 Folder: `$ITUP_TASK_CACHE_DIR`, else `$XDG_CACHE_HOME/itup-jax/tasks`, else `~/.cache/itup-jax/tasks`.
+An entry is ~12 kB (64 steps); entries of other code versions are never read again, and the folder may
+be deleted at any time (the next run builds its task again).
 The CLI uses it whenever it uses the compile cache (`compile_cache.wanted`: off with
 `--no-compile-cache` or `ITUP_COMPILE_CACHE=0`); a notebook keeps its tasks in memory and has no need.
 """

@@ -93,3 +93,28 @@ def test_features_see_where_the_grasp_is(hammer_case):
     assert np.abs(f[0] - f[1]).max() > 1e-3
     contact = f[:, SPEC.grid**3 + 12:SPEC.grid**3 + 15]
     assert np.linalg.norm(contact[0]) > np.linalg.norm(contact[1])  # farther from the face at the butt
+
+
+def test_load_features_are_the_textbook_form_bit_for_bit(tasks):
+    """The load features, computed with the time axis minor, equal the row-per-step form (the loads about
+    the grasp origin in grasp axes, their peak magnitudes, both at the step of peak torque), bit for bit:
+    the datasets' features do not change with the layout."""
+    from itup_jax.bench import random_grasps
+
+    g = SPEC.grid**3
+    for kind in ("hammer", "sweep"):
+        tool, task = tasks[kind]
+        grasps = random_grasps(tool, 300, seed=5)
+        loads = task_loads(tool.params, task)
+
+        def textbook(grasp):
+            R = rotation_matrix(grasp.q_tool_grasp)
+            to_grasp = lambda v: v[..., 0:1] * R[0] + v[..., 1:2] * R[1] + v[..., 2:3] * R[2]  # noqa: E731
+            F = to_grasp(loads.force_tool)  # [T, 3]
+            tau = to_grasp(loads.moment_tool - jnp.cross(grasp.p_tool_grasp, loads.force_tool))
+            k = jnp.argmax(jnp.sum(tau * tau, axis=-1))
+            return jnp.concatenate([jnp.abs(F).max(0), jnp.abs(tau).max(0), F[k], tau[k]])
+
+        want = np.asarray(jax.jit(jax.vmap(textbook))(grasps))
+        got = _features(tool.params, surface_sample(tool, SPEC), task, grasps)[:, g:g + 12]
+        assert got.tobytes() == want.tobytes()
