@@ -52,10 +52,11 @@ CAL_SEED, TEST_SEED = 100, 200
 def shortlists(net_total: np.ndarray, analytic_total: np.ndarray, z: np.ndarray, k: int) -> dict[str, list[int]]:
     """Each rule's shortlist of k candidate indices (module docstring), from the two scorers' totals [N]
     and the candidates' positions along the handle z [N] (m)."""
+    from itup_jax.planning import guard_order
+
     net = [int(i) for i in np.argsort(net_total, kind="stable")]
     ana = [int(i) for i in np.argsort(analytic_total, kind="stable")]
-    head = net[: k - k * 2 // 5]
-    mixed = head + [i for i in ana if i not in head][: k - len(head)]
+    mixed = [int(i) for i in guard_order(net_total, analytic_total, k)[:k]]  # k = 5: SDG-Net's 3 + the cost's 2
     bins = np.array_split(np.argsort(z, kind="stable"), k)
     spread = [int(b[np.argmin(net_total[b])]) for b in bins if len(b)]
     return {"sdgnet": net[:k], "mixed": mixed, "analytic": ana[:k], "spread": spread}

@@ -153,6 +153,8 @@ def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
 
 def _print_plan(args, plan) -> None:
     """The ranking, the pick, the verification rollouts and what to try when there is no pick."""
+    from itup_jax.planning import GUARD_ANALYTIC_SHARE
+
     tool, grasps, costs = plan.tool, plan.grasps, plan.scores
     sm = plan.sampling
     drawn = (f"{sm['reachable']} reachable of {sm['drawn']} drawn" if sm["mode"] == "reachable"
@@ -171,7 +173,9 @@ def _print_plan(args, plan) -> None:
             what = ("the --verify rollouts decide the pick" if plan.verified is not None
                     else "--no-guard: the learned score decides the pick")
         if plan.shortlist_rule == "guard_mixed":
-            what += "; the grasps verified are SDG-Net's best and, for 2 in 5, the analytic wrench cost's best"
+            m = int(GUARD_ANALYTIC_SHARE * plan.verify_k)
+            what += (f"; the grasps verified are SDG-Net's {plan.verify_k - m} best and the analytic wrench cost's "
+                     f"{m} best")
         print("warning: " + g.message(tool.name, plan.task.kind) + "; " + what)
     if costs is None:  # the reachable sampler found none: nothing was scored
         print(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
