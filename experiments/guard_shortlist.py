@@ -14,7 +14,7 @@ extrapolates furthest. Shortlist rules compared on the same candidates and the s
   * spread:   the candidates split into 5 equal-count bins by position along the handle (tool z), the
               best by SDG-Net in each.
 Per tool of the held-out families (the families' default tool and seeds 100.. for the calibration set,
-seeds 200.. for the test set, as `experiments/ood_guard.py`): 1,000 candidates the arm can carry
+seeds 200.. for the test set: `experiments/ood_guard.py`'s `set_tools`): 1,000 candidates the arm can carry
 (`sample_reachable`, seed as the planner's), each rule's shortlist rolled out once under nominal physics,
 its pick the lowest measured total (`verify.measured_total`, the planner's weights) or no pick when none
 of the shortlist did the task and held; each distinct pick then rolled out 3 times under random physics,
@@ -45,8 +45,13 @@ from itup_jax.atomic import atomic_write_json  # noqa: E402
 
 #: The rules in tie-break order (module docstring).
 RULES = ("sdgnet", "mixed", "analytic", "spread")
-#: Seeds of the calibration and test draws (as experiments/ood_guard.py).
-CAL_SEED, TEST_SEED = 100, 200
+
+
+def _ood_guard() -> dict:
+    """experiments/ood_guard.py's functions (its `set_tools` draws the same calibration and test tools)."""
+    import runpy
+
+    return runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "ood_guard.py"))
 
 
 def shortlists(net_total: np.ndarray, analytic_total: np.ndarray, z: np.ndarray, k: int) -> dict[str, list[int]]:
@@ -131,13 +136,11 @@ def main(argv=None) -> dict:
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
     rows = []
+    set_tools = _ood_guard()["set_tools"]
     for name in names:
         for kind in families.get(name).tasks:
-            base = CAL_SEED if args.set == "calibration" else TEST_SEED
-            seeds = ([None] if args.set == "calibration" else []) + [base + i for i in range(args.tools)]
-            for s in seeds:
-                tool = families.get(name).build() if s is None else families.draw(name, s)
-                row = tool_row(tool, kind, args.n, args.k, args.draws, seed=0 if s is None else s)
+            for tool, s in set_tools(name, args.set, args.tools):
+                row = tool_row(tool, kind, args.n, args.k, args.draws, seed=s)
                 row["family"] = name
                 rows.append(row)
                 print(f"{args.set:11s} {tool.name:16s} {kind:6s} guard {row['guard']['score']:6.2f} ok "

@@ -59,6 +59,16 @@ def picks(total: np.ndarray, measured: np.ndarray, valid: np.ndarray, verify: in
     return int(order[0]), (short[int(np.argmin(measured[short]))] if short else int(order[0]))
 
 
+def set_tools(name: str, set_name: str, tools: int) -> list[tuple]:
+    """[(tool, seed)] of family `name`'s calibration set (its default tool, planned with seed 0, and
+    `tools` draws from CAL_SEED) or test set (`tools` draws from TEST_SEED, each planned with its seed)."""
+    from itup_jax import families
+
+    base = CAL_SEED if set_name == "calibration" else TEST_SEED
+    seeds = ([None] if set_name == "calibration" else []) + [base + i for i in range(tools)]
+    return [(families.get(name).build(), 0) if s is None else (families.draw(name, s), s) for s in seeds]
+
+
 def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
     """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, the guard, which
     verifies 5 grasps when it fires), its pick then rolled out `draws` times under random physics."""
@@ -208,11 +218,9 @@ def main(argv=None) -> dict:
     for name in names:
         fam = families.get(name)
         for kind in fam.tasks:
-            for set_name, base in (("calibration", CAL_SEED), ("test", TEST_SEED)):
-                seeds = ([None] if set_name == "calibration" else []) + [base + i for i in range(args.tools)]
-                for s in seeds:
-                    tool = families.get(name).build() if s is None else families.draw(name, s)
-                    row = tool_row(tool, kind, args.grasps, args.verify, seed=0 if s is None else s)
+            for set_name in ("calibration", "test"):
+                for tool, s in set_tools(name, set_name, args.tools):
+                    row = tool_row(tool, kind, args.grasps, args.verify, seed=s)
                     row.update(family=name, builtin=fam.builtin)
                     if set_name == "test" and args.plan_n > 0:
                         with warnings.catch_warnings():
