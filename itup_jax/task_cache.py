@@ -38,6 +38,8 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write
 from itup_jax.shapes import to_device
+from itup_jax.task import Task
+from itup_jax.task import make_task as build_task
 from itup_jax.tool import Tool
 from itup_jax.trajectory import Trajectory
 
@@ -102,18 +104,13 @@ def key(kind: str, tool: Tool, overrides: dict) -> str:
     return h.hexdigest()
 
 
+#: The arrays of a `Task` (all its fields but the trajectory and the kind) and of its `Trajectory`.
+_TASK_FIELDS = tuple(f.name for f in dataclasses.fields(Task) if f.name not in ("traj", "kind"))
 _TRAJ_FIELDS = tuple(f.name for f in dataclasses.fields(Trajectory))
 
 
-def _task_fields() -> tuple[str, ...]:
-    """The `Task` fields that hold arrays (all but the trajectory and the kind)."""
-    from itup_jax.task import Task
-
-    return tuple(f.name for f in dataclasses.fields(Task) if f.name not in ("traj", "kind"))
-
-
 def _encode(task, caught: list[str]) -> bytes:
-    arrays = {f"task.{n}": np.asarray(getattr(task, n)) for n in _task_fields()}
+    arrays = {f"task.{n}": np.asarray(getattr(task, n)) for n in _TASK_FIELDS}
     arrays.update({f"traj.{n}": np.asarray(getattr(task.traj, n)) for n in _TRAJ_FIELDS})
     meta = json.dumps({"kind": task.kind, "warnings": caught})
     buf = io.BytesIO()
@@ -122,12 +119,10 @@ def _encode(task, caught: list[str]) -> bytes:
 
 
 def _decode(data: bytes):
-    from itup_jax.task import Task
-
     with np.load(io.BytesIO(data), allow_pickle=False) as z:
         meta = json.loads(bytes(z["meta"]).decode())
         traj = Trajectory(**{n: to_device(z[f"traj.{n}"]) for n in _TRAJ_FIELDS})
-        task = Task(**{n: to_device(z[f"task.{n}"]) for n in _task_fields()}, traj=traj, kind=meta["kind"])
+        task = Task(**{n: to_device(z[f"task.{n}"]) for n in _TASK_FIELDS}, traj=traj, kind=meta["kind"])
     return task, list(meta["warnings"])
 
 
@@ -136,8 +131,6 @@ def make_task(kind: str, tool: Tool, *, folder: str | os.PathLike | None = None,
     when an entry exists, else built and written there. Returns the same `Task` either way, and raises
     the same warnings; the same errors before anything is read or written. A folder that cannot be
     created or written leaves the build as it is (no cache)."""
-    from itup_jax.task import make_task as build
-
     path = Path(folder) if folder is not None else cache_dir()
     entry = path / f"{key(kind, tool, overrides)}.npz"
     try:
@@ -155,7 +148,7 @@ def make_task(kind: str, tool: Tool, *, folder: str | os.PathLike | None = None,
             return task
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
-        task = build(kind, tool, **overrides)
+        task = build_task(kind, tool, **overrides)
     caught = [str(w.message) for w in record if issubclass(w.category, UserWarning)]
     for w in record:  # raised again outside the recorder, as make_task would have
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
