@@ -438,8 +438,7 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
         if ok.any():
             found.append(tuple(np.asarray(a)[ok] for a in (g.p_tool_grasp, g.q_tool_grasp, g.width)))
             have += int(ok.sum())
-    dt = jnp.zeros(()).dtype  # the package's float: float32 unless x64 is on
-    p, q, w = ((np.concatenate(a)[:n] for a in zip(*found)) if found
-               else (np.zeros((0, 3), dt), np.zeros((0, 4), dt), np.zeros((0,), dt)))
+    p, q, w = ((np.concatenate(a)[:n] for a in zip(*found)) if found  # to_device makes them the package's float
+               else (np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0,))))
     cat = Grasps(p_tool_grasp=to_device(p), q_tool_grasp=to_device(q), width=to_device(w))
     return ReachableGrasps(grasps=cat, requested=int(n), drawn=drawn, budget=int(budget), rounds=rounds)
