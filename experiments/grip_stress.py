@@ -3,10 +3,15 @@ holding grip, per task and method, on the same candidates and physics draws.
 
     python experiments/grip_stress.py --out results/grip_stress            # 4 tasks x 3 tools
     python experiments/grip_stress.py --quick --out /tmp/gs                # the tests' smoke run
+    python experiments/grip_stress.py --data /tmp/d10/eval_s6 --methods force_closure,sdgnet@w_align=30 ...
 
 Per task, the built-in tool and `--tools-per-task - 1` unseen stretched variants (`dataset.vary_tool`,
-seeds 10,000 + v, as `table1.py`). On each tool every method picks one of the same reachable candidates
-(its lowest total score). Each pick is rolled out `--draws` times at every force of `--grid` (N per pad;
+seeds 10,000 + v, as `table1.py`: the test tools); with `--data DIR`, that dataset's unseen tools instead
+(variants 1 .. --tools-per-task of its manifest, `dataset.unit_tool`: e.g. the validation tools). A
+method is a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
+'sdgnet@w_NAME=V,...': the shipped SDG-Net under `ScoreWeights` with those weights changed
+(`method_scorer`); methods that pick the same candidate share its rollouts. On each tool every method
+picks one of the same reachable candidates (its lowest total score). Each pick is rolled out `--draws` times at every force of `--grid` (N per pad;
 the grip fixed, the other priors randomised; draw d the same physics for every pick), and its least
 holding grip (no grip failure and the task done in every draw) is found by bisection
 (`stress.min_holding_grip`, the grid's answers reused). Forces below the 2F-85's 20 N are a labelled
@@ -17,6 +22,7 @@ torque (`stats.failure_threshold`) is printed beside the paper's ~6.9 N m.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import time
 import warnings
@@ -25,10 +31,11 @@ import numpy as np
 
 from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import vary_tool
+from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool, vary_tool
+from itup_jax.errors import InputError
 from itup_jax.evaluate import feasible_candidates
 from itup_jax.scene import build_scene
-from itup_jax.scoring import score
+from itup_jax.scoring import ScoreWeights, score
 from itup_jax.stats import failure_threshold
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
 from itup_jax.tool import load_tool
@@ -38,21 +45,63 @@ DEFAULT_GRID = (10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 100.0)
 DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", "force_closure", "geometric")
 
 
-def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print) -> dict:
+def method_scorer(method: str) -> tuple[str, ScoreWeights]:
+    """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields); a plain name ->
+    (name, the default weights). InputError naming the method for an unknown or malformed weight."""
+    if "@" not in method:
+        return method, ScoreWeights()
+    model, spec = method.split("@", 1)
+    if model not in ("sdgnet", "sdgnet_paper"):
+        raise InputError(f"method {method!r}: weights apply to 'sdgnet' or 'sdgnet_paper', not {model!r}")
+    known = {f.name for f in dataclasses.fields(ScoreWeights)}
+    kw = {}
+    for part in spec.split(","):
+        k, eq, v = part.partition("=")
+        if not eq or k not in known:
+            raise InputError(f"method {method!r}: expected NAME=VALUE with NAME one of {', '.join(sorted(known))}, "
+                             f"got {part!r}")
+        try:
+            kw[k] = float(v)
+        except ValueError:
+            raise InputError(f"method {method!r}: {k} must be a number, got {v!r}") from None
+    return model, ScoreWeights(**kw)
+
+
+def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> list[tuple[int, object]]:
+    """[(v, Tool)]: the built-in tool and table1's unseen variants (seeds 10,000 + v), or with `data`
+    the dataset's variants 1 .. tools_per_task (its unseen tools)."""
+    if data is None:
+        base = load_tool(DEFAULT_TOOL[kind])
+        return [(v, base if v == 0 else vary_tool(base, 10_000 + v)) for v in range(tools_per_task)]
+    config = GenerateConfig.from_json(read_manifest(data)["config"])
+    if kind not in config.tasks:
+        raise InputError(f"--data {data}: the dataset has no {kind!r} tools (its tasks: {', '.join(config.tasks)})")
+    if tools_per_task > config.tools_per_task - 1:
+        raise InputError(f"--data {data}: it has {config.tools_per_task - 1} unseen tools per task, "
+                         f"asked for {tools_per_task}")
+    return [(v, unit_tool(config, kind, v)[0]) for v in range(1, tools_per_task + 1)]
+
+
+def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print, data=None) -> dict:
+    scorers = {m: method_scorer(m) for m in methods}  # bad method names fail before any rollout
     rows = []  # one per (task, tool, method)
     rollouts = {k: {"torque": [], "failed": []} for k in tasks}
     for kind in tasks:
-        base = load_tool(DEFAULT_TOOL[kind])
-        for v in range(tools_per_task):
-            tool = base if v == 0 else vary_tool(base, 10_000 + v)
+        for v, tool in stress_tools(kind, tools_per_task, data):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit
                 task = make_task(kind, tool)
             scene = build_scene(tool, task)
             t0 = time.perf_counter()
             cands, _ = feasible_candidates(tool, task, n, seed=seed + v)
+            done: dict[int, dict] = {}  # candidate index -> its stress row (methods that pick it share it)
             for m in methods:
-                i = int(np.argmin(np.asarray(score(tool, task, cands, model=m, seed=seed + v).total, float)))
+                model, weights = scorers[m]
+                i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
+                                                   seed=seed + v).total, float)))
+                if i in done:
+                    rows.append({**done[i], "method": m})
+                    continue
                 pick = cands[i:i + 1]
                 cache: dict[float, bool] = {}
                 at = {}
@@ -69,9 +118,10 @@ def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print) 
 
                 mg = stress.pick_min_holding_grip(tool, task, pick, draws=draws, seed=seed + v, scene=scene, tol=tol,
                                                   grid=grid, known=cache)  # the grid's answers reused
-                rows.append({"task": kind, "tool": tool.name, "unseen": v > 0, "method": m, "index": i,
-                             "min_holding_grip_N": mg.force, "monotone": mg.monotone, "probe": mg.probe,
-                             "tried": {f"{f:g}": ok for f, ok in sorted(mg.tried.items())}, "at_grip": at})
+                done[i] = {"task": kind, "tool": tool.name, "unseen": v > 0, "method": m, "index": i,
+                           "min_holding_grip_N": mg.force, "monotone": mg.monotone, "probe": mg.probe,
+                           "tried": {f"{f:g}": ok for f, ok in sorted(mg.tried.items())}, "at_grip": at}
+                rows.append(done[i])
             log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
                 f"{r['method']} {r['min_holding_grip_N'] if r['min_holding_grip_N'] is None else round(r['min_holding_grip_N'], 1)} N"
                 for r in rows if r["task"] == kind and r["tool"] == tool.name))
@@ -133,6 +183,8 @@ def main() -> None:
     ap.add_argument("--draws", type=int, default=3, help="rollouts per pick and force (the same draws for every pick)")
     ap.add_argument("--tol", type=float, default=stress.GRIP_TOLERANCE, help="N, the bisection's bracket")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--data", default=None, help="a dataset folder: stress its unseen tools (variants 1 .. "
+                    "--tools-per-task) instead of the built-in tool and table1's variants")
     ap.add_argument("--quick", action="store_true", help="hammer, 1 tool, 32 candidates, 2 forces, 1 draw")
     ap.add_argument("--out", default="results/grip_stress")
     a = ap.parse_args()
@@ -143,12 +195,21 @@ def main() -> None:
         tasks, tools, n, grid, draws, tol = ("hammer",), 1, 32, (15.0, 100.0), 1, 20.0
     else:
         tools, n, draws, tol = a.tools_per_task, a.n, a.draws, a.tol
+    try:  # bad methods or --data fail here, before any rollout
+        for m in methods:
+            method_scorer(m)
+        for kind in tasks:
+            if a.data is not None:
+                stress_tools(kind, tools, a.data)
+    except InputError as e:
+        ap.error(str(e))
     os.makedirs(a.out, exist_ok=True)
     t0 = time.perf_counter()
-    res = run(tasks, tools, n, methods, grid, draws, tol, seed=a.seed)
+    res = run(tasks, tools, n, methods, grid, draws, tol, seed=a.seed, data=a.data)
     out = {"schema": "itup.grip_stress/1", "config": {"tasks": tasks, "tools_per_task": tools, "n": n,
                                                        "methods": methods, "grid_N": grid, "draws": draws,
-                                                       "tol_N": tol, "seed": a.seed, "quick": a.quick},
+                                                       "tol_N": tol, "seed": a.seed, "quick": a.quick,
+                                                       "data": a.data},
            "paper_tau50_Nm": PAPER_TAU50, "wall_s": round(time.perf_counter() - t0, 1), **res}
     atomic_write_json(os.path.join(a.out, "grip_stress.json"), out, indent=1)
     plot(res["summary"], tasks, methods, grid, os.path.join(a.out, "grip_stress.png"))

@@ -33,7 +33,9 @@ Writes objective.json.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -58,6 +60,18 @@ MIN_SUCCESS = 0.95
 PAD = 64
 #: the wrench objective's weight grid: (w_tau 1/(N m), w_grip N m per N)
 GRID = ((1.0, 0.0), (1.0, 0.005), (1.0, 0.01), (1.0, 0.02), (1.0, 0.05), (0.0, 0.01))
+
+
+@contextlib.contextmanager
+def quick_dataset(prefix: str = "objective_quick_"):
+    """A tiny labelled dataset made in a temporary folder, removed afterwards (the experiments' --quick
+    runs): the reach, its built-in tool and one stretched variant, 24 grasps each, seed 6."""
+    tmp = tempfile.mkdtemp(prefix=prefix)
+    try:
+        generate(tmp, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=6), progress=False)
+        yield tmp
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def settings_of(models: dict) -> dict:
@@ -193,15 +207,19 @@ def main(argv=None) -> dict:
         print(f"objective_selection: --out {a.out!r} is a file, not a folder", file=sys.stderr)
         raise SystemExit(2)
     t0 = time.time()
-    tmp = None
-    if a.quick:
-        tmp = tempfile.mkdtemp(prefix="objective_quick_")
-        generate(tmp, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=6), progress=False)
-        a.data = tmp
-        models = models or {"shipped": None}
-    if not a.data:
+    if not a.data and not a.quick:
         print("objective_selection: --data (or --quick) is required", file=sys.stderr)
         raise SystemExit(2)
+    if a.quick:
+        models = models or {"shipped": None}
+        with quick_dataset() as tmp:
+            return run(a, models, tmp, t0)
+    return run(a, models, a.data, t0)
+
+
+def run(a, models: dict, path: str, t0: float) -> dict:
+    """Everything after the arguments: score, summarise, choose and write (the dataset at `path`)."""
+    a.data = path
     data = load_dataset(a.data)
     config = GenerateConfig.from_json(read_manifest(a.data)["config"])
     methods = settings_of(models)

@@ -5,8 +5,9 @@
         --out results/weights_test
     python experiments/score_weights.py --quick --out /tmp/weights     # a tiny dataset made here (tests)
 
-The shipped `ScoreWeights` (w_tau 1 /(N m), w_slip 100 /m, w_align 1 /rad, w_task 10, w_fail 10) were
-chosen on validation tools with 256 candidates per tool. `candidate_count.py` found that the pick by the total
+The shipped `ScoreWeights` (w_tau 1 /(N m), w_slip 100 /m, w_task 10, w_fail 10 from this experiment;
+w_align and w_grip from `align_weight.py` and `objective_selection.py`) were chosen on validation tools
+with 256 candidates per tool. `candidate_count.py` found that the pick by the total
 gains little from 1,024 or 4,096 candidates, while the pick by predicted C_tau alone gains much (but
 misses the task in half the tools). This experiment asks whether other weights do better at planner
 scale. Per held-out tool (variants >= 1) of --data:
@@ -137,7 +138,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--n", type=int, default=1024, help="fresh candidates per tool")
     ap.add_argument("--draws", type=int, default=5, help="rollouts per pick")
     ap.add_argument("--w-slip", default="0,30,100", help="grid values of w_slip (1/m)")
-    ap.add_argument("--w-align", default="0.3,1,3", help="grid values of w_align (1/rad)")
+    ap.add_argument("--w-align", default="30,100,300", help="grid values of w_align (1/rad)")
     ap.add_argument("--w-task", default="3,10", help="grid values of w_task")
     ap.add_argument("--w-fail", default="3,10,30", help="grid values of w_fail")
     ap.add_argument("--grid", action="append", default=None, metavar="SLIP,ALIGN,TASK,FAIL",
@@ -148,7 +149,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--out", default="results/weights")
     args = ap.parse_args(argv)
     if args.quick:
-        args.n, args.draws, args.w_slip, args.w_align, args.w_task, args.w_fail = 48, 2, "0,100", "1", "10", "10"
+        args.n, args.draws, args.w_slip, args.w_task, args.w_fail = 48, 2, "0,100", "10", "10"
+        args.w_align = f"{SHIPPED.w_align:g}"
     for flag, v in (("--n", args.n), ("--draws", args.draws)):
         if v < 1:
             print(f"score_weights: {flag} must be >= 1, got {v}", file=sys.stderr)

@@ -367,7 +367,8 @@ def test_score_weights_quick(tmp_path, monkeypatch):
     _run_experiment("score_weights.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "weights.json").read_text())
     jsonschema.validate(doc, load_schema("weights"))
-    assert set(doc["settings"]) == {doc["shipped"], "slip0_align1_task10_fail10"} and doc["n"] == 48
+    align = f"{itup.ScoreWeights().w_align:g}"
+    assert set(doc["settings"]) == {doc["shipped"], f"slip0_align{align}_task10_fail10"} and doc["n"] == 48
     row = doc["per_tool"][0]
     # every pick is the argmin of its setting's total, recomputed here with ScoreWeights from the scorer
     from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool
@@ -643,3 +644,27 @@ def test_leave_family_out_quick(tmp_path, monkeypatch):
     assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["all"]) == 2
     held = doc["held_out"]["screwdriver"]["without"]
     assert held["tools"] == 1 and 0 <= held["verified_ok"] <= 1
+
+
+def test_headroom_quick(tmp_path, monkeypatch):
+    """A tiny dataset: the oracle picks the lowest measured torque among the candidates that did the task and
+    held, every pick is re-measured on fresh draws, and the paired ratios compare those."""
+    _run_experiment("headroom.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "headroom.json").read_text())
+    jsonschema.validate(doc, load_schema("headroom"))
+    assert doc["per_tool"] and set(doc["methods"]) == {"sdgnet", "force_closure", "geometric"}
+    for t in doc["per_tool"]:
+        picks = t["picks"]
+        assert set(picks) == {"oracle", "sdgnet", "force_closure", "geometric"}
+        # the oracle's dataset rollout did the task and held, with the lowest torque of any pick that did
+        assert picks["oracle"]["dataset_ok"]
+        assert all(p["dataset_torque"] >= picks["oracle"]["dataset_torque"] for p in picks.values() if p["dataset_ok"])
+    from experiments.headroom import oracle_index
+
+    # the lowest torque belongs to a candidate that failed: the oracle skips it
+    assert oracle_index([0.5, 2.0, 1.0, 3.0], [False, True, True, True]) == 2
+    with pytest.raises(itup.InputError, match="no candidate"):
+        oracle_index([1.0, 2.0], [False, False])
+    s = doc["summary"]["reach"]
+    fc = [t["picks"]["force_closure"]["torque"] for t in doc["per_tool"]]
+    assert s["force_closure"]["vs_force_closure"]["ratio"] == pytest.approx(1.0) and s["oracle"]["tools"] == len(fc)

@@ -81,3 +81,98 @@ def test_grip_stress_quick(tmp_path, monkeypatch):
         assert {k for k in r["at_grip"]} <= {f"{float(k):g}" for k in r["tried"]} | set(r["at_grip"])
         assert all(r["tried"][f"{float(g):g}"] == a["holds"] for g, a in r["at_grip"].items())
     assert (tmp_path / "grip_stress.png").stat().st_size > 5_000
+
+
+def test_align_weight_quick(tmp_path, monkeypatch):
+    """The built-in hammer, two weights: every method's pick stressed once (shared picks share rollouts),
+    the rule's checks computed from those rows, and the choice made by the rule."""
+    import json
+    import os
+    import runpy
+    import sys
+
+    import jsonschema
+
+    from itup_jax.schemas import load_schema
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    monkeypatch.setattr(sys, "argv", ["align_weight.py", "--quick", "--out", str(tmp_path)])
+    runpy.run_path(os.path.join(root, "experiments", "align_weight.py"), run_name="__main__")
+    doc = json.loads((tmp_path / "align_weight.json").read_text())
+    jsonschema.validate(doc, load_schema("align_weight"))
+    methods = {r["method"] for r in doc["rows"]}
+    assert methods == {"force_closure", "geometric", "sdgnet@w_align=1", "sdgnet@w_align=300"}
+    c = doc["checks"]["hammer"]
+    assert set(c) == {"1", "300"} and doc["chosen_w_align"] in (1.0, 300.0)
+    for w, check in c.items():  # the checks follow from the rows
+        mine = next(r for r in doc["rows"] if r["method"] == f"sdgnet@w_align={w}")
+        assert check["median_min_holding_grip_N"] == mine["min_holding_grip_N"]
+        assert check["S1"] == (check["median_min_holding_grip_N"] is not None and check["better_baseline_median_N"] is not None
+                               and check["median_min_holding_grip_N"] <= check["better_baseline_median_N"])
+
+
+def test_align_weight_rule_and_methods():
+    """The rule: the smallest weight passing every check, else the most checks (ties to the smaller);
+    a weighted method parses into the shipped scorer's weights, and a bad one is named."""
+    import os
+    import sys
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments"))
+    from align_weight import choose
+    from grip_stress import method_scorer
+
+    ok = {"S1": True, "S2": True, "T": True}
+    bad = {"S1": False, "S2": True, "T": True}
+    table = {"knock": {"1": bad, "10": ok, "30": ok}, "hammer": {"1": ok, "10": ok, "30": ok}}
+    assert choose(table, (1.0, 10.0, 30.0))[0] == 10.0
+    table = {"knock": {"1": bad, "10": {**bad, "T": False}, "30": bad}, "hammer": {"1": ok, "10": ok, "30": ok}}
+    w, why = choose(table, (1.0, 10.0, 30.0))
+    assert w == 1.0 and "5 of 6" in why
+    model, weights = method_scorer("sdgnet@w_align=30,w_grip=0")
+    assert model == "sdgnet" and weights.w_align == 30.0 and weights.w_grip == 0.0 and weights.w_tau == 1.0
+    assert method_scorer("geometric") == ("geometric", itup.ScoreWeights())
+    for bad_method, msg in (("sdgnet@w_nope=1", "w_nope"), ("sdgnet@w_align=x", "must be a number"),
+                            ("geometric@w_align=1", "weights apply to")):
+        with pytest.raises(itup.InputError, match=msg):
+            method_scorer(bad_method)
+
+
+def test_weak_grip_quick(tmp_path, monkeypatch):
+    """The built-in mallet's knock: every candidate at the default grip and twice at a weak one; the rates
+    and the repeatability follow from the rollouts, and every quantity is ranked against the failures."""
+    import json
+    import os
+    import runpy
+    import sys
+
+    import jsonschema
+
+    from itup_jax.schemas import load_schema
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    monkeypatch.setattr(sys, "argv", ["weak_grip.py", "--quick", "--out", str(tmp_path)])
+    runpy.run_path(os.path.join(root, "experiments", "weak_grip.py"), run_name="__main__")
+    doc = json.loads((tmp_path / "weak_grip.json").read_text())
+    jsonschema.validate(doc, load_schema("weak_grip"))
+    (row,) = doc["tasks"]["knock"]["tools"]
+    assert row["candidates"] >= 20 and doc["weak_N"] == 25.0
+    # a failure rate of either draw pair is a multiple of 1/(2 n) and agreement a multiple of 1/n
+    assert abs(row["weak_failure_rate"] * 2 * row["candidates"] - round(row["weak_failure_rate"] * 2 * row["candidates"])) < 1e-9
+    assert abs(row["weak_draws_agree"] * row["candidates"] - round(row["weak_draws_agree"] * row["candidates"])) < 1e-9
+    keys = set(row["rho"])
+    assert {"measured:peak_torque_induced", "measured:slip_rotation", "predicted:align", "position:grasp_z"} <= keys
+    pooled = doc["tasks"]["knock"]["pooled"]
+    for k, v in row["rho"].items():  # one tool: the pooled mean is that tool's rho
+        assert (v is None and pooled[k]["mean_rho"] is None) or pooled[k]["mean_rho"] == pytest.approx(v)
+
+
+def test_weak_grip_rejects_a_grip_outside_the_gripper(tmp_path, monkeypatch):
+    import os
+    import runpy
+    import sys
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    monkeypatch.setattr(sys, "argv", ["weak_grip.py", "--quick", "--weak", "0", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit) as e:
+        runpy.run_path(os.path.join(root, "experiments", "weak_grip.py"), run_name="__main__")
+    assert e.value.code == 2 and not (tmp_path / "x").exists()
