@@ -136,15 +136,12 @@ def main(argv=None) -> dict:
     a = ap.parse_args(argv)
     methods = tuple(dict.fromkeys([m for m in a.methods.split(",") if m] + list(BASELINES)))
     if a.draws < 1:
-        print(f"headroom: --draws must be >= 1, got {a.draws}", file=sys.stderr)
-        raise SystemExit(2)
+        ap.error(f"--draws must be >= 1, got {a.draws}")
     if os.path.exists(a.out) and not os.path.isdir(a.out):
-        print(f"headroom: --out {a.out!r} is a file, not a folder", file=sys.stderr)
-        raise SystemExit(2)
-    t0 = time.time()
+        ap.error(f"--out {a.out!r} is a file, not a folder")
     if not a.data and not a.quick:
-        print("headroom: --data (or --quick) is required", file=sys.stderr)
-        raise SystemExit(2)
+        ap.error("--data (or --quick) is required")
+    t0 = time.time()
     if a.quick:
         with quick_dataset("headroom_quick_") as tmp:
             per_tool = measure(tmp, methods, 1)

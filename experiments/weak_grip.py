@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 import warnings
 
@@ -98,17 +97,16 @@ def main(argv=None) -> dict:
     tasks = tuple(t for t in a.tasks.split(",") if t)
     bad = [t for t in tasks if t not in TASK_KINDS]
     if bad or not tasks:
-        print(f"weak_grip: --tasks must be among {', '.join(TASK_KINDS)}, got {a.tasks!r}", file=sys.stderr)
-        raise SystemExit(2)
+        ap.error(f"--tasks must be among {', '.join(TASK_KINDS)}, got {a.tasks!r}")
     if not a.quick and not a.data:
-        print("weak_grip: --data (or --quick) is required", file=sys.stderr)
-        raise SystemExit(2)
+        ap.error("--data (or --quick) is required")
     try:
         for name, f in (("--strong", a.strong), ("--weak", a.weak)):
-            stress.check_grip(f, f"weak_grip {name}")
+            stress.check_grip(f, name)
+        if not a.quick:
+            read_manifest(a.data)
     except itup.InputError as e:
-        print(e, file=sys.stderr)
-        raise SystemExit(2) from None
+        ap.error(str(e))
     t0 = time.time()
     per_task = {}
     for kind in ("knock",) if a.quick else tasks:
