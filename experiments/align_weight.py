@@ -56,7 +56,8 @@ def method_name(w: float) -> str:
 
 
 def checks(rows: list, tasks, weights) -> dict:
-    """{task: {weight: {"S1": bool, "S2": bool, "T": bool, figures}}} from grip_stress rows."""
+    """{task: {weight: {"S1": bool, "S2": bool, "T": bool, figures}}} from `grip_stress.run`'s rows (its
+    `at_grip` keyed by the force as a float)."""
     out = {}
     for kind in tasks:
         mine = [r for r in rows if r["task"] == kind]
@@ -68,12 +69,12 @@ def checks(rows: list, tasks, weights) -> dict:
             return float(np.median(f))
 
         def fail_at(m, g):
-            v = [_at(get[(t, m)], g)["failed"] for t in tools]
+            v = [get[(t, m)]["at_grip"][g]["failed"] for t in tools]
             v = [x for x in v if x is not None]
             return float(np.mean(v)) if v else np.inf
 
         def torque(t, m):
-            x = _at(get[(t, m)], NOMINAL_GRIP)["peak_torque_induced"]
+            x = get[(t, m)]["at_grip"][NOMINAL_GRIP]["peak_torque_induced"]
             return np.inf if x is None else x
 
         best_grip = min(median_grip(b) for b in BASELINES)
@@ -90,12 +91,6 @@ def checks(rows: list, tasks, weights) -> dict:
                 "torque_ratio_vs_better": _num(gm),
                 "S1": bool(mg <= best_grip), "S2": bool(fl <= best_fail), "T": bool(gm < 1.0)}
     return out
-
-
-def _at(row: dict, g: float) -> dict:
-    """A grip_stress row's entry at force g (keys are floats in memory, strings in its JSON)."""
-    at = row["at_grip"]
-    return at[g] if g in at else at[f"{g:g}"]
 
 
 def _num(x):
@@ -137,8 +132,7 @@ def main() -> None:
     methods = BASELINES + tuple(method_name(w) for w in weights)
     if data is not None:  # a missing dataset or too few tools fail here, before any rollout
         try:
-            for kind in tasks:
-                grip_stress.stress_tools(kind, tools, data)
+            grip_stress.data_config(data, tasks, tools)
         except InputError as e:
             ap.error(str(e))
     os.makedirs(a.out, exist_ok=True)

@@ -67,18 +67,27 @@ def method_scorer(method: str) -> tuple[str, ScoreWeights]:
     return model, ScoreWeights(**kw)
 
 
-def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> list[tuple[int, object]]:
-    """[(v, Tool)]: the built-in tool and table1's unseen variants (seeds 10,000 + v), or with `data`
-    the dataset's variants 1 .. tools_per_task (its unseen tools)."""
-    if data is None:
-        base = load_tool(DEFAULT_TOOL[kind])
-        return [(v, base if v == 0 else vary_tool(base, 10_000 + v)) for v in range(tools_per_task)]
+def data_config(data: str, tasks, tools_per_task: int) -> GenerateConfig:
+    """The GenerateConfig of the dataset in `data`, checked to hold `tools_per_task` unseen tools of every
+    task in `tasks` (InputError naming what is missing); builds no tool."""
     config = GenerateConfig.from_json(read_manifest(data)["config"])
-    if kind not in config.tasks:
-        raise InputError(f"--data {data}: the dataset has no {kind!r} tools (its tasks: {', '.join(config.tasks)})")
+    missing = [k for k in tasks if k not in config.tasks]
+    if missing:
+        raise InputError(f"--data {data}: the dataset has no {', '.join(map(repr, missing))} tools "
+                         f"(its tasks: {', '.join(config.tasks)})")
     if tools_per_task > config.tools_per_task - 1:
         raise InputError(f"--data {data}: it has {config.tools_per_task - 1} unseen tools per task, "
                          f"asked for {tools_per_task}")
+    return config
+
+
+def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> list[tuple[int, object]]:
+    """[(v, Tool)]: the built-in tool and table1's unseen variants (seeds 10,000 + v), or with `data`
+    the dataset's variants 1 .. tools_per_task (its unseen tools, `data_config`)."""
+    if data is None:
+        base = load_tool(DEFAULT_TOOL[kind])
+        return [(v, base if v == 0 else vary_tool(base, 10_000 + v)) for v in range(tools_per_task)]
+    config = data_config(data, (kind,), tools_per_task)
     return [(v, unit_tool(config, kind, v)[0]) for v in range(1, tools_per_task + 1)]
 
 
@@ -198,9 +207,8 @@ def main() -> None:
     try:  # bad methods or --data fail here, before any rollout
         for m in methods:
             method_scorer(m)
-        for kind in tasks:
-            if a.data is not None:
-                stress_tools(kind, tools, a.data)
+        if a.data is not None:
+            data_config(a.data, tasks, tools)
     except InputError as e:
         ap.error(str(e))
     os.makedirs(a.out, exist_ok=True)

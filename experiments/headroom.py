@@ -33,12 +33,11 @@ from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import GenerateConfig, load_dataset, read_manifest, unit_tool
 from itup_jax.errors import InputError
-from itup_jax.grasp import make_grasps
 from itup_jax.scene import build_scene
 from itup_jax.stats import paired_ratio
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from objective_selection import quick_dataset  # noqa: E402  (the experiments' tiny dataset)
+from objective_selection import dataset_grasps, quick_dataset, unit_rows, unseen_units  # noqa: E402
 
 BASELINES = ("force_closure", "geometric")
 DEFAULT_METHODS = ("sdgnet",) + BASELINES
@@ -58,13 +57,12 @@ def oracle_index(tau, ok) -> int:
 
 def tool_row(data: dict, config: GenerateConfig, task: str, variant: int, methods, draws: int) -> dict | None:
     """One tool: every pick (oracle and methods), its dataset rollout and its re-measured draws."""
-    rows = np.nonzero((np.asarray(data["task"]) == task) & (np.asarray(data["tool_id"]) == variant))[0]
+    rows = unit_rows(data, task, variant)
     ok = np.asarray(data["label_success"])[rows].astype(bool) & ~np.asarray(data["label_failed"])[rows].astype(bool)
     if len(rows) < 2 or not ok.any():
         return None
     tool, tk = unit_tool(config, task, variant)
-    g = make_grasps(np.asarray(data["grasp_p"])[rows], width=np.asarray(data["grasp_width"])[rows],
-                    q_tool_grasp=np.asarray(data["grasp_q"])[rows])
+    g = dataset_grasps(data, rows)
     tau = np.asarray(data["label_peak_torque_induced"], float)[rows]
     picks = {"oracle": oracle_index(tau, ok)}
     for m in methods:
@@ -94,9 +92,8 @@ def measure(path: str, methods, draws: int) -> list:
     """`tool_row` of every unseen tool (variant >= 1) of the dataset at `path`, printed as it goes."""
     data = load_dataset(path)
     config = GenerateConfig.from_json(read_manifest(path)["config"])
-    units = sorted({(str(t), int(v)) for t, v in zip(data["task"], data["tool_id"]) if int(v) >= 1})
     per_tool = []
-    for t, v in units:
+    for t, v in unseen_units(data):
         row = tool_row(data, config, t, v, methods, draws)
         if row is not None:
             per_tool.append(row)

@@ -89,17 +89,32 @@ def settings_of(models: dict) -> dict:
     return out
 
 
+def unseen_units(data: dict) -> list[tuple[str, int]]:
+    """(task, variant) of every unseen tool (variant >= 1) with rows in a loaded dataset, sorted."""
+    return sorted({(str(t), int(v)) for t, v in zip(data["task"], data["tool_id"]) if int(v) >= 1})
+
+
+def unit_rows(data: dict, task: str, variant: int) -> np.ndarray:
+    """Indices of a loaded dataset's rows of one tool (task, variant)."""
+    return np.nonzero((np.asarray(data["task"]) == task) & (np.asarray(data["tool_id"]) == variant))[0]
+
+
+def dataset_grasps(data: dict, idx: np.ndarray):
+    """The `Grasps` of a loaded dataset's rows `idx`."""
+    return make_grasps(np.asarray(data["grasp_p"])[idx], width=np.asarray(data["grasp_width"])[idx],
+                       q_tool_grasp=np.asarray(data["grasp_q"])[idx])
+
+
 def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, methods: dict) -> dict | None:
     """Every method's pick among one tool's rolled-out candidates, with the pick's measured labels."""
-    rows = np.nonzero((np.asarray(data["task"]) == task) & (np.asarray(data["tool_id"]) == variant))[0]
+    rows = unit_rows(data, task, variant)
     if len(rows) < 2:
         return None
     tool, tk = unit_tool(config, task, variant)
     # padded (with the first candidate) to a multiple of PAD rows, so that the scorers' jits compile once
     # per size, not once per tool; the padding is never picked (only the first len(rows) count)
     pad = np.concatenate([rows, np.full(-len(rows) % PAD, rows[0])])
-    g = make_grasps(np.asarray(data["grasp_p"])[pad], width=np.asarray(data["grasp_width"])[pad],
-                    q_tool_grasp=np.asarray(data["grasp_q"])[pad])
+    g = dataset_grasps(data, pad)
     out = {"task": task, "variant": int(variant), "candidates": int(len(rows)), "picks": {}, "fidelity": {}}
     for name, (scorer, w) in methods.items():
         if isinstance(w, CostParams):
@@ -226,8 +241,7 @@ def run(a, models: dict, path: str, t0: float) -> dict:
     if a.only:
         keep = set(a.only.split(",")) | set(BASELINES)
         methods = {k: v for k, v in methods.items() if k in keep}
-    units = sorted({(str(t), int(v)) for t, v in zip(data["task"], data["tool_id"]) if int(v) >= 1})
-    per_tool = [p for t, v in units if (p := tool_picks(data, config, t, v, methods)) is not None]
+    per_tool = [p for t, v in unseen_units(data) if (p := tool_picks(data, config, t, v, methods)) is not None]
     summary = summarise(per_tool, list(methods))
     report(summary, list(methods))
     candidates = [k for k in methods if k.startswith("sdgnet/") or k.startswith("analytic/")]

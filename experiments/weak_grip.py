@@ -103,8 +103,7 @@ def main(argv=None) -> dict:
     try:
         for name, f in (("--strong", a.strong), ("--weak", a.weak)):
             stress.check_grip(f, name)
-        if not a.quick:
-            read_manifest(a.data)
+        config = None if a.quick else GenerateConfig.from_json(read_manifest(a.data)["config"])
     except itup.InputError as e:
         ap.error(str(e))
     t0 = time.time()
@@ -113,7 +112,6 @@ def main(argv=None) -> dict:
         if a.quick:
             tools = [load_tool("mallet")]
         else:
-            config = GenerateConfig.from_json(read_manifest(a.data)["config"])
             tools = [unit_tool(config, kind, v)[0] for v in range(1, a.tools_per_task + 1)]
         rows = []
         for v, tool in enumerate(tools, start=1):

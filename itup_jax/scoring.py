@@ -53,7 +53,7 @@ W_ALIGN = 100.0
 @dataclasses.dataclass(frozen=True)
 class ScoreWeights:
     """Weights of the SDG-Net total: its costs are measured quantities (N m, m, rad), so 1 cm of slip
-    weighs like 1 N m of torque and like 1 rad of drift. With a success head, the predicted probability
+    weighs like 1 N m of torque and like 0.01 rad (0.57 degrees) of drift. With a success head, the predicted probability
     that the grasp misses the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
     torque; with a failure head, w_fail x p_failed (slip over 1 cm or a turn over 10 degrees in the
     grip). w_grip and w_align were chosen on validation tools by the rules fixed in
