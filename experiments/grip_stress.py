@@ -46,13 +46,15 @@ DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", "force_closure", "geometric")
 
 
 def method_scorer(method: str) -> tuple[str, ScoreWeights]:
-    """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields); a plain name ->
+    """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
+    'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->
     (name, the default weights). InputError naming the method for an unknown or malformed weight."""
     if "@" not in method:
         return method, ScoreWeights()
     model, spec = method.split("@", 1)
-    if model not in ("sdgnet", "sdgnet_paper"):
-        raise InputError(f"method {method!r}: weights apply to 'sdgnet' or 'sdgnet_paper', not {model!r}")
+    if model not in ("sdgnet", "sdgnet_paper") and not model.endswith(".npz"):
+        raise InputError(f"method {method!r}: weights apply to 'sdgnet', 'sdgnet_paper' or a checkpoint (.npz), "
+                         f"not {model!r}")
     known = {f.name for f in dataclasses.fields(ScoreWeights)}
     kw = {}
     for part in spec.split(","):

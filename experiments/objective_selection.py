@@ -19,7 +19,9 @@ of the full induced peak wrist torque (the headline), the raw peak, the induced 
 component and the grip demand; the task success and grip failure rates of the picks. Per SDG-Net
 checkpoint, its fidelity: the Spearman rho over each tool's candidates between its predicted tau and
 the measured counterpart (the full induced peak for the wrench objective, the projected one for the
-paper's) and between its predicted and measured grip demand, median per task and over every tool.
+paper's) and between its predicted and measured grip demand, median per task and over every tool;
+with a weak-grip head and a dataset of labels 0.11.0, that head's AUC against the grasps that failed in
+the grip at 25 N per pad (`p_failed_weak_auc`; NaN on a tool where none or all did).
 
 The selection rule, fixed before the test tools are opened: a setting qualifies when its picks do the
 task in at least 95 % of the tools of every task and fail in the grip no more often than the worse
@@ -51,7 +53,7 @@ from itup_jax.objective import PAPER, WRENCH
 from itup_jax.objective import get as get_objective
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet import load_model
-from itup_jax.stats import paired_ratio, spearman
+from itup_jax.stats import paired_ratio, roc_auc, spearman
 
 MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
 BASELINES = ("force_closure", "geometric")
@@ -131,6 +133,10 @@ def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, meth
             fid = {"tau_vs_" + tau_label: spearman(np.asarray(s.tau)[: len(rows)], data[f"label_{tau_label}"][rows])}
             if s.grip is not None:
                 fid["grip_vs_grip_demand"] = spearman(np.asarray(s.grip)[: len(rows)], data["label_grip_demand"][rows])
+            if s.p_failed_weak is not None and "label_weak_failed" in data:  # labels 0.11.0: the weak-grip head's AUC
+                ok = np.asarray(data["label_weak_valid"][rows], bool)
+                fid["p_failed_weak_auc"] = roc_auc(np.asarray(s.p_failed_weak)[: len(rows)][ok],
+                                                   np.asarray(data["label_weak_failed"][rows], bool)[ok])
             out["fidelity"][name.split("/")[1]] = fid
         r = rows[i]
         out["picks"][name] = {"row": int(r), **{m: float(data[f"label_{m}"][r]) for m in MEASURES},

@@ -6,7 +6,7 @@
     python experiments/score_weights.py --quick --out /tmp/weights     # a tiny dataset made here (tests)
 
 The shipped `ScoreWeights` (w_tau 1 /(N m), w_slip 100 /m, w_task 10, w_fail 10 from this experiment;
-w_align and w_grip from `align_weight.py` and `objective_selection.py`) were chosen on validation tools
+w_align, w_weak and w_grip from `weight_by_stress.py` and `objective_selection.py`) were chosen on validation tools
 with 256 candidates per tool. `candidate_count.py` found that the pick by the total
 gains little from 1,024 or 4,096 candidates, while the pick by predicted C_tau alone gains much (but
 misses the task in half the tools). This experiment asks whether other weights do better at planner
@@ -61,7 +61,8 @@ def setting_key(w: ScoreWeights) -> str:
 
 def weighted_total(s, w: ScoreWeights) -> np.ndarray:
     """[N] the scorer's total (`scoring.sdgnet_total`) of SDG-Net's scores `s` under weights `w`:
-    w_tau C_tau + w_slip C_s + w_align C_alpha + w_task (1 - P(task)) + w_fail P(fail)."""
+    w_tau C_tau + w_slip C_s + w_align C_alpha (+ w_grip grip) + w_task (1 - P(task)) + w_fail P(fail)
+    + w_weak P(fail at 25 N), each probability term where the network has that head."""
     total = w.w_tau * np.asarray(s.tau, float) + w.w_slip * np.asarray(s.slip, float) + w.w_align * np.asarray(s.align, float)
     if s.grip is not None:  # a wrench-objective network's predicted grip demand
         total = total + w.w_grip * np.asarray(s.grip, float)
@@ -69,6 +70,8 @@ def weighted_total(s, w: ScoreWeights) -> np.ndarray:
         total = total + w.w_task * (1.0 - np.asarray(s.p_success, float))
     if s.p_failed is not None:
         total = total + w.w_fail * np.asarray(s.p_failed, float)
+    if s.p_failed_weak is not None:
+        total = total + w.w_weak * np.asarray(s.p_failed_weak, float)
     return total
 
 

@@ -62,7 +62,16 @@ from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, genera
 from itup_jax.grasp import Grasps
 from itup_jax.scene import build_scene
 from itup_jax.scoring import Scores, ScoreWeights, sdgnet_total
-from itup_jax.sdgnet import CLASS_NAMES, CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
+from itup_jax.sdgnet import (
+    CLASS_NAMES,
+    CLASS_TARGETS,
+    TrainConfig,
+    head_labels,
+    load_model,
+    predict_costs,
+    save_model,
+    train,
+)
 from itup_jax.simulate import Randomization, simulate
 from itup_jax.stats import roc_auc, spearman
 from itup_jax.verify import best_grasp_verified, measured_total
@@ -267,10 +276,11 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             row["pick_drift_verified_total"] = float(drift_ok[vp["pick_total"]])
             row["total_regret_verified_total"] = pick_stats(m_ok, pick_total)["regret"]
         for name, label in zip(CLASS_NAMES, CLASS_TARGETS):
-            if name in predicted and row["held_out"]:  # pooled per task over the held-out tools
+            if name in predicted and row["held_out"] and label in a:  # pooled per task over the held-out tools
                 pt = pooled.setdefault(name, {}).setdefault(entry["task"], ([], []))
-                pt[0].append(predicted[name][ok])
-                pt[1].append(a[label][ok].astype(bool))
+                lab = head_labels(a, label)[ok]  # NaN: not measured (a weak-grip rollout that is not valid)
+                pt[0].append(predicted[name][ok][np.isfinite(lab)])
+                pt[1].append(lab[np.isfinite(lab)] > 0.5)
         if redraws:
             extra = extra_all[_shard_key(entry)]
             succ = _draws(ok, a["label_success"], extra["success"])
@@ -316,7 +326,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     auc = {name: {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(by_task.items())}
            for name, by_task in pooled.items()}
     return {"rows": rows, "test_config": manifest["config"], "success_auc_held_out": auc.get("p_success", {}),
-            "failure_auc_held_out": auc.get("p_failed", {})}
+            "failure_auc_held_out": auc.get("p_failed", {}), "weak_failure_auc_held_out": auc.get("p_failed_weak", {})}
 
 
 def _nan_stat(f, v: np.ndarray) -> float:
@@ -500,6 +510,7 @@ def main(argv=None) -> dict:
            "verify_draws": args.verify_draws if args.verify else None, "goals": GOALS,
            "success_head": model.has_success_head, "class_heads": model.class_heads, "weights": dataclasses.asdict(weights), "summary": summary,
            "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
+           "weak_failure_auc_held_out": res["weak_failure_auc_held_out"],
            "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
@@ -532,7 +543,9 @@ def main(argv=None) -> dict:
           + (f"; success head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['success_auc_held_out'].items())}"
              if res["success_auc_held_out"] else "; no success head")
           + (f"; failure head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['failure_auc_held_out'].items())}"
-             if res["failure_auc_held_out"] else ""))
+             if res["failure_auc_held_out"] else "")
+          + (f"; weak-grip failure head AUC {', '.join(f'{t} {v:.2f}' for t, v in res['weak_failure_auc_held_out'].items())}"
+             if res["weak_failure_auc_held_out"] else ""))
     if draws:
         print(f"the pick by the total fails in the grip in {100 * h['failed_draws_total']['mean']:.1f}% of the rollouts "
               f"(by predicted C_tau {100 * h['failed_draws_tau']['mean']:.1f}%)")

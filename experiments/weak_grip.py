@@ -15,7 +15,8 @@ once at --strong N per pad and twice at --weak N per pad (two different physics 
   * the Spearman rho between the number of weak-grip failures (0, 1, 2) and each label measured at the
     strong grip (the full induced peak torque and its grasp-frame components, the raw and static
     torques, the induced force, the grip demand, the turn in the pads, the slip, the alignment drift),
-    each output of the shipped SDG-Net (its torque, grip demand, drift, P(fail)), and the grasp's
+    each output of the shipped SDG-Net (its torque, grip demand, drift, P(fail), P(fail at 25 N) where it
+    has that head), and the grasp's
     position in the tool frame relative to the centre of mass (x, y, z and the distance);
   * the same pooled over the task's tools (ranks within each tool, then averaged);
   * the shipped network's drift fidelity: the rho of its predicted drift against the drift and the turn
@@ -45,7 +46,7 @@ from itup_jax.tool import load_tool
 
 LABELS = ("peak_torque_induced", "peak_induced_closure", "peak_induced_approach", "peak_induced_third", "peak_torque",
           "static_torque", "peak_force_induced", "grip_demand", "slip_rotation", "slip_translation", "alignment_drift")
-PREDICTED = ("tau", "grip", "align", "p_failed")
+PREDICTED = ("tau", "grip", "align", "p_failed", "p_failed_weak")
 POSITION = ("grasp_x", "grasp_y", "grasp_z", "grasp_distance")
 
 

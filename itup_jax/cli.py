@@ -119,7 +119,7 @@ def cmd_plan(args) -> int:
     if args.json:
         _check_out_folder("--json", args.json)
     model = _check_model_arg(args) if args.scorer == "sdgnet" else args.model
-    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip")
+    given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_weak", "w_grip")
              if getattr(args, k) is not None}
     tool = _load_tool_arg(args)
     task = _make_task(args, tool)
@@ -139,7 +139,8 @@ def cmd_plan(args) -> int:
 
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
-PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_grip",
+PLAN_OPTIONS = ("verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align", "w_task", "w_fail",
+                "w_weak", "w_grip",
                 "verify", "top", "sampling", "budget", "n")
 
 
@@ -188,9 +189,11 @@ def _print_plan(args, plan) -> None:
     grip = getattr(costs, "grip", None) is not None  # a wrench-objective SDG-Net: predicted grip demand (N per pad)
     p_task = getattr(costs, "p_success", None) is not None  # SDG-Net with a success head: P(task achieved)
     p_fail = getattr(costs, "p_failed", None) is not None  # and with a failure head: P(fails in the grip)
+    p_weak = getattr(costs, "p_failed_weak", None) is not None  # and with a weak-grip head: P(fails at 25 N)
     print(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
           + (f"{'grip N':>7} " if grip else "")
           + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
+          + (f"{'P(f@25)':>7} " if p_weak else "")
           + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
     listed = [(rank, int(i)) for rank, i in enumerate(plan.top)]
     pick_rank, best = plan.pick_rank, plan.best_index
@@ -204,6 +207,7 @@ def _print_plan(args, plan) -> None:
         print(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
               + (f"{c['grip']:>7.1f} " if grip else "")
               + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
+              + (f"{c['p_failed_weak']:>7.2f} " if p_weak else "")
               + f"{c['total']:>9.3f} {'yes' if plan.reachable[i] else 'no':>5}  "
               f"{np.asarray(grasps.p_tool_grasp)[i].astype(float).round(4).tolist()}"
               f"{' <- pick' if i == best and marked else ''}")
@@ -254,7 +258,8 @@ def cmd_generate(args) -> int:
     tasks = tuple(t for t in args.tasks.split(",") if t)
     cfg = GenerateConfig(tasks=tasks, tools_per_task=args.tools_per_task, grasps=args.grasps, seed=args.seed,
                          backend=args.backend, randomize=not args.nominal, timestep=args.timestep,
-                         variants=args.variants, contact=args.contact, family=args.family)
+                         variants=args.variants, contact=args.contact, family=args.family,
+                         weak_grip=args.weak_grip or None)
     m = generate(args.out, cfg, progress=not args.quiet, mcap_dir=args.mcap, mcap_per_shard=args.mcap_per_shard,
                  process_index=args.process_index, process_count=args.process_count, nthread=args.threads)
     t = m["totals"]
@@ -293,7 +298,8 @@ def _cmd_adapt(args) -> int:
 
     fixed = [f for f, v in (("--hidden", args.hidden), ("--weight-decay", args.weight_decay),
                             ("--torque-scale", args.torque_scale), ("--success-weight", args.success_weight),
-                            ("--failure-weight", args.failure_weight), ("--rank-weight", args.rank_weight),
+                            ("--failure-weight", args.failure_weight),
+                            ("--weak-failure-weight", args.weak_failure_weight), ("--rank-weight", args.rank_weight),
                             ("--rank-temperature", args.rank_temperature), ("--per-task", args.per_task or None),
                             ("--val-fraction", args.val_fraction))
              if v is not None]
@@ -336,7 +342,8 @@ def cmd_train(args) -> int:
     recipe = {k: v for k, v in dict(hidden=hidden, weight_decay=args.weight_decay, torque_scale=args.torque_scale,
                                     objective=args.objective,
                                     success_weight=args.success_weight,
-                                    failure_weight=args.failure_weight, finetune_epochs=args.finetune_epochs,
+                                    failure_weight=args.failure_weight, weak_failure_weight=args.weak_failure_weight,
+                                    finetune_epochs=args.finetune_epochs,
                                     finetune_lr=args.finetune_lr, rank_weight=args.rank_weight,
                                     rank_temperature=args.rank_temperature, ema=args.ema,
                                     val_fraction=args.val_fraction).items() if v is not None}
@@ -825,6 +832,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sdgnet: weight of the predicted probability of missing the task (default scoring.W_TASK)")
     p.add_argument("--w-fail", type=float, default=None,
                    help="sdgnet: weight of the predicted probability of failing in the grip (default scoring.W_FAIL)")
+    p.add_argument("--w-weak", type=float, default=None,
+                   help="sdgnet (a network with the weak-grip head): weight of the predicted probability of failing in "
+                   "the grip at 25 N per pad (default scoring.W_WEAK)")
     p.add_argument("--w-grip", type=float, default=None,
                    help="sdgnet (wrench objective): weight of the predicted grip demand, N m per N of normal force "
                    "per pad (default scoring.W_GRIP)")
@@ -927,6 +937,10 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--contact", default=gen_defaults.contact, choices=["flat", "point"],
                      help="grasp sampler: 'flat' (the pads lie flat on the tool; grasp_sampler.py) or 'point' (antipodal "
                      "point contacts in the friction cone, every dataset up to code 0.5.0)")
+    gen.add_argument("--weak-grip", type=float, default=gen_defaults.weak_grip, metavar="N",
+                     help="N per pad: also roll every candidate out at this fixed grip, same physics draw otherwise "
+                     "(labels label_weak_*, which SDG-Net's weak-grip head learns; about doubles the time); 0: no "
+                     "second rollout (default %(default)s)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
     gen.add_argument("--mcap", default=None, metavar="DIR",
                      help="also log rollouts as MCAP (Foxglove schemas) into DIR")
@@ -959,6 +973,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="weight of the task-success head's cross-entropy; 0: no success head (default: TrainConfig's)")
     tr.add_argument("--failure-weight", type=float, default=None,
                     help="weight of the grip-failure head's cross-entropy; 0: no failure head (default: TrainConfig's)")
+    tr.add_argument("--weak-failure-weight", type=float, default=None,
+                    help="weight of the weak-grip failure head's cross-entropy (label_weak_failed, from itup generate's "
+                    "--weak-grip rollouts); 0: no such head, for data without them (default: TrainConfig's)")
     tr.add_argument("--epochs", type=int, default=train_defaults.epochs, help="(default %(default)s)")
     tr.add_argument("--batch", type=int, default=train_defaults.batch, help="(default %(default)s)")
     tr.add_argument("--lr", type=float, default=train_defaults.lr, help="peak learning rate (default %(default)s)")

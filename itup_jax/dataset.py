@@ -5,7 +5,8 @@
 One shard per (task, tool variant): the tool (variant 0 is the built-in, the others are procedural
 variants of it: `vary_tool` stretches the whole tool, `part_variant` varies its handle and head
 independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with
-randomised physics (`simulate`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
+randomised physics (`simulate`), each grasp's second rollout at a weak grip on the same physics draw
+(`weak_rollouts`, labels `label_weak_*`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
 .npz written atomically (temporary file, then rename) with fixed zip timestamps, so the same config
 and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
 config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
@@ -48,6 +49,7 @@ from itup_jax.simulate import (
     DETERMINISTIC_GPU_FLAG,
     LABEL_FIELDS,
     Randomization,
+    SimConfig,
     default_backend,
     gpu_determinism,
     simulate,
@@ -62,7 +64,7 @@ MANIFEST = "manifest.json"
 #: The version of the labels: what a row's labels mean (scenes, thresholds, measures). It changes only
 #: when labels change (CHANGELOG.md lists each change), not with the package's version. A dataset records
 #: it, and a folder of another label version refuses to resume (its rows would mean something else).
-LABEL_VERSION = "0.10.0"
+LABEL_VERSION = "0.11.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
@@ -170,6 +172,14 @@ def part_variant(base: str, seed: int) -> Tool:
 
 VARIANT_FAMILIES = ("stretch", "parts")  # `vary_tool`, `part_variant`
 
+#: N per pad: the weak grip at which `generate` rolls every candidate out a second time (`weak_rollouts`),
+#: a little above the Robotiq 2F-85's least setting of 20 N. At the default grip (100 N, +-20 %) almost
+#: no grasp fails in the grip, and the grasps that fail at a weak grip are not ranked by anything the
+#: default rollout measures (docs/results.md, "What fails under a weak grip"): this rollout labels them.
+WEAK_GRIP = 25.0
+#: The labels of the weak-grip rollout, stored per row as `label_weak_<name>` (`simulate.Labels`' meaning).
+WEAK_FIELDS = ("failed", "success", "slip_translation", "slip_rotation", "valid")
+
 
 # ---------------------------------------------------------------------------------------------------
 # Generation
@@ -199,6 +209,10 @@ class GenerateConfig:
     # a tool family (`families.FAMILIES`) whose tools every shard draws instead of the task's built-in tool
     # and its variants: variant 0 the family's default tool, v >= 1 `families.draw`; None: the built-ins
     family: str | None = None
+    # N per pad: every candidate is rolled out a second time at this fixed grip, on the same physics
+    # draw otherwise (`weak_rollouts`; labels `label_weak_*`, WEAK_FIELDS); about doubles the stepping.
+    # None: no second rollout (every dataset before label version 0.11.0; a manifest without the key)
+    weak_grip: float | None = WEAK_GRIP
 
     def validate(self) -> None:
         unknown = set(self.tasks) - set(TASK_KINDS)
@@ -212,6 +226,10 @@ class GenerateConfig:
             raise InputError(f"generate: tools_per_task and grasps must be >= 1, got {self.tools_per_task}, {self.grasps}")
         if self.timestep is not None:
             check_timestep(self.timestep, "generate")
+        if self.weak_grip is not None:
+            from itup_jax.stress import check_grip
+
+            check_grip(self.weak_grip, "generate: weak_grip")
         if self.family is not None:
             from itup_jax import families
 
@@ -235,18 +253,21 @@ class GenerateConfig:
             del d["contact"]
         if d["family"] is None:
             del d["family"]
+        if d["weak_grip"] is None:
+            del d["weak_grip"]
         return d
 
     @classmethod
     def from_json(cls, d: dict) -> "GenerateConfig":
         """The config a manifest records (`to_json`'s inverse); unknown keys are refused. A config
         recording no timestep (made before steps were recorded) was simulated at 2 ms; one recording no
-        contact model (made before code 0.6.0) sampled point-contact grasps."""
+        contact model (made before code 0.6.0) sampled point-contact grasps; one recording no weak grip
+        (labels before 0.11.0, or `weak_grip=None`) has no weak-grip rollouts."""
         names = {f.name for f in dataclasses.fields(cls)}
         if set(d) - names:
             raise InputError(f"generate config: unknown keys {sorted(set(d) - names)}")
         return cls(**dict(d, tasks=tuple(d.get("tasks", TASK_KINDS)), timestep=d.get("timestep", TIMESTEP),
-                          contact=d.get("contact", "point")))
+                          contact=d.get("contact", "point"), weak_grip=d.get("weak_grip")))
 
 
 def shard_units(config: GenerateConfig) -> list[tuple[str, int]]:
@@ -325,6 +346,8 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
                                int(i), grasp=grasps[int(i)])
     costs = wrench_costs(tool, task, grasps, CostParams())
     arrays = {f"label_{f}": np.asarray(v) for f, v in res.labels.as_dict().items()}
+    if config.weak_grip is not None:
+        arrays.update(weak_rollouts(tool, task, grasps, config, seed=seed, scene=scene, nthread=nthread))
     arrays.update(
         features=shard_features(config, tool, task, grasps),
         grasp_p=np.asarray(grasps.p_tool_grasp, np.float64), grasp_q=np.asarray(grasps.q_tool_grasp, np.float64),
@@ -338,6 +361,18 @@ def make_shard(config: GenerateConfig, task_kind: str, variant: int, *, mcap_dir
         {"task": task_kind, "tool": tool.name, "variant": variant, "seed": seed, "backend": res.backend,
          "physics_fields": [f.name for f in dataclasses.fields(res.physics)]}, sort_keys=True).encode(), np.uint8)
     return arrays
+
+
+def weak_rollouts(tool: Tool, task: Task, grasps: Grasps, config: GenerateConfig, *, seed: int, scene,
+                  nthread: int | None = None) -> dict[str, np.ndarray]:
+    """{`label_weak_<name>`: [N]} (WEAK_FIELDS): each grasp rolled out again at `config.weak_grip` N per pad,
+    on the physics draw of its default rollout (same `seed`: the same mass, friction, restitution and
+    contact duration per row; the grip fixed, not randomised). Rows infeasible in the default rollout are
+    infeasible here too (feasibility is the arm's reach, not the grip) and are not stepped."""
+    spread = dataclasses.replace(Randomization(), grip_force=0.0) if config.randomize else None
+    res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, randomize=spread,
+                   config=SimConfig(grip_force=float(config.weak_grip)), nthread=nthread)
+    return {f"label_weak_{f}": np.asarray(getattr(res.labels, f)) for f in WEAK_FIELDS}
 
 
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
@@ -483,7 +518,8 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     mpath = os.path.join(out_dir, MANIFEST)
     header = {"format": FORMAT, "config": config.to_json(), "seed": config.seed, "code_version": __version__,
               "label_version": LABEL_VERSION,
-              "label_fields": list(LABEL_FIELDS), "timesteps": {t: config.task_timestep(t) for t in config.tasks}}
+              "label_fields": list(LABEL_FIELDS) + ([f"weak_{f}" for f in WEAK_FIELDS] if config.weak_grip is not None else []),
+              "timesteps": {t: config.task_timestep(t) for t in config.tasks}}
     units = shard_units(config)
     own = units[process_index::process_count]
     mine = {_shard_name(*u) for u in own}

@@ -156,6 +156,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
             # SDG-Net's predicted probability that the pick achieves the task (None: the scorer does not predict it)
             "p_success": None if s.p_success is None else float(np.asarray(s.p_success)[i]),
             "p_failed": None if s.p_failed is None else float(np.asarray(s.p_failed)[i]),
+            "p_failed_weak": None if s.p_failed_weak is None else float(np.asarray(s.p_failed_weak)[i]),
             "score_s": round(dt, 4),
             "valid_rollouts": int(L.valid.sum()),
             "measured": {f: _summary(v) for f, v in rollouts.items()},

@@ -116,7 +116,8 @@ class GraspPlan:
             "reachable": self.reachable.get(int(i)),
             "graspnet_rotation_matrix": np.asarray(self.graspnet_rotation[i], float).round(6).tolist(),
             "costs": {k: round(float(host(getattr(s, k))), 6) for k in ("tau", "slip", "align", "total", "tau_closure",
-                                                                         "grip", "p_success", "p_failed")
+                                                                         "grip", "p_success", "p_failed",
+                                                                         "p_failed_weak")
                       if getattr(s, k, None) is not None},
         }
 
@@ -208,7 +209,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         one), "sdgnet_paper" (the paper objective's shipped checkpoint), "analytic" (the paper's form),
         "analytic_wrench" (the grip-demand form), or a baseline.
       weights: the total's weights: for the analytic scorers `CostParams` fields (w_tau, w_slip,
-        w_align), for the SDG-Net ones `ScoreWeights` fields (also w_task, w_fail, w_grip); each keeps
+        w_align), for the SDG-Net ones `ScoreWeights` fields (also w_task, w_fail, w_weak, w_grip); each keeps
         its default when left out.
       torque_first: SDG-Net's total weighs torque alone with the task and grip penalties
         (`ScoreWeights.torque_first`).
@@ -259,8 +260,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     if given and scorer not in ANALYTIC_SCORERS + SDGNET_SCORERS:
         raise InputError(f"plan_grasp: weights {sorted(given)}: the {scorer!r} scorer has no weights (they apply "
                          "to the analytic and sdgnet scorers)")
-    if {"w_task", "w_fail", "w_grip"} & set(given) and scorer in ANALYTIC_SCORERS:
-        raise InputError("plan_grasp: w_task/w_fail/w_grip weigh SDG-Net's predictions; the analytic cost "
+    if {"w_task", "w_fail", "w_weak", "w_grip"} & set(given) and scorer in ANALYTIC_SCORERS:
+        raise InputError("plan_grasp: w_task/w_fail/w_weak/w_grip weigh SDG-Net's predictions; the analytic cost "
                          "has no such terms (its grip-demand form is the analytic_wrench scorer)")
 
     if sampling == "reachable":

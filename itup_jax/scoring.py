@@ -45,9 +45,15 @@ W_GRIP = 0.05
 #: wrist reads a low torque and a low grip demand where the grip is weakest; the predicted drift ranks
 #: that turn (Spearman ~0.95 against the measured turn on the knock), and this weight keeps such grasps
 #: from winning on their low wrist torque. Chosen on validation tools by the rule fixed in
-#: `experiments/align_weight.py` (the picks' least holding grip, grip failure at 25 N per pad and full
+#: `experiments/weight_by_stress.py` (the picks' least holding grip, grip failure at 25 N per pad and full
 #: induced torque against the better baseline) among 1, 10, 30, 100, 300.
 W_ALIGN = 100.0
+#: Weight of SDG-Net's predicted probability that the grasp fails in the grip at a weak grip
+#: (`dataset.WEAK_GRIP`, 25 N per pad; the network's `label_weak_failed` head), N m per unit: a sure
+#: failure at the weak grip weighs like this many N m of torque. Grasps that fail at a weak grip hold
+#: by force rather than by where they sit on the tool; nothing else the network predicts ranks them on
+#: the sweep. Chosen on validation tools by the rule fixed in `experiments/weight_by_stress.py`.
+W_WEAK = 30.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,8 +62,10 @@ class ScoreWeights:
     weighs like 1 N m of torque and like 0.01 rad (0.57 degrees) of drift. With a success head, the predicted probability
     that the grasp misses the task adds w_task x (1 - p_success): a sure miss weighs like W_TASK N m of
     torque; with a failure head, w_fail x p_failed (slip over 1 cm or a turn over 10 degrees in the
-    grip). w_grip and w_align were chosen on validation tools by the rules fixed in
-    `experiments/objective_selection.py` and `experiments/align_weight.py` (`W_GRIP`, `W_ALIGN`);
+    grip); with a weak-grip failure head, w_weak x p_failed_weak (the same failure at 25 N per pad).
+    w_grip, w_align and w_weak were chosen on validation tools by the rules fixed in
+    `experiments/objective_selection.py` and `experiments/weight_by_stress.py` (`W_GRIP`, `W_ALIGN`,
+    `W_WEAK`);
     w_slip, w_task and w_fail by `experiments/score_weights.py`'s rule (docs/results.md). The same
     weights score the paper-objective network (the paper publishes no weights)."""
 
@@ -66,6 +74,8 @@ class ScoreWeights:
     w_align: float = W_ALIGN  # 1/rad
     w_task: float = W_TASK  # per unit of probability of missing the task
     w_fail: float = W_FAIL  # per unit of probability of failing in the grip
+    # per unit of probability of failing in the grip at the weak grip (a network with that head)
+    w_weak: float = W_WEAK
     # N m per N of grip demand (a model of the wrench objective; the paper's predicts none)
     w_grip: float = W_GRIP
 
@@ -79,7 +89,7 @@ class ScoreWeights:
     @classmethod
     def torque_first(cls, w_task: float = W_TASK, w_fail: float = W_FAIL) -> "ScoreWeights":
         """The planner objective of the paper's headline measure: wrist torque alone (slip, drift and the
-        grip demand weigh nothing), with the task and grip penalties kept, so a grasp is judged by its torque among the
+        grip demand weigh nothing), with the task and grip penalties kept (w_weak at its default), so a grasp is judged by its torque among the
         grasps that do the task and hold. Its picks slip further than the default's (3.5-4.0
         against 1.9-2.3 mm), within the failure threshold of 1 cm."""
         return cls(w_tau=1.0, w_slip=0.0, w_align=0.0, w_grip=0.0, w_task=w_task, w_fail=w_fail)
@@ -90,8 +100,9 @@ class ScoreWeights:
 
     def heads(self, class_heads, dtype=jnp.float32) -> jax.Array:
         """[K, 2] (a, b) per binary head of a model (`Model.class_heads`): its term is a + b p. Success:
-        w_task (1 - p); failure: w_fail p."""
-        coef = {"label_success": (self.w_task, -self.w_task), "label_failed": (0.0, self.w_fail)}
+        w_task (1 - p); failure: w_fail p; weak-grip failure: w_weak p."""
+        coef = {"label_success": (self.w_task, -self.w_task), "label_failed": (0.0, self.w_fail),
+                "label_weak_failed": (0.0, self.w_weak)}
         return to_device(np.reshape([coef[h] for h in class_heads], (len(class_heads), 2)), dtype)
 
 
@@ -108,8 +119,9 @@ def sdgnet_total(costs, probs, w_costs, head_coef):
 @dataclasses.dataclass(frozen=True)
 class Scores:
     """Per-grasp scores, each [N]; lower is better. `scorer` (static) says which model made them.
-    p_success / p_failed: SDG-Net's predicted probability that the grasp achieves the task / fails in the
-    grip (None where the scorer does not predict it)."""
+    p_success / p_failed / p_failed_weak: SDG-Net's predicted probability that the grasp achieves the
+    task / fails in the grip / fails in the grip at the weak grip of 25 N per pad (None where the scorer
+    does not predict it)."""
 
     tau: jax.Array
     slip: jax.Array
@@ -118,6 +130,7 @@ class Scores:
     scorer: str = dataclasses.field(default="analytic", metadata=dict(static=True))
     p_success: jax.Array | None = None
     p_failed: jax.Array | None = None
+    p_failed_weak: jax.Array | None = None
     grip: jax.Array | None = None  # predicted grip demand, N per pad (a wrench-objective SDG-Net)
 
 

@@ -42,11 +42,13 @@ TARGETS = objective.PAPER.targets
 #: spans decades; the scales (`objective.Objective.scales`) are 0.02 N m (`TrainConfig.torque_scale`),
 #: 1 mm, 0.1 rad, and the wrench objective's grip demand 1 N. They are stored in the checkpoint and its
 #: predictions are mapped back with them by scale * expm1.
-#: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`), in the order
-#: of their outputs after the three costs, and the names their probabilities go by.
-CLASS_TARGETS = ("label_success", "label_failed")
-CLASS_NAMES = ("p_success", "p_failed")
+#: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`, and `.failed`
+#: of the weak-grip rollout, `dataset.weak_rollouts`), in the order of their outputs after the costs, and
+#: the names their probabilities go by.
+CLASS_TARGETS = ("label_success", "label_failed", "label_weak_failed")
+CLASS_NAMES = ("p_success", "p_failed", "p_failed_weak")
 SUCCESS_TARGET = CLASS_TARGETS[0]
+WEAK_TARGET = CLASS_TARGETS[2]
 #: The shipped checkpoint, inside the installed package (model card: `itup_jax/models/MODEL_CARD.md`).
 DEFAULT_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_default.npz")
 #: The paper objective's checkpoint, trained on the same data (`itup train --objective paper`): the
@@ -80,6 +82,10 @@ class TrainConfig:
     # torque better than 1.0 at the same success AUC
     success_weight: float = 0.3
     failure_weight: float = 0.3
+    # the weak-grip failure head's (label_weak_failed: fails in the grip at `dataset.WEAK_GRIP` N per
+    # pad); its rows are those whose weak-grip rollout is valid. Data without weak-grip rollouts (labels
+    # before 0.11.0, `itup generate --weak-grip 0`) trains with it at 0
+    weak_failure_weight: float = 0.3
     # > 0: adds rank_weight x the within-tool listwise loss (`listwise_loss`) of the torque output to the
     # loss of the network(s) that score: the per-task fine-tuning when finetune_epochs > 0 (the shared
     # network before it keeps the paper's loss: the term there too measured 2.6x slower and no better,
@@ -122,7 +128,7 @@ class TrainConfig:
         check_seed(self.seed, "train")
         if not self.torque_scale > 0:
             raise InputError(f"train: torque_scale must be > 0 N m, got {self.torque_scale!r}")
-        for name in ("success_weight", "failure_weight"):
+        for name in ("success_weight", "failure_weight", "weak_failure_weight"):
             if not getattr(self, name) >= 0:
                 raise InputError(f"train: {name} must be >= 0, got {getattr(self, name)!r}")
         if not (isinstance(self.finetune_epochs, int) and self.finetune_epochs >= 0):
@@ -146,7 +152,7 @@ class TrainConfig:
     @property
     def class_weights(self) -> dict:
         """{label: cross-entropy weight} of the binary heads the network gets, in output order."""
-        w = dict(zip(CLASS_TARGETS, (self.success_weight, self.failure_weight)))
+        w = dict(zip(CLASS_TARGETS, (self.success_weight, self.failure_weight, self.weak_failure_weight)))
         return {k: v for k, v in w.items() if v > 0}
 
     @property
@@ -191,7 +197,8 @@ class Model:
 
     @property
     def head_names(self) -> list[str]:
-        """The probability names of the binary heads (`CLASS_NAMES`: p_success, p_failed), in output order."""
+        """The probability names of the binary heads (`CLASS_NAMES`: p_success, p_failed, p_failed_weak), in
+        output order."""
         return [CLASS_NAMES[CLASS_TARGETS.index(t)] for t in self.class_heads]
 
     @property
@@ -202,9 +209,12 @@ class Model:
     @property
     def train_config(self) -> TrainConfig:
         """The recipe this model was trained with (`spec["config"]`; fields a checkpoint predates take
-        TrainConfig's defaults): what `train` needs to make it again on other data."""
+        TrainConfig's defaults, but a head it predates weighs 0: it has no such output): what `train`
+        needs to make it again on other data, and what `adapt` continues with."""
         fields = {f.name for f in dataclasses.fields(TrainConfig)}
         cfg = {k: v for k, v in self.spec["config"].items() if k in fields}
+        if WEAK_TARGET not in self.class_heads:
+            cfg["weak_failure_weight"] = 0.0
         cfg["objective"] = self.objective  # a checkpoint that predates the choice was trained on the paper's
         if "hidden" in cfg:
             cfg["hidden"] = tuple(int(h) for h in cfg["hidden"])
@@ -240,13 +250,15 @@ def training_loss(params, x, y, s, class_weights):
     three outputs against the normalised targets y [B, 3] (the paper's loss), plus, for each binary head
     k, class_weights[k] x the binary cross-entropy of output 3 + k (a logit) against its labels s[:, k]
     in {0, 1}, or in [0, 1] when they are a teacher's probabilities (`teacher_targets`; the loss is then
-    least where sigmoid(logit) = s). x: [B, F] normalised features; s: [B, K]; class_weights: [K] (K = 0:
-    no heads)."""
+    least where sigmoid(logit) = s); a NaN label (not measured for that row) adds nothing. x: [B, F]
+    normalised features; s: [B, K]; class_weights: [K] (K = 0: no heads)."""
     pred = jax.vmap(mlp.apply, in_axes=(None, 0))(params, x)
     out = jnp.mean(jnp.sum((pred[:, : y.shape[1]] - y) ** 2, axis=1))
     if pred.shape[1] > y.shape[1]:  # static: the heads' logits; softplus(z) - s z = -log p(s | z)
         z = pred[:, y.shape[1]:]
-        out = out + jnp.mean(jnp.sum(class_weights * (jax.nn.softplus(z) - s * z), axis=1))
+        measured = ~jnp.isnan(s)
+        ce = jnp.where(measured, jax.nn.softplus(z) - jnp.where(measured, s, 0.0) * z, 0.0)
+        out = out + jnp.mean(jnp.sum(class_weights * ce, axis=1))
     return out
 
 
@@ -447,9 +459,13 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     heads = config.class_weights
     missing = [t for t in heads if t not in data]
     if missing:
-        raise InputError(f"train: the binary heads need the {missing} labels, which the data lacks "
-                         f"(or train with their weights at 0: success_weight / failure_weight)")
-    S = np.stack([np.asarray(data[t], np.float64)[keep] for t in heads], axis=1) if heads else np.zeros((int(keep.sum()), 0))
+        hint = ("; made with `itup generate --weak-grip 0` or before label version 0.11.0: generate it again, or "
+                "train a network without that head (`itup train --weak-failure-weight 0`; a checkpoint that has "
+                "the head adapts only on data with weak-grip rollouts)" if WEAK_TARGET in missing else
+                " (or train with their weights at 0: success_weight / failure_weight)")
+        raise InputError(f"train: the binary heads need the {missing} labels, which the data lacks{hint}")
+    S = (np.stack([head_labels(data, t)[keep] for t in heads], axis=1) if heads
+         else np.zeros((int(keep.sum()), 0)))
     class_w = jnp.asarray(list(heads.values()), jnp.float32)
     X, Y = X[keep], Y[keep]
     sub = {k: np.asarray(v)[keep] for k, v in data.items() if k in ("task", "tool_id")}
@@ -561,10 +577,21 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     return Model(params=[(np.asarray(W), np.asarray(b)) for W, b in best[1]], spec=spec)
 
 
+def head_labels(data: dict, label: str) -> np.ndarray:
+    """[N] float64 labels of binary head `label` (`CLASS_TARGETS`) in `data`: 0/1 (or a teacher's
+    probabilities), NaN where the label was not measured (the weak-grip head on a row whose weak-grip
+    rollout is not valid), which the loss skips."""
+    v = np.asarray(data[label], np.float64)
+    if label == WEAK_TARGET and "label_weak_valid" in data:
+        v = np.where(np.asarray(data["label_weak_valid"], bool), v, np.nan)
+    return v
+
+
 def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list, names: tuple) -> dict:
     """The best network on the held-out-tool rows: each target's mean squared error on the normalised
     scale (`mse_tau`, ...; 1.0 = predicting the training mean) and each binary head's AUC (`auc_success`,
-    `auc_failed`; NaN when one class is missing)."""
+    `auc_failed`, `auc_weak_failed`, on the rows where that label was measured; NaN when one class is
+    missing)."""
     if len(Xva) == 0:
         return {}
     from itup_jax.stats import roc_auc
@@ -573,7 +600,8 @@ def _validation_metrics(params, Xva, Yva, s_va: np.ndarray, heads: list, names: 
     err = ((pred[:, : len(names)] - np.asarray(Yva, float)) ** 2).mean(0)
     out = {f"mse_{name}": float(e) for name, e in zip(names, err)}
     for k, label in enumerate(heads):
-        out[f"auc_{label.removeprefix('label_')}"] = roc_auc(pred[:, len(names) + k], s_va[:, k] > 0.5)
+        m = ~np.isnan(s_va[:, k])
+        out[f"auc_{label.removeprefix('label_')}"] = roc_auc(pred[m, len(names) + k], s_va[m, k] > 0.5)
     return out
 
 
@@ -743,7 +771,7 @@ predict = jax.jit(full_precision(predict_from_features))
 def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:
     """Each regression output (`Model.output_names`), the scorer's costs tau, slip, align (and grip,
     for the wrench objective: tau is then the norm of the three torque components) and each binary
-    head's probability (p_success, p_failed): each [N], from features [N, F] of grasps for `task`
+    head's probability (p_success, p_failed, p_failed_weak): each [N], from features [N, F] of grasps for `task`
     (required by a per-task model)."""
     model = model.for_task(task)
     s = model.spec

@@ -99,7 +99,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     """--w-* flags weigh the analytic cost (CostParams) or SDG-Net's total (ScoreWeights) and are recorded
     as used; a baseline has no weights, the analytic cost no task term: both refused."""
     runs = {}
-    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0", "--w-fail", "0"])):
+    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0", "--w-fail", "0", "--w-weak", "7"])):
         out = tmp_path / f"{name}.json"
         assert main(["plan", "--task", "knock", "--n", "40", "--top", "40", "--json", str(out)] + extra) == 0
         runs[name] = json.loads(out.read_text())
@@ -107,11 +107,12 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
 
     assert runs["default"]["weights"] == dataclasses.asdict(ScoreWeights())
     assert runs["align"]["weights"]["w_align"] == 50 and runs["align"]["weights"]["w_task"] == 0
-    assert runs["align"]["weights"]["w_fail"] == 0
+    assert runs["align"]["weights"]["w_fail"] == 0 and runs["align"]["weights"]["w_weak"] == 7
     for r in runs["align"]["top"]:  # the total is the weighted sum with the given weights
         c = r["costs"]
         grip = ScoreWeights().w_grip * c["grip"]  # the shipped network predicts the grip demand too
-        assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"] + grip, rel=1e-4, abs=1e-4)
+        weak = 7 * c["p_failed_weak"]  # and the probability of failing in the grip at 25 N per pad
+        assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"] + grip + weak, rel=1e-4, abs=1e-4)
     out = tmp_path / "a.json"
     assert main(["plan", "--task", "knock", "--n", "8", "--scorer", "analytic", "--w-slip", "3", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["weights"] == {"w_tau": 1.0, "w_slip": 3.0, "w_align": 1.0}
@@ -252,8 +253,8 @@ def test_cli_defaults_are_the_librarys():
     assert (plan.n, plan.top, plan.verify, plan.verify_draws, plan.scorer) == (DEFAULT_N, DEFAULT_TOP, 0, 1, "sdgnet")
     assert p.parse_args(["evaluate"]).methods == ",".join(DEFAULT_METHODS)
     gen, cfg = p.parse_args(["generate", "--out", "x"]), GenerateConfig()
-    assert (gen.tools_per_task, gen.grasps, gen.seed, gen.variants, gen.contact) == (
-        cfg.tools_per_task, cfg.grasps, cfg.seed, cfg.variants, cfg.contact)
+    assert (gen.tools_per_task, gen.grasps, gen.seed, gen.variants, gen.contact, gen.weak_grip) == (
+        cfg.tools_per_task, cfg.grasps, cfg.seed, cfg.variants, cfg.contact, cfg.weak_grip)
     tr, tc = p.parse_args(["train", "--data", "d", "--out", "m.npz"]), TrainConfig()
     assert (tr.epochs, tr.batch, tr.lr, tr.patience, tr.seed) == (tc.epochs, tc.batch, tc.lr, tc.patience, tc.seed)
     assert p.parse_args(["bench", "score"]).n == 10_000 and p.parse_args(["bench", "costs"]).n == 100_000

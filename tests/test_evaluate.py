@@ -212,7 +212,10 @@ def test_objective_selection_quick(tmp_path, monkeypatch):
         any(m.startswith("sdgnet/shipped/") for m in doc["methods"])
     assert doc["chosen"] is None or doc["chosen"] in doc["verdict"]
     fid = doc["fidelity"]["shipped"]
-    assert all(-1 <= v["all"] <= 1 for v in fid.values())
+    assert all(-1 <= v["all"] <= 1 for k, v in fid.items() if k != "p_failed_weak_auc")
+    # the shipped network has the weak-grip head and the quick dataset the weak rollouts: its AUC per tool
+    # (null where every candidate or none failed at 25 N)
+    assert "p_failed_weak_auc" in fid and all(v is None or 0 <= v <= 1 for v in fid["p_failed_weak_auc"].values())
 
 
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
@@ -234,7 +237,9 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert retest and all(r["regret_retest_projected"] >= 0 and 0 <= r["percentile_retest_projected"] <= 1
                           and r["regret_sdgnet_same_rows_projected"] >= 0 for r in retest)
     # the task: the quick model has a success head; every row judges both picks against the task
-    assert doc["success_head"] and doc["weights"]["w_task"] > 0 and doc["class_heads"] == ["label_success", "label_failed"]
+    assert doc["success_head"] and doc["weights"]["w_task"] > 0
+    assert doc["class_heads"] == ["label_success", "label_failed", "label_weak_failed"]  # the data has weak rollouts
+    assert all(0 <= v <= 1 for v in doc["weak_failure_auc_held_out"].values() if v is not None)
     assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
     # --verify 2: the verified picks are judged on draw 0 like SDG-Net's own
     assert doc["verify"] == 2 and all(r["regret_verified_projected"] >= 0 and r["verify_s"] > 0 for r in rows)

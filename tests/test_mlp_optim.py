@@ -92,6 +92,13 @@ def test_sdgnet_loss_is_sse_plus_weighted_cross_entropy_and_its_gradient_matches
     assert float(training_loss(const, x, y, s, cw)) == pytest.approx(expect, rel=1e-12)
     three = [params[0], (jnp.zeros((8, 3)), b[:3])]  # no heads: the paper's loss alone
     assert float(training_loss(three, x, y, s[:, :0], cw[:0])) == pytest.approx(sse, rel=1e-12)
+    # a NaN label (not measured: the weak-grip head on a row whose weak rollout is not valid) adds nothing,
+    # and the mean stays over every row
+    s_nan = s.at[2, 1].set(jnp.nan).at[4, 1].set(jnp.nan)
+    measured = np.array([0, 1, 3, 5])
+    expect_nan = sse + 2.5 * bce(1.7, S[:, 0]) + 0.5 * bce(-0.4, S[measured, 1]) * len(measured) / len(S)
+    assert float(training_loss(const, x, y, s_nan, cw)) == pytest.approx(expect_nan, rel=1e-12)
+    assert np.isfinite(np.asarray(jax.grad(lambda p: training_loss(p, x, y, s_nan, cw))(const)[1][1])).all()
 
     def loss(flat):
         return training_loss([(flat.reshape(4, 8), params[0][1]), params[1]], x, y, s, cw)

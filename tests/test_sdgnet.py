@@ -26,6 +26,8 @@ def _synthetic(n=400, f=12, seed=0):
     data.update({t: raw[:, i] for i, t in enumerate(TARGETS)})
     data[SUCCESS_TARGET] = X[:, 4] + 0.3 * X[:, 5] > 0  # the task succeeds on one side of a plane
     data["label_failed"] = X[:, 6] - 0.5 * X[:, 7] > 0.5  # the grip fails on one side of another
+    data["label_weak_failed"] = X[:, 8] + 0.5 * X[:, 9] > 0.0  # and at the weak grip on one side of a third
+    data["label_weak_valid"] = rng.random(n) > 0.1  # a tenth of the weak-grip rollouts not valid: not learned
     return data
 
 
@@ -236,9 +238,9 @@ def test_a_feature_constant_in_training_is_not_blown_up():
 
 
 def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(tasks, tmp_path):
-    """Outputs 4 and 5 learn P(success) and P(failed) (held-out AUC on separable synthetic labels),
-    travel with the checkpoint, and the scorer's total is the costs' weighted sum plus
-    w_task x (1 - p_success) + w_fail x p_failed."""
+    """Outputs 4, 5 and 6 learn P(success), P(failed) and P(failed at the weak grip) (held-out AUC on
+    separable synthetic labels), travel with the checkpoint, and the scorer's total is the costs'
+    weighted sum plus w_task x (1 - p_success) + w_fail x p_failed + w_weak x p_failed_weak."""
     from itup_jax.scoring import ScoreWeights
     from itup_jax.sdgnet import predict_costs
     from itup_jax.stats import roc_auc
@@ -246,13 +248,14 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     data = _synthetic(n=800)
     model = train(data, TrainConfig(hidden=(32, 32), epochs=150, patience=150, lr=3e-3), progress=False,
                   log=lambda *a: None)
-    assert model.class_heads == list(CLASS_TARGETS) and model.params[-1][0].shape[1] == len(TARGETS) + 2
+    assert model.class_heads == list(CLASS_TARGETS) and model.params[-1][0].shape[1] == len(TARGETS) + 3
     vm = model.spec["val_metrics"]  # on the held-out tools: the separable labels are learned, the targets fit
-    assert vm["auc_success"] > 0.95 and vm["auc_failed"] > 0.95
+    assert vm["auc_success"] > 0.95 and vm["auc_failed"] > 0.95 and vm["auc_weak_failed"] > 0.9
     assert all(0 <= vm[f"mse_{c}"] < 1.0 for c in ("tau", "slip", "align"))
     test = _synthetic(n=400, seed=7)
     pred = {k: np.asarray(v) for k, v in predict_costs(model, test["features"]).items()}
-    for name, label in (("p_success", SUCCESS_TARGET), ("p_failed", "label_failed")):
+    for name, label in (("p_success", SUCCESS_TARGET), ("p_failed", "label_failed"),
+                        ("p_failed_weak", "label_weak_failed")):
         assert np.all((pred[name] >= 0) & (pred[name] <= 1)) and roc_auc(pred[name], test[label]) > 0.95
     path = str(tmp_path / "m.npz")
     save_model(path, model)
@@ -264,13 +267,20 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
         with pytest.raises(itup.InputError, match=match):
             load_model(str(tmp_path / "bad.npz"))
     # one head, or none: fewer outputs and no such term (as every checkpoint before them)
-    only_fail = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0), progress=False, log=lambda *a: None)
+    only_fail = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, weak_failure_weight=0.0),
+                      progress=False, log=lambda *a: None)
     assert only_fail.class_heads == ["label_failed"] and not only_fail.has_success_head
+    # a checkpoint that predates the weak-grip head: its recipe (what `adapt` continues) has none either
+    def predating(m):
+        return dataclasses.replace(m, spec=dict(m.spec, config={k: v for k, v in m.spec["config"].items()
+                                                                if k != "weak_failure_weight"}))
+    assert predating(only_fail).train_config.weak_failure_weight == 0.0
+    assert predating(model).train_config.weak_failure_weight == TrainConfig().weak_failure_weight > 0
     assert set(predict_costs(only_fail, test["features"][:3])) == {"tau", "slip", "align", "p_failed"}
-    plain = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0), progress=False,
-                  log=lambda *a: None)
+    plain = train(data, TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0,
+                                    weak_failure_weight=0.0), progress=False, log=lambda *a: None)
     assert plain.class_heads == [] and set(predict_costs(plain, test["features"][:3])) == {"tau", "slip", "align"}
-    for name in ("success_weight", "failure_weight"):
+    for name in ("success_weight", "failure_weight", "weak_failure_weight"):
         with pytest.raises(itup.InputError, match=name):
             TrainConfig(**{name: -1.0})
     for bad in (dict(val_fraction=0.0), dict(val_fraction=1.0), dict(hidden=[128]), dict(epochs=2.5),
@@ -280,6 +290,11 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     no_labels = {k: v for k, v in data.items() if k != "label_failed"}
     with pytest.raises(itup.InputError, match="label_failed"):
         train(no_labels, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *a: None)
+    no_weak = {k: v for k, v in data.items() if not k.startswith("label_weak")}  # data made without weak rollouts
+    with pytest.raises(itup.InputError, match="weak-failure-weight 0"):
+        train(no_weak, TrainConfig(hidden=(8,), epochs=2), progress=False, log=lambda *a: None)
+    assert train(no_weak, TrainConfig(hidden=(8,), epochs=2, weak_failure_weight=0.0), progress=False,
+                 log=lambda *a: None).class_heads == list(CLASS_TARGETS[:2])
     # the scorer (on a real tool, with the shipped features): total = w . costs + w_task (1 - p_s) + w_fail p_f
     from itup_jax.features import FeatureSpec
 
@@ -288,21 +303,23 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
                  progress=False, log=lambda *a: None)
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 16, seed=0)
-    w = ScoreWeights(w_task=7.0, w_fail=3.0)
+    w = ScoreWeights(w_task=7.0, w_fail=3.0, w_weak=5.0)
     s = itup.score(tool, task, g, model=real, weights=w)
-    ps, pf = np.asarray(s.p_success), np.asarray(s.p_failed)
+    ps, pf, pw = np.asarray(s.p_success), np.asarray(s.p_failed), np.asarray(s.p_failed_weak)
     expect = (w.w_tau * np.asarray(s.tau) + w.w_slip * np.asarray(s.slip) + w.w_align * np.asarray(s.align)
-              + w.w_task * (1 - ps) + w.w_fail * pf)
+              + w.w_task * (1 - ps) + w.w_fail * pf + w.w_weak * pw)
     np.testing.assert_allclose(np.asarray(s.total), expect, rtol=1e-5, atol=1e-5)
-    for name in ("w_task", "w_fail"):
+    for name in ("w_task", "w_fail", "w_weak"):
         with pytest.raises(itup.InputError, match=name):
             ScoreWeights(**{name: -1.0})  # a negative weight would reward a predicted miss or failure
-    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0, w_fail=0.0))
-    np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - ps) + 3.0 * pf, rtol=1e-5, atol=1e-5)
-    bare = train(_synthetic(f=spec.size), TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0),
+    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0, w_fail=0.0, w_weak=0.0))
+    np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - ps) + 3.0 * pf + 5.0 * pw,
+                               rtol=1e-5, atol=1e-5)
+    bare = train(_synthetic(f=spec.size), TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0,
+                                                       weak_failure_weight=0.0),
                  feature_spec=spec.to_dict(), progress=False, log=lambda *a: None)
     s1 = itup.score(tool, task, g, model=bare, weights=w)  # no heads: no such fields, no such terms
-    assert s1.p_success is None and s1.p_failed is None
+    assert s1.p_success is None and s1.p_failed is None and s1.p_failed_weak is None
     np.testing.assert_allclose(np.asarray(s1.total), w.w_tau * np.asarray(s1.tau) + w.w_slip * np.asarray(s1.slip)
                                + w.w_align * np.asarray(s1.align), rtol=1e-5, atol=1e-5)
 
@@ -335,7 +352,7 @@ def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_w
         x = (data["features"][rows] - np.array(shared.spec["x_mean"])) / np.array(shared.spec["x_std"])
         y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
         y = (y - np.array(shared.spec["y_mean"])) / np.array(shared.spec["y_std"])
-        s = np.stack([data[t][rows] for t in CLASS_TARGETS], 1).astype(float)
+        s = np.stack([sdgnet.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1)  # NaN: not measured
         f32 = lambda v: jnp.asarray(v, jnp.float32)  # noqa: E731
         loss = lambda params: float(sdgnet.training_loss(jax.tree_util.tree_map(f32, params), f32(x), f32(y), f32(s),  # noqa: E731
                                                           f32(list(cfg.class_weights.values()))))
@@ -371,7 +388,7 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
     x = f32((data["features"][rows] - np.array(sp["x_mean"])) / np.array(sp["x_std"]))
     y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
     y = f32((y - np.array(sp["y_mean"])) / np.array(sp["y_std"]))
-    s = f32(np.stack([data[t][rows] for t in CLASS_TARGETS], 1))
+    s = f32(np.stack([sdgnet.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1))
     params = jax.tree_util.tree_map(f32, model.params)
     plain = float(sdgnet.training_loss(params, x, y, s, f32(list(cfg.class_weights.values()))))
     pred = np.asarray(jax.vmap(sdgnet.mlp.apply, in_axes=(None, 0))(params, x))[:, 0]

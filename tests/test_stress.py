@@ -83,7 +83,7 @@ def test_grip_stress_quick(tmp_path, monkeypatch):
     assert (tmp_path / "grip_stress.png").stat().st_size > 5_000
 
 
-def test_align_weight_quick(tmp_path, monkeypatch):
+def test_weight_by_stress_quick(tmp_path, monkeypatch):
     """The built-in hammer, two weights: every method's pick stressed once (shared picks share rollouts),
     the rule's checks computed from those rows, and the choice made by the rule."""
     import json
@@ -96,14 +96,17 @@ def test_align_weight_quick(tmp_path, monkeypatch):
     from itup_jax.schemas import load_schema
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    monkeypatch.setattr(sys, "argv", ["align_weight.py", "--quick", "--out", str(tmp_path)])
-    runpy.run_path(os.path.join(root, "experiments", "align_weight.py"), run_name="__main__")
-    doc = json.loads((tmp_path / "align_weight.json").read_text())
-    jsonschema.validate(doc, load_schema("align_weight"))
+    monkeypatch.setattr(sys, "argv", ["weight_by_stress.py", "--quick", "--reference", "geometric", "--out", str(tmp_path)])
+    runpy.run_path(os.path.join(root, "experiments", "weight_by_stress.py"), run_name="__main__")
+    doc = json.loads((tmp_path / "weight_by_stress.json").read_text())
+    jsonschema.validate(doc, load_schema("weight_by_stress"))
     methods = {r["method"] for r in doc["rows"]}
     assert methods == {"force_closure", "geometric", "sdgnet@w_align=1", "sdgnet@w_align=300"}
     c = doc["checks"]["hammer"]
-    assert set(c) == {"1", "300"} and doc["chosen_w_align"] in (1.0, 300.0)
+    assert set(c) == {"1", "300"} and doc["weight"] == "w_align" and doc["chosen"] in (1.0, 300.0)
+    ref = doc["reference"]  # the reference method's checks, from its own picks' rows
+    assert ref["method"] == "geometric" and ref["passed"] == sum(ref["checks"]["hammer"][k] for k in ("S1", "S2", "T"))
+    assert not ref["checks"]["hammer"]["T"]  # a baseline's torque is never below the better of it and the other
     for w, check in c.items():  # the checks follow from the rows
         mine = next(r for r in doc["rows"] if r["method"] == f"sdgnet@w_align={w}")
         assert check["median_min_holding_grip_N"] == mine["min_holding_grip_N"]
@@ -111,15 +114,15 @@ def test_align_weight_quick(tmp_path, monkeypatch):
                                and check["median_min_holding_grip_N"] <= check["better_baseline_median_N"])
 
 
-def test_align_weight_rule_and_methods():
+def test_weight_by_stress_rule_and_methods(tmp_path):
     """The rule: the smallest weight passing every check, else the most checks (ties to the smaller);
     a weighted method parses into the shipped scorer's weights, and a bad one is named."""
     import os
     import sys
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments"))
-    from align_weight import choose
     from grip_stress import method_scorer
+    from weight_by_stress import choose
 
     ok = {"S1": True, "S2": True, "T": True}
     bad = {"S1": False, "S2": True, "T": True}
@@ -131,10 +134,21 @@ def test_align_weight_rule_and_methods():
     model, weights = method_scorer("sdgnet@w_align=30,w_grip=0")
     assert model == "sdgnet" and weights.w_align == 30.0 and weights.w_grip == 0.0 and weights.w_tau == 1.0
     assert method_scorer("geometric") == ("geometric", itup.ScoreWeights())
+    assert method_scorer("m.npz@w_weak=3") == ("m.npz", itup.ScoreWeights(w_weak=3.0))  # another network
     for bad_method, msg in (("sdgnet@w_nope=1", "w_nope"), ("sdgnet@w_align=x", "must be a number"),
                             ("geometric@w_align=1", "weights apply to")):
         with pytest.raises(itup.InputError, match=msg):
             method_scorer(bad_method)
+    # bad arguments are refused before any rollout: a grid not ascending, a checkpoint that is not one
+    import subprocess
+
+    script = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments", "weight_by_stress.py")
+    for args, msg in ((["--grid", "10,3"], "ascending"), (["--weight", "w_weak", "--model", str(tmp_path / "none.npz")], "none.npz"),
+                      (["--grid", "1,x"], "--grid")):
+        r = subprocess.run([sys.executable, script, "--quick", "--out", str(tmp_path / "o"), *args], capture_output=True,
+                           text=True, timeout=120)
+        assert r.returncode == 2 and msg in r.stderr, (args, r.stderr[-400:])
+    assert not (tmp_path / "o").exists()
 
 
 def test_weak_grip_quick(tmp_path, monkeypatch):
