@@ -52,7 +52,7 @@ from itup_jax.grasp import make_grasps
 from itup_jax.objective import PAPER, WRENCH
 from itup_jax.objective import get as get_objective
 from itup_jax.scoring import ScoreWeights
-from itup_jax.sdgnet import load_model
+from itup_jax.sdgnet import WEAK_TARGET, head_labels, load_model
 from itup_jax.stats import paired_ratio, roc_auc, spearman
 
 MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
@@ -133,10 +133,10 @@ def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, meth
             fid = {"tau_vs_" + tau_label: spearman(np.asarray(s.tau)[: len(rows)], data[f"label_{tau_label}"][rows])}
             if s.grip is not None:
                 fid["grip_vs_grip_demand"] = spearman(np.asarray(s.grip)[: len(rows)], data["label_grip_demand"][rows])
-            if s.p_failed_weak is not None and "label_weak_failed" in data:  # labels 0.11.0: the weak-grip head's AUC
-                ok = np.asarray(data["label_weak_valid"][rows], bool)
-                fid["p_failed_weak_auc"] = roc_auc(np.asarray(s.p_failed_weak)[: len(rows)][ok],
-                                                   np.asarray(data["label_weak_failed"][rows], bool)[ok])
+            if s.p_failed_weak is not None and WEAK_TARGET in data:  # labels 0.11.0: the weak-grip head's AUC
+                lab = head_labels(data, WEAK_TARGET)[rows]  # NaN where the weak rollout is not valid
+                ok = np.isfinite(lab)
+                fid["p_failed_weak_auc"] = roc_auc(np.asarray(s.p_failed_weak)[: len(rows)][ok], lab[ok] > 0.5)
             out["fidelity"][name.split("/")[1]] = fid
         r = rows[i]
         out["picks"][name] = {"row": int(r), **{m: float(data[f"label_{m}"][r]) for m in MEASURES},

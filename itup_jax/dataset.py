@@ -367,11 +367,15 @@ def weak_rollouts(tool: Tool, task: Task, grasps: Grasps, config: GenerateConfig
                   nthread: int | None = None) -> dict[str, np.ndarray]:
     """{`label_weak_<name>`: [N]} (WEAK_FIELDS): each grasp rolled out again at `config.weak_grip` N per pad,
     on the physics draw of its default rollout (same `seed`: the same mass, friction, restitution and
-    contact duration per row; the grip fixed, not randomised). Rows infeasible in the default rollout are
-    infeasible here too (feasibility is the arm's reach, not the grip) and are not stepped."""
-    spread = dataclasses.replace(Randomization(), grip_force=0.0) if config.randomize else None
+    contact duration per row; the grip fixed, not randomised; below the gripper's 20 N the scene's grip
+    actuator is opened, `stress.fixed_grip`). Rows infeasible in the default rollout are infeasible here
+    too (feasibility is the arm's reach, not the grip) and are not stepped."""
+    from itup_jax.stress import fixed_grip
+
+    g = float(config.weak_grip)
+    scene, spread = fixed_grip(scene, Randomization() if config.randomize else None, g)
     res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, randomize=spread,
-                   config=SimConfig(grip_force=float(config.weak_grip)), nthread=nthread)
+                   config=SimConfig(grip_force=g), nthread=nthread)
     return {f"label_weak_{f}": np.asarray(getattr(res.labels, f)) for f in WEAK_FIELDS}
 
 

@@ -17,7 +17,6 @@ the evaluation's rollouts.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -109,8 +108,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
 
         g = stress.check_grip(grip_force, "evaluate")
         config = SimConfig(grip_force=g)
-        sim_randomize = None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
-        sim_scene = stress.probe_scene(scene) if stress.is_probe(g) else scene
+        sim_scene, sim_randomize = stress.fixed_grip(scene, randomize, g)
     if candidates is None:
         candidates, counts = feasible_candidates(tool, task, n, seed=seed)
     else:

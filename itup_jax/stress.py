@@ -47,6 +47,14 @@ def probe_scene(scene: Scene) -> Scene:
     return dataclasses.replace(scene, model=model)
 
 
+def fixed_grip(scene: Scene, randomize: Randomization | None, grip_force: float) -> tuple[Scene, Randomization | None]:
+    """(scene, spread) to roll out at a fixed grip of `grip_force` N per pad: the scene's grip actuator
+    opened below the gripper's 20 N for a probe (`probe_scene`, else the actuator's range would clamp the
+    force), and `randomize` with the grip not randomised (the other priors' draws unchanged)."""
+    scene = probe_scene(scene) if is_probe(grip_force) else scene
+    return scene, None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
+
+
 def check_grip(grip_force: float, where: str) -> float:
     """`grip_force` (N per pad) as a float if it lies in (0, the gripper's maximum], else InputError naming `where`."""
     g = float(grip_force)
@@ -63,10 +71,7 @@ def rollouts_at_grip(tool, task, grasps: Grasps, grip_force: float, *, draws: in
     g = check_grip(grip_force, "rollouts_at_grip")
     if not isinstance(draws, (int, np.integer)) or draws < 1:
         raise InputError(f"rollouts_at_grip: draws must be an integer >= 1, got {draws!r}")
-    scene = scene or build_scene(tool, task)
-    if is_probe(g):
-        scene = probe_scene(scene)
-    spread = None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
+    scene, spread = fixed_grip(scene or build_scene(tool, task), randomize, g)
     parts = []
     for i in range(len(grasps)):  # each grasp its own call: row d is physics draw d for every grasp
         reps = Grasps(*(np.repeat(np.asarray(a)[i:i + 1], draws, axis=0)

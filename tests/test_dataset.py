@@ -619,6 +619,19 @@ def test_weak_grip_rollouts_label_the_same_candidates_on_the_same_physics_draw(f
     for k in b:
         if k != "meta_json":
             np.testing.assert_array_equal(b[k], a[k])
+    # below the gripper's 20 N (a probe) the grip actuator is opened, so the rollout gets the force asked for
+    from itup_jax.dataset import weak_rollouts
+    from itup_jax.scene import build_scene
+    from itup_jax.stress import probe_scene
+
+    probe = dataclasses.replace(SMALL, weak_grip=15.0)
+    scene = build_scene(tool, task)
+    got = weak_rollouts(tool, task, grasps, probe, seed=meta["seed"], scene=scene)
+    spread = dataclasses.replace(Randomization(), grip_force=0.0)
+    opened, clamped = (simulate(tool, task, grasps, seed=meta["seed"], backend="native", randomize=spread, scene=sc,
+                                config=SimConfig(grip_force=15.0)).labels for sc in (probe_scene(scene), scene))
+    np.testing.assert_array_equal(got["label_weak_slip_rotation"], np.asarray(opened.slip_rotation))
+    assert not np.array_equal(got["label_weak_slip_rotation"][run], np.asarray(clamped.slip_rotation)[run])
     for bad in (0.0, -5.0, 300.0, float("nan")):
         with pytest.raises(itup.InputError, match="weak_grip"):
             generate(str(tmp_path / "bad"), dataclasses.replace(SMALL, weak_grip=bad), progress=False)
