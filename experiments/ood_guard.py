@@ -11,7 +11,12 @@ set (seeds 200..). Per tool: `--grasps` candidates the arm can carry (`sample_re
 out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, and read by the guard
 (`ood.check`). Reported per tool:
   * fidelity: Spearman rho between predicted and measured full induced peak wrist torque (the headline
-    measure), and between predicted and measured grip demand;
+    measure), and between predicted and measured grip demand; beside them two references for the
+    torque's rho: the analytic wrench cost's peak full torque at the grasp (`costs.wrench_costs` with
+    `torque_projection="full"`: physics with no learning, so it is as much at home on a new family as
+    on the old ones), and a second rollout of the same candidates under one random physics draw (how
+    far one rollout's ranking carries to another's: what a predictor of the nominal rollout can hope
+    for in the randomised rollouts the datasets hold);
   * the learned pick (lowest predicted total) and the verified pick (the `--verify` best by predicted
     total, the lowest measured total among them, as `itup plan --verify K` picks under nominal
     physics): task success and grip failure; whether any candidate did the task and held;
@@ -88,8 +93,10 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
     """One tool's measurements (module docstring)."""
     import itup_jax as itup
     from itup_jax import ood
+    from itup_jax.costs import CostParams, wrench_costs
     from itup_jax.grasp_sampler import sample_reachable
     from itup_jax.scoring import ScoreWeights
+    from itup_jax.simulate import Randomization
     from itup_jax.stats import spearman
     from itup_jax.verify import measured_total, objective_of
 
@@ -102,6 +109,9 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
     guard = ood.check(tool, task, g)
     L = itup.simulate(tool, task, g, seed=seed, randomize=None).labels
     valid = np.asarray(L.valid)
+    L2 = itup.simulate(tool, task, g, seed=seed + 1, randomize=Randomization()).labels
+    both = valid & np.asarray(L2.valid)
+    analytic_tau = np.asarray(wrench_costs(tool, task, g, CostParams(torque_projection="full")).tau, float)
     pred_tau, pred_grip, total = (np.asarray(x, float) for x in (s.tau, s.grip, s.total))
     meas_tau, meas_grip = np.asarray(L.peak_torque_induced, float), np.asarray(L.grip_demand, float)
     ok = valid & np.asarray(L.success) & ~np.asarray(L.failed)
@@ -112,6 +122,8 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
         "valid": int(valid.sum()),
         "rho_induced": spearman(pred_tau[valid], meas_tau[valid]),
         "rho_grip": spearman(pred_grip[valid], meas_grip[valid]),
+        "rho_induced_analytic": spearman(analytic_tau[valid], meas_tau[valid]),
+        "rho_induced_random_draw": spearman(np.asarray(L2.peak_torque_induced, float)[both], meas_tau[both]),
         "guard": guard.to_json(),
         "pred_min": {"tau": float(pred_tau.min()), "grip": float(pred_grip.min())},
         "any_ok": bool(ok.any()), "ok_share": float(ok.mean()),
@@ -138,6 +150,10 @@ def calibrate(rows: list[dict]) -> dict:
     return {"threshold": round(threshold, 3), "rule": rule}
 
 
+def _median(rows: list[dict], key: str) -> float:
+    return float(np.nanmedian([r[key] for r in rows])) if rows else float("nan")
+
+
 def judge(rows: list[dict], threshold: float) -> dict:
     held = [r for r in rows if not r["builtin"]]
     bad = [r for r in held if r["rho_induced"] < RHO_FAIL]
@@ -151,6 +167,10 @@ def judge(rows: list[dict], threshold: float) -> dict:
         "builtin_tools": len(builtin),
         "median_rho_held_out": float(np.nanmedian([r["rho_induced"] for r in held])) if held else float("nan"),
         "median_rho_builtin": float(np.nanmedian([r["rho_induced"] for r in builtin])) if builtin else float("nan"),
+        "median_rho_analytic_held_out": _median(held, "rho_induced_analytic"),
+        "median_rho_analytic_builtin": _median(builtin, "rho_induced_analytic"),
+        "median_rho_random_draw_held_out": _median(held, "rho_induced_random_draw"),
+        "median_rho_random_draw_builtin": _median(builtin, "rho_induced_random_draw"),
         "solvable_held_out": len(solvable),
         "learned_ok_where_solvable": sum(r["learned"]["ok"] for r in solvable),
         "verified_ok_where_solvable": sum(r["verified"]["ok"] for r in solvable),
@@ -170,6 +190,8 @@ def per_family(rows: list[dict]) -> list[dict]:
             out.append({"family": fam, "task": kind, "tools": len(rs), "builtin": rs[0]["builtin"],
                         "median_rho_induced": float(np.nanmedian([r["rho_induced"] for r in rs])),
                         "median_rho_grip": float(np.nanmedian([r["rho_grip"] for r in rs])),
+                        "median_rho_analytic": _median(rs, "rho_induced_analytic"),
+                        "median_rho_random_draw": _median(rs, "rho_induced_random_draw"),
                         "median_guard": float(np.median([r["guard"]["score"] for r in rs])),
                         "learned_ok": float(np.mean([r["learned"]["ok"] for r in rs])),
                         "verified_ok": float(np.mean([r["verified"]["ok"] for r in rs])),
@@ -228,7 +250,8 @@ def main(argv=None) -> dict:
                             task = itup.make_task(kind, tool)
                         row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws)
                     sets[set_name].append(row)
-                    print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} guard "
+                    print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} (analytic "
+                          f"{row['rho_induced_analytic']:+.2f}, random draw {row['rho_induced_random_draw']:+.2f}) guard "
                           f"{row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "
                           f"{row['verified']['ok']} any ok {row['any_ok']}", flush=True)
     cal = calibrate(sets["calibration"])

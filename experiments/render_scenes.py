@@ -1,17 +1,16 @@
 """Pictures of the four task scenes for the README: for each task, the first feasible sampled grasp at
 the start of the motion and at the moment of contact (impact, or mid-pull), rendered offscreen.
 
-    MUJOCO_GL=osmesa python experiments/render_scenes.py [--out docs]
+    python experiments/render_scenes.py [--out docs]
 
-(CPU-only machines need Debian's libosmesa6; GPU machines use MUJOCO_GL=egl.)
+OpenGL as `itup_jax.render` finds it: MUJOCO_GL if set, else EGL (a GPU's, or Mesa's software EGL on a
+CPU-only machine), else OSMesa (Debian's libosmesa6).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-
-os.environ.setdefault("MUJOCO_GL", "osmesa")
 
 import matplotlib  # noqa: E402
 

@@ -663,13 +663,19 @@ def cmd_run(args) -> int:
     if args.grounder == "vlm":
         from itup_jax.vlm import VLMGrounder
 
-        kw = dict(timeout=args.vlm_timeout, fallback="rule" if args.vlm_fallback else None)
+        kw = dict(timeout=args.vlm_timeout, fallback="rule" if args.vlm_fallback else None, view=args.view)
         if args.vlm_key_env:
             kw["api_key_env"] = args.vlm_key_env
         grounder = (VLMGrounder(url=args.vlm_url, model=args.vlm_model, **kw) if args.vlm_url or args.vlm_model
                     else VLMGrounder.from_env(**kw))
     elif any((args.vlm_url, args.vlm_model, args.vlm_key_env, args.vlm_fallback)):
         raise_input("--vlm-url/--vlm-model/--vlm-key-env/--vlm-fallback apply to --grounder vlm")
+    from itup_jax.render import RenderUnavailable
+
+    try:
+        view = tabletop.resolve_view(args.view)
+    except RenderUnavailable as e:
+        raise_input(f"--view camera: {e}")
     tools = None
     if args.tools or args.add_tool:
         if any(len(pair) != 2 for pair in args.add_tool or []):
@@ -720,9 +726,9 @@ def cmd_run(args) -> int:
         files["mcap"] = write_rollout_mcap(os.path.join(args.out, "task.mcap"), build_scene(r.tool, r.task), r.task,
                                            r.sim, 0, grasp=r.pick.achieved[0])
     files["png"] = os.path.join(args.out, "scene.png")
-    tabletop.picture(top, files["png"], highlight=g.tool_index,
+    tabletop.picture(top, files["png"], highlight=g.tool_index, view=view,
                      title=f"{args.instruction!r}: tool {g.tool_index + 1} ({g.tool_name}); {r.stage}")
-    out = {**r.to_json(), "files": files}
+    out = {**r.to_json(), "files": files, "picture_view": view}
     files["json"] = os.path.join(args.out, "run.json")
     _atomic_write_json(files["json"], out)
     print(f"wrote {', '.join(files.values())} ({r.wall_s:.1f} s)")
@@ -1079,6 +1085,10 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--vlm-key-env", default=None, help="environment variable holding the API key (default OPENAI_API_KEY)")
     rn.add_argument("--vlm-timeout", type=float, default=60.0, help="s to wait for the model's answer (default 60)")
     rn.add_argument("--vlm-fallback", action="store_true", help="on a failed or invalid answer, ground with the rules")
+    rn.add_argument("--view", choices=("auto", "camera", "top"), default="auto",
+                    help="scene.png's view (and the picture a vision-language model gets): camera, MuJoCo's "
+                    "offscreen rendering (OpenGL: EGL or OSMesa); top, a drawing from above; auto (default): the "
+                    "camera where OpenGL works, else the top view")
     rn.add_argument("--out", default="itup-run",
                     help="output folder: run.json, scene.png, pick.mcap, task.mcap (default ./itup-run/)")
     rn.set_defaults(fn=cmd_run)

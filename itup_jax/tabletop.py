@@ -4,7 +4,7 @@
     top = tabletop.make_tabletop(seed=3)                 # the four built-in tools, apart
     top = tabletop.make_tabletop(clutter=4, seed=3)      # and four procedural tools among them, close
     top.tools, top.poses                                 # Tool objects; [N, 4, 4] tool frames in the world
-    tabletop.picture(top, "scene.png")                   # a top view with numbered tools and lettered parts
+    tabletop.picture(top, "scene.png")                   # rendered (or a top view), tools numbered, parts lettered
 
 Tools are dropped onto the table in MuJoCo (`drop`): each starts lying (its handle axis horizontal) at a
 random yaw and roll, a little above the table, and falls and settles under gravity with the table's
@@ -16,9 +16,12 @@ The tool area (`FOOTPRINT_AREA`) is the table's left side as the robot sees it (
 grasp region within the UR5e's reach for grasps from above (`GRASP_RADIUS`); the task targets (the nail in its board, the debris, the tower, the
 block) stand in front of the robot (`tasks`), where the task's own scene places them.
 
-The picture is a top view drawn with matplotlib (it needs no OpenGL): the tools' outlines, a number per
-tool (1-based, the numbers an instruction may use: "tool 2") and a letter per part ("2a"), the targets'
-positions. It is the image `vlm.VLMGrounder` sends.
+The picture (`picture`) is MuJoCo's offscreen rendering where an OpenGL backend works (`render.py`),
+else a top view drawn with matplotlib (no OpenGL): a number per tool (1-based, the numbers an
+instruction may use: "tool 2"), a letter per part ("2a"), the targets' names. In the rendering the
+targets stand in a row on the robot's right (TARGET_ROW), each as its task's scene builds it: each task
+runs in its own scene with its target in front of the robot; the top view marks them there. It is the
+image `vlm.VLMGrounder` sends.
 """
 
 from __future__ import annotations
@@ -357,9 +360,148 @@ _LABEL_PLACE = {"nail": (0.02, 0.0, "left", "center"), "tower": (-0.02, 0.0, "ri
                 "debris": (0.0, -0.03, "center", "top"), "block": (0.0, -0.03, "center", "top")}
 
 
-def picture(top: Tabletop, path: str | None = None, *, title: str | None = None, highlight: int | None = None):
-    """A top view of the table (module docstring). Writes a PNG to `path` when given; returns the
-    matplotlib Figure."""
+#: The picture's views (`picture`).
+VIEWS = ("auto", "camera", "top")
+#: The camera view's camera: looking from behind the robot (world +x ahead, the tool area on the left).
+CAMERA_VIEW = {"lookat": (0.42, 0.12, 0.0), "distance": 1.55, "azimuth": 0.0, "elevation": -58.0}
+#: Pixels of the camera view.
+CAMERA_SIZE = (960, 760)
+#: m, where the camera view stands each target (in a row on the robot's right, -y; module docstring).
+TARGET_ROW = {"tower": (0.86, -0.2), "nail": (0.66, -0.2), "debris": (0.44, -0.27), "block": (0.2, -0.3)}
+
+
+def picture(top: Tabletop, path: str | None = None, *, title: str | None = None, highlight: int | None = None,
+            view: str = "auto"):
+    """A picture of the table with numbered tools and lettered parts (module docstring): `view` 'camera'
+    (MuJoCo's offscreen renderer; `render.RenderUnavailable` where no OpenGL backend works), 'top' (a
+    drawing, no OpenGL), or 'auto' (the camera where `render.gl_backend()` finds a backend, else the top
+    view). `highlight`: the 0-based index of a tool to draw strong, the others faint. Writes a PNG to
+    `path` when given; returns the matplotlib Figure (its texts are the marks)."""
+    if resolve_view(view) == "camera":
+        fig = _camera_picture(top, title=title, highlight=highlight)
+    else:
+        fig = _top_picture(top, title=title, highlight=highlight)
+    if path is not None:
+        fig.savefig(path)
+    return fig
+
+
+def resolve_view(view: str) -> str:
+    """The view `picture` draws for `view`: 'camera' or 'top' ('auto': the camera where an OpenGL backend
+    works). InputError for a view not in VIEWS; `render.RenderUnavailable` for 'camera' where no
+    backend works (checked before any drawing)."""
+    from itup_jax import render
+
+    if view not in VIEWS:
+        raise InputError(f"picture: view {view!r} is not one of {', '.join(VIEWS)}")
+    if view == "camera" and render.gl_backend() is None:
+        render.Offscreen(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16)  # raises, saying what each backend said
+    if view == "auto":
+        return "camera" if render.gl_backend() is not None else "top"
+    return view
+
+
+def _render_model(top: Tabletop, highlight: int | None) -> tuple[mujoco.MjModel, dict[str, np.ndarray]]:
+    """The table, the tools at their poses (their meshes, each in its colour), the targets in TARGET_ROW
+    (their geoms as their tasks' scenes place them) and the robot's base; static. Returns the model and
+    each target's label point (m, world)."""
+    import matplotlib.pyplot as plt
+
+    from itup_jax import tasks
+    from itup_jax.scene import MJCF_DIR
+    from itup_jax.simulate import _quat_from_matrix
+    from itup_jax.task import make_task
+
+    spec = mujoco.MjSpec()
+    spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
+    spec.visual.headlight.diffuse = [0.3, 0.3, 0.3]
+    spec.visual.headlight.specular = [0.0, 0.0, 0.0]
+    spec.worldbody.add_light(pos=[0.4, 0.2, 2.5], dir=[0, 0, -1], diffuse=[0.45, 0.45, 0.45], specular=[0.1, 0.1, 0.1])
+    spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.5, 1.5, 0.01],
+                            rgba=[0.85, 0.82, 0.75, 1])
+    spec.worldbody.add_geom(name="robot_base", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.075, 0.045, 0],
+                            pos=[0, 0, 0.045], rgba=[0.3, 0.3, 0.32, 1])
+    colours = plt.get_cmap("tab10")
+    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
+        spec.add_mesh(name=f"tool_{i}", uservert=np.asarray(t.mesh.vertices, float).ravel(),
+                      userface=np.asarray(t.mesh.faces, np.int32).ravel())
+        rgba = list(colours(i % 10))
+        if highlight is not None and highlight != i:
+            rgba = [0.6 + 0.4 * c for c in rgba[:3]] + [1.0]  # faint: towards white
+        body = spec.worldbody.add_body(name=f"tool_{i}", pos=T[:3, 3], quat=_quat_from_matrix(T[:3, :3]))
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"tool_{i}", rgba=rgba)
+    labels = {}
+    for kind, name in TARGETS.items():
+        if name not in top.targets or kind not in tasks.names():
+            continue
+        k = tasks.get(kind)
+        scene_spec = mujoco.MjSpec.from_file(str(MJCF_DIR / k.scene_file))
+        k.place(scene_spec, make_task(kind, load_tool(k.default_tool)))
+        m = scene_spec.compile()
+        d = mujoco.MjData(m)
+        mujoco.mj_forward(m, d)
+        keep = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0 and m.geom_type[g] != mujoco.mjtGeom.mjGEOM_MESH]
+        if not keep:
+            continue
+        xy = np.mean(d.geom_xpos[keep, :2], axis=0)
+        shift = np.r_[np.asarray(TARGET_ROW[name]) - xy, 0.0]
+        for g in keep:
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, d.geom_xmat[g])
+            spec.worldbody.add_geom(type=mujoco.mjtGeom(m.geom_type[g]), size=m.geom_size[g], pos=d.geom_xpos[g] + shift,
+                                    quat=quat, rgba=m.geom_rgba[g])
+        top_z = max(float(d.geom_xpos[g, 2] + m.geom_rbound[g]) for g in keep)
+        labels[name] = np.r_[TARGET_ROW[name], top_z]
+    return spec.compile(), labels
+
+
+def _camera_picture(top: Tabletop, *, title: str | None, highlight: int | None):
+    """The table rendered offscreen by MuJoCo (CAMERA_VIEW), the marks drawn where `render.project` puts
+    their points."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from itup_jax import parts, render
+
+    m, target_labels = _render_model(top, highlight)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    cam = render.free_camera(**CAMERA_VIEW)
+    w, h = CAMERA_SIZE
+    with render.Offscreen(m, w, h) as off:
+        rgb = off.render(d, cam)
+    glcam = render.gl_camera(m, d, cam)
+
+    def at(point):
+        return render.project(np.asarray(point, float)[None], glcam, w, h)[0][0]
+
+    dpi = 110
+    fig = plt.figure(figsize=(w / dpi, (h + 40) / dpi), dpi=dpi)
+    ax = fig.add_axes([0, 0, 1, h / (h + 40)])
+    ax.imshow(rgb)
+    ax.set_axis_off()
+    colours = plt.get_cmap("tab10")
+    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
+        for k, p in enumerate(parts.tool_parts(t)):
+            centre = T[:3, :3] @ (0.5 * (p.region.lo + p.region.hi)) + T[:3, 3]
+            ax.annotate(f"{i + 1}{chr(97 + k)}", at(centre), fontsize=7, ha="center", va="center", color="black",
+                        bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75))
+        handle = next(p for p in parts.tool_parts(t) if "grasp" in p.roles)
+        grip = T[:3, :3] @ (0.5 * (handle.region.lo + handle.region.hi)) + T[:3, 3]
+        ax.annotate(str(i + 1), at(grip) + np.array([0.0, -24.0]), fontsize=13, weight="bold", ha="center",
+                    va="center", color=colours(i % 10), bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+    for name, point in target_labels.items():
+        ax.annotate(name, at(point) + np.array([0.0, -12.0]), fontsize=9, ha="center", va="bottom", color="crimson",
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+    ax.annotate("robot", at([0.0, 0.0, 0.1]) + np.array([0.0, -8.0]), fontsize=9, ha="center", va="bottom")
+    fig.suptitle(title or f"table, seed {top.seed}: tools numbered, parts lettered", y=0.995, va="top", fontsize=11)
+    return fig
+
+
+def _top_picture(top: Tabletop, *, title: str | None, highlight: int | None):
+    """The top view: the tools' outlines, the targets where their tasks place them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -397,6 +539,4 @@ def picture(top: Tabletop, path: str | None = None, *, title: str | None = None,
     ax.set_ylabel("y (m, left)")
     ax.set_title(title or f"table, seed {top.seed}: tools numbered, parts lettered")
     fig.tight_layout()
-    if path is not None:
-        fig.savefig(path)
     return fig

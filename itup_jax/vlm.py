@@ -8,7 +8,8 @@
 The adapter sends one chat completion (`POST <url>/chat/completions`): a system message that asks for a
 JSON object, and a user message with the instruction, the table's tools by number with their parts by
 letter ("2b": tool 2's second part) and the targets on the table, plus the table's picture
-(`tabletop.picture`: numbered tools, lettered parts) as a base64 PNG `image_url`. The answer must be a
+(`tabletop.picture`: MuJoCo's offscreen rendering where OpenGL works, else the top view; numbered tools,
+lettered parts) as a base64 PNG `image_url`. The answer must be a
 JSON object {"task": <task kind>, "tool": <tool number>, "work_part": <part name or letter>,
 "grasp_part": <part name or letter>}; it is checked against the scene (`grounding.validate`).
 
@@ -39,7 +40,7 @@ from itup_jax.grounding import Grounding, GroundingError, RuleGrounder, scene_ta
 from itup_jax.tasks import names as task_names
 
 SYSTEM_PROMPT = (
-    "You ground a robot tool-use instruction in a table scene. The picture shows the table from above: "
+    "You ground a robot tool-use instruction in a table scene. The picture shows the table: "
     "tools are numbered, their parts lettered (2b is tool 2's part b), the targets are marked. Answer with "
     "one JSON object and nothing else: {\"task\": one of %s, \"tool\": the number of the tool to use, "
     "\"work_part\": the name or letter of the part that touches the target, \"grasp_part\": the name or "
@@ -63,14 +64,14 @@ def describe(scene: Any) -> str:
     return "\n".join(lines)
 
 
-def _image_png(scene: Any) -> bytes:
+def _image_png(scene: Any, view: str) -> bytes:
     from itup_jax.tabletop import Tabletop, picture
 
     if not isinstance(scene, Tabletop):
         return b""
     import matplotlib.pyplot as plt
 
-    fig = picture(scene)
+    fig = picture(scene, view=view)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     plt.close(fig)
@@ -103,6 +104,7 @@ class VLMGrounder:
       timeout: s, how long to wait for the answer.
       fallback: None (fail with VLMError) or 'rule' (use the rule grounder, noting why).
       image: send the table's picture (a model without vision may take the text alone).
+      view: the picture's view (`tabletop.picture`: 'auto', 'camera' or 'top').
     """
 
     url: str
@@ -111,6 +113,7 @@ class VLMGrounder:
     timeout: float = 60.0
     fallback: str | None = None
     image: bool = True
+    view: str = "auto"
     name: str = "vlm"
 
     def __post_init__(self):
@@ -122,6 +125,10 @@ class VLMGrounder:
             raise VLMError(f"vlm grounding: timeout must be a positive number of seconds, got {self.timeout!r}")
         if self.fallback not in (None, "rule"):
             raise VLMError(f"vlm grounding: fallback must be None or 'rule', got {self.fallback!r}")
+        from itup_jax.tabletop import VIEWS
+
+        if self.view not in VIEWS:
+            raise VLMError(f"vlm grounding: view must be one of {', '.join(VIEWS)}, got {self.view!r}")
 
     @classmethod
     def from_env(cls, **kw) -> "VLMGrounder":
@@ -137,7 +144,7 @@ class VLMGrounder:
         """The chat-completion request (JSON body) for `instruction` in `scene`."""
         text = f"Instruction: {instruction}\n\n{describe(scene)}"
         content: list[dict] = [{"type": "text", "text": text}]
-        png = _image_png(scene) if self.image else b""
+        png = _image_png(scene, self.view) if self.image else b""
         if png:
             content.append({"type": "image_url",
                             "image_url": {"url": "data:image/png;base64," + base64.b64encode(png).decode()}})

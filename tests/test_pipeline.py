@@ -166,11 +166,27 @@ def test_a_users_mesh_tool_lies_on_the_table_and_is_grounded_by_its_category(use
     assert (g.tool_name, g.work_part, g.grasp_part) == ("my_mallet", "head", "handle")
 
 
-def test_picture_numbers_the_tools(tables, tmp_path):
-    fig = tabletop.picture(tables[0], str(tmp_path / "t.png"))
-    texts = {t.get_text() for t in fig.axes[0].texts}
-    assert {"1", "2", "3", "4", "1a", "2c", "nail", "block"} <= texts
+@pytest.mark.parametrize("view", ["top", "camera"])
+def test_picture_numbers_the_tools(tables, tmp_path, view):
+    from itup_jax import render
+
+    if view == "camera" and render.gl_backend() is None:
+        pytest.skip("no OpenGL backend on this machine")
+    fig = tabletop.picture(tables[0], str(tmp_path / "t.png"), view=view)
+    texts = {t.get_text(): t for t in fig.axes[0].texts}
+    assert {"1", "2", "3", "4", "1a", "2c", "nail", "block", "debris", "tower"} <= set(texts)
     assert (tmp_path / "t.png").stat().st_size > 10_000
+    if view == "camera":  # each tool's handle mark sits on that tool's rendered colour
+        import matplotlib.pyplot as plt
+
+        rgb = np.asarray(fig.axes[0].images[0].get_array(), float)
+        for i in range(4):
+            handle = next(k for k, p in enumerate(parts.tool_parts(tables[0].tools[i])) if "grasp" in p.roles)
+            col, row = np.round(texts[f"{i + 1}{chr(97 + handle)}"].xy).astype(int)
+            patch = rgb[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3).mean(0)
+            want = np.asarray(plt.get_cmap("tab10")(i)[:3]) * 255
+            cos = patch @ want / np.linalg.norm(patch) / np.linalg.norm(want)
+            assert cos > 0.97, (i, patch, want)  # the same hue, whatever the shading
 
 
 # ---------------------------------------------------------------------------------------------- picking up
