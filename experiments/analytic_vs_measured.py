@@ -6,8 +6,9 @@ measured wrist torque, and does the slip cost predict measured slip?
     python experiments/analytic_vs_measured.py --quick --out /tmp/avm                     # tests
 
 Variants of C_tau (`costs.CostParams`): lever arm about the grasp (`grasp`, the default: r = c_contact -
-p_grasp) or about the tool's centre of mass (`com`, the seed's formula), each with the torque projected
-off the jaw-closure axis (`perp`, the seed's choice) or in full (`full`). Slip: the seed's form
+p_grasp), about the tool's centre of mass (`com`, the seed's formula) or about the wrist's force/torque
+site 85 mm behind the grasp along its approach axis (`wrist`, where the labels measure), each with the
+torque projected off the jaw-closure axis (`perp`, the seed's choice) or in full (`full`). Slip: the seed's form
 (grip_force 0) and the form that adds the pads' squeeze (grip_force = the simulator's nominal 100 N).
 
 Per tool (a dataset shard: one tool, one task, its sampled grasps; valid rollouts only) the Spearman rank
@@ -46,7 +47,7 @@ from itup_jax.stats import spearman
 from itup_jax.task import TASK_KINDS
 
 TORQUE_VARIANTS = {f"{lever}/{proj}": CostParams(lever_arm=lever, torque_projection=proj)
-                   for lever in ("grasp", "com") for proj in ("perp", "full")}
+                   for lever in ("grasp", "com", "wrist") for proj in ("perp", "full")}
 SLIP_VARIANTS = {"seed": CostParams(grip_force=0.0), "squeeze": CostParams(grip_force=SimConfig().grip_force)}
 TORQUE_LABELS = ("peak_torque", "peak_torque_induced", "peak_torque_projected")
 GEOMETRY = ("along_handle", "com_distance", "closure_along_swing")

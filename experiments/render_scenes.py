@@ -1,5 +1,6 @@
-"""Pictures of the four task scenes for the README: for each task, the first feasible sampled grasp at
-the start of the motion and at the moment of contact (impact, or mid-pull), rendered offscreen.
+"""Pictures of the four task scenes for the docs: for each task, the first feasible sampled grasp at
+the start of the motion and at the moment of contact (impact, or mid-pull), rendered offscreen; and the
+whole chain's table with four clutter tools (seed 3), as `itup run` draws it (tabletop.png).
 
     python experiments/render_scenes.py [--out docs]
 
@@ -59,6 +60,12 @@ def main(argv=None):
         fig.savefig(path, dpi=90)
         plt.close(fig)
         print(f"wrote {path} (grasp #{i})")
+    from itup_jax import tabletop
+
+    path = os.path.join(args.out, "tabletop.png")
+    fig = tabletop.picture(tabletop.make_tabletop(clutter=4, seed=3), path, view="camera")
+    plt.close(fig)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -4,7 +4,10 @@ For one grasp g (grasp-frame origin p and jaw-closure axis n_f, both in the tool
 grasp-independent loads of `wrench.task_loads` (force F and moment M about the tool origin that the
 grasp must apply, tool frame), at every step t:
 
-  tau(t)     = M(t) - (P - O) x F(t)       P = p (default, 'grasp') or the com ('com', the seed's r)
+  tau(t)     = M(t) - (P - O) x F(t)       P = p (default, 'grasp'), the com ('com', the seed's r), or
+                                           the wrist's force/torque site, FLANGE_TO_GRASP behind p
+                                           along the grasp's approach axis ('wrist': where the labels
+                                           and the paper measure the wrist torque)
   C_tau(t)   = || (I - n_f n_f^T) tau ||   ('perp', the paper's choice) or ||tau|| ('full') or
                2 c_t N_grip(F, tau)       ('grip': the grip demand of `grip_demand.py`, the normal force
                                            per pad that holds (F, tau) by friction, in the grasp frame,
@@ -41,12 +44,12 @@ from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, rotation_matrix, validate_grasps
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
-from itup_jax.robot import PAD_TORSION
+from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
 from itup_jax.task import Task
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
 
-LEVER_ARMS = ("grasp", "com")
+LEVER_ARMS = ("grasp", "com", "wrist")
 TORQUE_PROJECTIONS = ("perp", "full", "grip")
 
 
@@ -56,7 +59,7 @@ class CostParams:
     """Weights and model variants of the cost.
 
     Leaves (differentiable): w_tau [] 1/(N m), w_slip [] 1/N, w_align [] 1/rad, grip_force [] N (squeeze
-    of each pad; 0 gives the seed's slip form). Static: lever_arm ('grasp' | 'com'), torque_projection
+    of each pad; 0 gives the seed's slip form). Static: lever_arm ('grasp' | 'com' | 'wrist'), torque_projection
     ('perp' | 'full'), include_gravity (add the tool's weight to the inertial wrench).
 
     The default weights are 1 in SI units (N m, N, rad): the experiments decide better ones.
@@ -138,11 +141,20 @@ def _grip_torque_sq(F: jax.Array, tau: jax.Array, R: jax.Array, mu, width) -> ja
     return (2.0 * PAD_TORSION) ** 2 * grip_demand_sq(F @ R, tau @ R, mu, width, xp=jnp)
 
 
+def _pivot(loads: Loads, grasp: Grasps, R: jax.Array, lever_arm: str) -> jax.Array:
+    """[3] m, the point the torque is taken about (tool frame; module docstring)."""
+    if lever_arm == "com":
+        return loads.com_tool
+    if lever_arm == "wrist":
+        return grasp.p_tool_grasp - FLANGE_TO_GRASP * R[:, 2]
+    return grasp.p_tool_grasp
+
+
 def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParams) -> Costs:
     """Per-step costs [T] of ONE grasp (shapes [3], [4], []). Not jitted; see `wrench_costs`."""
     R = rotation_matrix(grasp.q_tool_grasp)
     n_f = R[:, 1]
-    pivot = grasp.p_tool_grasp if params.lever_arm == "grasp" else loads.com_tool
+    pivot = _pivot(loads, grasp, R, params.lever_arm)
     tau = loads.moment_tool - jnp.cross(pivot, loads.force_tool)  # [T, 3]
     tau_n = tau @ n_f
     tau_perp = tau - tau_n[:, None] * n_f
@@ -168,7 +180,7 @@ def grasp_costs(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParam
     """
     R = rotation_matrix(grasp.q_tool_grasp)
     n_f = R[:, 1]
-    pivot = grasp.p_tool_grasp if params.lever_arm == "grasp" else loads.com_tool
+    pivot = _pivot(loads, grasp, R, params.lever_arm)
     F = loads.force_tool
     tau = loads.moment_tool - jnp.cross(pivot, F)  # [T, 3]
     tau_n = tau @ n_f

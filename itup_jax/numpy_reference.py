@@ -59,7 +59,8 @@ def numpy_wrench_costs(tool: dict, task: dict, grasps: dict, *, w_tau=1.0, w_sli
     active = np.max(np.maximum(task["impact"], task["drag"]), axis=1)  # [T]
 
     n_f = grasps["R"][:, :, 1]  # [N, 3] closure axes
-    pivot = grasps["p"] if lever_arm == "grasp" else np.broadcast_to(com, grasps["p"].shape)
+    pivot = {"grasp": grasps["p"], "com": np.broadcast_to(com, grasps["p"].shape),
+             "wrist": grasps["p"] - 0.085 * grasps["R"][:, :, 2]}[lever_arm]  # the flange, 85 mm behind
     tau = M[None] - np.cross(pivot[:, None, :], F[None])  # [N, T, 3]
     tau_n = np.einsum("ntj,nj->nt", tau, n_f)
     tau_perp = tau - tau_n[..., None] * n_f[:, None, :]

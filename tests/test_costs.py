@@ -28,6 +28,7 @@ VARIANTS = [
     CostParams(),
     CostParams(lever_arm="com"),
     CostParams(torque_projection="full"),
+    CostParams(lever_arm="wrist", torque_projection="full"),
     CostParams(include_gravity=True, grip_force=15.0, w_tau=0.5, w_slip=0.1, w_align=2.0),
     CostParams.wrench(),
 ]
@@ -172,7 +173,7 @@ def test_gradients_match_central_finite_differences(tasks, grasps_by_kind, kind,
 def test_vmap_equals_a_loop_and_peaks_equal_trace_maxima(tasks, grasps_by_kind):
     tool, task = tasks["sweep"]
     g = grasps_by_kind["sweep"]
-    params = VARIANTS[3]
+    params = VARIANTS[4]
     batched = itup.wrench_costs(tool, task, g, params)
     loads = task_loads(tool.params, task, params.include_gravity)
     for i in range(len(g)):
@@ -209,6 +210,26 @@ def test_second_call_with_the_same_shapes_does_not_recompile(tasks, grasps_by_ki
 
 
 # -------------------------------------------------------------------------------------------- physics
+@pytest.mark.parametrize("kind", ["hammer", "reach"])
+def test_wrist_lever_arm_is_the_grasp_lever_arm_85_mm_back_along_the_approach(tasks, grasps_by_kind, kind):
+    # the torque about the wrist site of a grasp is the torque about the grasp origin of the same grasp
+    # moved back to the wrist: a closed form that a wrong axis, sign or offset breaks
+    from itup_jax.grasp import rotation_matrix
+    from itup_jax.robot import FLANGE_TO_GRASP
+
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    approach = np.asarray(jax.vmap(rotation_matrix)(g.q_tool_grasp))[:, :, 2]
+    back = dataclasses.replace(g, p_tool_grasp=jnp.asarray(np.asarray(g.p_tool_grasp) - FLANGE_TO_GRASP * approach))
+    for proj in ("full", "perp"):
+        wrist = itup.wrench_costs(tool, task, g, CostParams(lever_arm="wrist", torque_projection=proj))
+        moved = itup.wrench_costs(tool, task, back, CostParams(lever_arm="grasp", torque_projection=proj))
+        np.testing.assert_allclose(np.asarray(wrist.tau), np.asarray(moved.tau), rtol=1e-9, atol=1e-9)
+    wrist = itup.wrench_costs(tool, task, g, CostParams(lever_arm="wrist", torque_projection="full"))
+    grasp = itup.wrench_costs(tool, task, g, CostParams(torque_projection="full"))
+    assert np.max(np.abs(np.asarray(wrist.tau) - np.asarray(grasp.tau))) > 1e-3  # the lever arm matters here
+
+
 def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
     tool, task = tasks["hammer"]
     R = np.eye(3)[None].repeat(3, 0)
@@ -232,7 +253,7 @@ def test_bad_cost_input(tasks, grasps_by_kind):
     with pytest.raises(itup.InputError, match=r"p_tool_grasp: NaN.*\[2\]"):
         itup.wrench_costs(tool, task, bad)
     with pytest.raises(itup.InputError, match="lever_arm"):
-        CostParams(lever_arm="wrist")
+        CostParams(lever_arm="elbow")
     with pytest.raises(itup.InputError, match="batch"):
         itup.wrench_costs(tool, task, g[0])
     with pytest.raises(itup.InputError, match="Task"):
