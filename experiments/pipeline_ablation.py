@@ -1,6 +1,6 @@
 """The whole chain and the paper's ablations in simulation (the paper's Tables II and III beside ours).
 
-    python experiments/pipeline_ablation.py --trials 50 --out results/pipeline       # >= 50 per cell
+    python experiments/pipeline_ablation.py --trials 50 --out results/pipeline       # >= 50 per cell (tables 0-49)
     python experiments/pipeline_ablation.py --quick --out /tmp/pipe                    # tiny (tests)
 
 Per task (one plain instruction each, INSTRUCTIONS), per table (no clutter: the four built-in tools
@@ -115,7 +115,7 @@ def merge_runs(paths: list[str]) -> dict:
     for path in paths:
         with open(path) as fh:
             docs.append(json.load(fh))
-    same = ("trials", "clutter", "methods", "samples")
+    same = ("trials", "first_table", "clutter", "methods", "samples")
     for path, d in zip(paths[1:], docs[1:]):
         differ = [k for k in same if d.get(k) != docs[0].get(k)]
         if differ:
@@ -137,6 +137,9 @@ def merge_runs(paths: list[str]) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--trials", type=int, default=50, help="tables per task and clutter setting")
+    ap.add_argument("--first-table", type=int, default=0,
+                    help="the first table's seed: tables K .. K + trials - 1 (default 0; a fresh set of tables "
+                    "measures a change chosen on earlier ones)")
     ap.add_argument("--clutter", type=int, default=4, help="procedural tools added in the cluttered tables")
     ap.add_argument("--tasks", nargs="+", default=list(INSTRUCTIONS))
     ap.add_argument("--methods", nargs="+", default=list(METHODS))
@@ -153,7 +156,8 @@ def main(argv=None) -> int:
     if args.from_json:
         old = merge_runs(args.from_json)
         rows = [r for r in old["rows"] if r["trial"] >= args.first_trial]
-        print(f"{', '.join(args.from_json)}: trials {args.first_trial}..{old['trials'] - 1}")
+        first = old.get("first_table", 0)
+        print(f"{', '.join(args.from_json)}: tables {max(args.first_trial, first)}..{first + old['trials'] - 1}")
         cells = summarize(rows, old["tasks"], old["methods"], (0, old["clutter"]))
         out = {**old, "cells": cells, "rows": rows, "first_trial": args.first_trial}
         os.makedirs(args.out, exist_ok=True)
@@ -168,7 +172,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = []
     for clutter in (0, args.clutter):
-        for t in range(args.trials):
+        for t in range(args.first_table, args.first_table + args.trials):
             top = tabletop.make_tabletop(clutter=clutter, seed=t)
             for task in args.tasks:
                 for m in args.methods:
@@ -184,7 +188,8 @@ def main(argv=None) -> int:
                                  "wall_s": round(r.wall_s, 2)})
             print(f"clutter {clutter} trial {t}: {time.perf_counter() - t0:.0f} s", flush=True)
     cells = summarize(rows, args.tasks, args.methods, (0, args.clutter))
-    out = {"schema": "itup.pipeline_ablation/1", "trials": args.trials, "clutter": args.clutter, "tasks": args.tasks,
+    out = {"schema": "itup.pipeline_ablation/1", "trials": args.trials, "first_table": args.first_table,
+           "clutter": args.clutter, "tasks": args.tasks,
            "methods": args.methods, "samples": args.samples, "instructions": INSTRUCTIONS, "cells": cells,
            "paper": {"table2": PAPER_TABLE2, "table3": PAPER_TABLE3}, "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1)}
