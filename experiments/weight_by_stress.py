@@ -34,6 +34,10 @@ passes the most (task, criterion) checks, ties to the smaller weight (the smalle
 validation dataset's tools (--data, e.g. seed 6); then measure the test tools with the choice fixed
 (`grip_stress.py` and `table1.py`). Writes weight_by_stress.json (with grip_stress's rows).
 
+Where two weights pass the same S1 and S2 checks and differ only in T, the torque trade-off between
+them is `objective_selection.py`'s (torque and grip demand on more tools): the weight with the better
+objective score under it is kept (docs/results.md, "The turn's weight again").
+
 A candidate network (--model) against the shipped one (--reference sdgnet, its picks stressed on the
 same candidates and draws): the candidate at its chosen weight replaces the reference only if it
 passes more (task, criterion) checks; as many or fewer, the reference stays (the smaller change).

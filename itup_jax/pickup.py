@@ -303,18 +303,12 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
 #: REACH_MARGIN_TURN about its closure axis, either way, still is (`reachable_with_margin`).
 REACH_MARGIN_SHIFT = 0.005
 REACH_MARGIN_TURN = math.radians(4.0)
-#: The wider turn the pipeline prefers where candidates allow it: the L-stick lifted from the table
-#: turned in the pads by more than 4 degrees in a quarter of the picks of the whole-chain experiment
-#: (50 tables, with and without clutter: median 2, 90th percentile 4.3 / 6.3, 95th 6.4 / 11.3 degrees),
-#: and grasps it achieved 6-7 degrees off could not be carried through the reach.
-REACH_MARGIN_TURN_WIDE = math.radians(8.0)
 
 
-def reachable_with_margin(task, grasps: Grasps, *, turn: float = REACH_MARGIN_TURN,
-                          shift: float = REACH_MARGIN_SHIFT) -> np.ndarray:
-    """[N] bool: each grasp and its four perturbations (+-`shift` m along the grasp's x axis, +-`turn`
-    rad about its closure axis) can all be carried through `task` (`simulate.reachable`): the grasp a
-    pick achieves, a few millimetres and degrees off, can still do the task."""
+def reachable_with_margin(task, grasps: Grasps) -> np.ndarray:
+    """[N] bool: each grasp and its four perturbations (+-REACH_MARGIN_SHIFT along the grasp's x axis,
+    +-REACH_MARGIN_TURN about its closure axis) can all be carried through `task` (`simulate.reachable`):
+    the grasp a pick achieves, a few millimetres and degrees off, can still do the task."""
     from itup_jax.simulate import reachable
 
     p = np.asarray(grasps.p_tool_grasp, float)
@@ -322,12 +316,12 @@ def reachable_with_margin(task, grasps: Grasps, *, turn: float = REACH_MARGIN_TU
     w = np.asarray(grasps.width, float)
     ps, Rs = [p], [R]
     for sgn in (-1.0, 1.0):
-        ps.append(p + sgn * shift * R[:, :, 0])
+        ps.append(p + sgn * REACH_MARGIN_SHIFT * R[:, :, 0])
         Rs.append(R)
-        c, s_ = math.cos(sgn * turn), math.sin(sgn * turn)
-        about_y = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])  # about the grasp's y (closure) axis
+        c, s_ = math.cos(sgn * REACH_MARGIN_TURN), math.sin(sgn * REACH_MARGIN_TURN)
+        turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])  # about the grasp's y (closure) axis
         ps.append(p)
-        Rs.append(R @ about_y)
+        Rs.append(R @ turn)
     allg = make_grasps(np.concatenate(ps), np.concatenate(Rs), np.tile(w, len(ps)))
     return reachable(task, allg).reshape(len(ps), len(p)).all(axis=0)
 

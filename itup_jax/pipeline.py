@@ -16,8 +16,6 @@ The stages (the paper's six, in simulation):
        torsional grip within `pickup.LIFT_TORQUE_SHARE` of its capacity (the tool's weight and the
        other tools' loads over a simulated lift, `pickup.lift_torque`), or, when there are none, the
        MIN_CANDIDATES that load it least (the weight alone always within `pickup.LIFT_TORQUE_LIMIT`);
-       and of those, the ones still carried through the task when the pick turns them by the wider
-       `pickup.REACH_MARGIN_TURN_WIDE` in the pads, where any is;
   5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
        it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
@@ -192,13 +190,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     """
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
-    from itup_jax.pickup import (
-        LIFT_TORQUE_SHARE,
-        REACH_MARGIN_TURN_WIDE,
-        execute_pick,
-        pick_candidates,
-        reachable_with_margin,
-    )
+    from itup_jax.pickup import LIFT_TORQUE_SHARE, execute_pick, pick_candidates, reachable_with_margin
     from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
 
     if method not in METHODS:
@@ -267,11 +259,6 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         keep = np.nonzero(lift_load <= LIFT_TORQUE_SHARE)[0]
     else:
         keep = np.sort(np.argsort(lift_load, kind="stable")[:MIN_CANDIDATES])
-    # and within the wider margin for the pick's turn in the pads, where any grasp allows it
-    wide = reachable_with_margin(task, grasps_k[keep], turn=REACH_MARGIN_TURN_WIDE)
-    counts["wide_margin"] = int(wide.sum())
-    if wide.any():
-        keep = keep[wide]
     grasps_k, shifts, q_paths, lift_load = grasps_k[keep], shifts[keep], q_paths[keep], lift_load[keep]
     counts["scored"] = len(keep)
     scorer = METHODS[method][1]
@@ -280,7 +267,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     total = np.asarray(scores.total, float)
     best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
     choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(shifts[best]),
-              "lift_load": round(float(lift_load[best]), 4), "wide_margin": bool(wide.any()),
+              "lift_load": round(float(lift_load[best]), 4),
               "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
     pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
                         record_every=PICK_LOG_EVERY if traces else None)
