@@ -8,7 +8,9 @@ measured wrist torque, and does the slip cost predict measured slip?
 Variants of C_tau (`costs.CostParams`): lever arm about the grasp (`grasp`, the default: r = c_contact -
 p_grasp), about the tool's centre of mass (`com`, the seed's formula) or about the wrist's force/torque
 site 85 mm behind the grasp along its approach axis (`wrist`, where the labels measure), each with the
-torque projected off the jaw-closure axis (`perp`, the seed's choice) or in full (`full`). Slip: the seed's form
+torque projected off the jaw-closure axis (`perp`, the seed's choice) or in full (`full`); and at the wrist
+the torque the pads pass on at the simulator's 100 N per pad (`wrist/passed`: the closure-axis part
+capped by the pads' torsional friction). Slip: the seed's form
 (grip_force 0) and the form that adds the pads' squeeze (grip_force = the simulator's nominal 100 N).
 
 Per tool (a dataset shard: one tool, one task, its sampled grasps; valid rollouts only) the Spearman rank
@@ -48,6 +50,8 @@ from itup_jax.task import TASK_KINDS
 
 TORQUE_VARIANTS = {f"{lever}/{proj}": CostParams(lever_arm=lever, torque_projection=proj)
                    for lever in ("grasp", "com", "wrist") for proj in ("perp", "full")}
+TORQUE_VARIANTS["wrist/passed"] = CostParams(lever_arm="wrist", torque_projection="passed",
+                                             grip_force=SimConfig().grip_force)
 SLIP_VARIANTS = {"seed": CostParams(grip_force=0.0), "squeeze": CostParams(grip_force=SimConfig().grip_force)}
 TORQUE_LABELS = ("peak_torque", "peak_torque_induced", "peak_torque_projected")
 GEOMETRY = ("along_handle", "com_distance", "closure_along_swing")

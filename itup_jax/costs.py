@@ -13,6 +13,9 @@ grasp must apply, tool frame), at every step t:
                                            per pad that holds (F, tau) by friction, in the grasp frame,
                                            expressed as the torque about the closure axis that needs
                                            the same force, c_t the pads' torsional friction length)
+               sqrt(||tau_perp||^2 + min(|tau . n_f|, 2 c_t mu f_grip)^2)   ('passed': what the
+                                           pads pass on, the closure-axis part capped by their
+                                           torsional friction at the squeeze f_grip)
   tau_n(t)   = |tau . n_f|                 (about the closure axis: only torsional pad friction holds it)
   F_n(t)     = (F . n_f) n_f,  F_t = F - F_n
   C_s(t)     = max(0, ||F_t|| - mu (||F_n|| + 2 f_grip))   (f_grip = 0: the seed form; > 0: the
@@ -50,7 +53,7 @@ from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
 
 LEVER_ARMS = ("grasp", "com", "wrist")
-TORQUE_PROJECTIONS = ("perp", "full", "grip")
+TORQUE_PROJECTIONS = ("perp", "full", "grip", "passed")
 
 
 @jax.tree_util.register_dataclass
@@ -135,6 +138,13 @@ def line_angle(u: jax.Array, v: jax.Array) -> jax.Array:
     return jnp.arctan2(_safe_norm(jnp.cross(u, v)), jnp.abs(jnp.sum(u * v, axis=-1)))
 
 
+def _passed_torque_sq(tau: jax.Array, tau_n: jax.Array, mu, grip_force) -> jax.Array:
+    """[T] N^2 m^2: the torque the pads pass on, squared: the part off the closure axis in full, the part
+    about it up to the pads' torsional friction, 2 c_t mu f_grip (module docstring)."""
+    cap = 2.0 * PAD_TORSION * mu * grip_force
+    return jnp.maximum(jnp.sum(tau * tau, axis=-1) - tau_n**2, 0.0) + jnp.minimum(jnp.abs(tau_n), cap) ** 2
+
+
 def _grip_torque_sq(F: jax.Array, tau: jax.Array, R: jax.Array, mu, width) -> jax.Array:
     """(2 c_t N_grip)^2 [T] of the wrench (F, tau about the grasp point) [T, 3] in the tool frame, turned
     into the grasp frame (R = R_tool_grasp): the 'grip' C_tau before its square root."""
@@ -161,6 +171,8 @@ def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: Cost
     F = loads.force_tool
     if params.torque_projection == "grip":
         c_tau = _safe_sqrt(_grip_torque_sq(F, tau, R, tool.mu, grasp.width))
+    elif params.torque_projection == "passed":
+        c_tau = _safe_sqrt(_passed_torque_sq(tau, tau_n, tool.mu, params.grip_force))
     else:
         c_tau = _safe_norm(tau_perp if params.torque_projection == "perp" else tau)
     F_n = F @ n_f
@@ -187,6 +199,8 @@ def grasp_costs(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParam
     tau_sq = jnp.sum(tau * tau, axis=-1)
     if params.torque_projection == "grip":
         c_tau_sq = _grip_torque_sq(F, tau, R, tool.mu, grasp.width)
+    elif params.torque_projection == "passed":
+        c_tau_sq = _passed_torque_sq(tau, tau_n, tool.mu, params.grip_force)
     else:
         c_tau_sq = tau_sq - tau_n**2 if params.torque_projection == "perp" else tau_sq
     tau = jnp.sqrt(jnp.maximum(jnp.max(c_tau_sq), 0.0) + _TINY) - _SQRT_TINY

@@ -74,6 +74,9 @@ def numpy_wrench_costs(tool: dict, task: dict, grasps: dict, *, w_tau=1.0, w_sli
                        + (tg[..., 1] / (2 * PAD_TORSION)) ** 2 + (tg[..., 2] / (arm + PAD_WIDTH)) ** 2
                        + (tg[..., 0] / arm) ** 2)
         c_tau = (2 * PAD_TORSION * need).max(1)
+    elif torque_projection == "passed":  # the closure-axis part capped by the pads' torsional friction
+        cap = 2 * PAD_TORSION * tool["mu"] * grip_force
+        c_tau = np.sqrt(_norm(tau_perp) ** 2 + np.minimum(np.abs(tau_n), cap) ** 2).max(1)
     else:
         c_tau = _norm(tau_perp if torque_projection == "perp" else tau).max(1)
     F_n = np.einsum("tj,nj->nt", F, n_f)

@@ -31,6 +31,7 @@ VARIANTS = [
     CostParams(lever_arm="wrist", torque_projection="full"),
     CostParams(include_gravity=True, grip_force=15.0, w_tau=0.5, w_slip=0.1, w_align=2.0),
     CostParams.wrench(),
+    CostParams(lever_arm="wrist", torque_projection="passed", grip_force=100.0),
 ]
 
 
@@ -228,6 +229,23 @@ def test_wrist_lever_arm_is_the_grasp_lever_arm_85_mm_back_along_the_approach(ta
     wrist = itup.wrench_costs(tool, task, g, CostParams(lever_arm="wrist", torque_projection="full"))
     grasp = itup.wrench_costs(tool, task, g, CostParams(torque_projection="full"))
     assert np.max(np.abs(np.asarray(wrist.tau) - np.asarray(grasp.tau))) > 1e-3  # the lever arm matters here
+
+
+@pytest.mark.parametrize("kind", ["hammer", "sweep"])
+def test_passed_torque_lies_between_the_perpendicular_and_the_full_torque(tasks, grasps_by_kind, kind):
+    # no squeeze passes nothing about the closure axis (the paper's perpendicular torque); an unbounded
+    # one passes it all (the full torque); in between it never leaves that range
+    tool, task = tasks[kind]
+    g = grasps_by_kind[kind]
+    tau = {p: np.asarray(itup.wrench_costs(tool, task, g, CostParams(torque_projection=p, grip_force=f)).tau)
+           for p, f in (("perp", 0.0), ("full", 0.0))}
+    none = np.asarray(itup.wrench_costs(tool, task, g, CostParams(torque_projection="passed", grip_force=0.0)).tau)
+    every = np.asarray(itup.wrench_costs(tool, task, g, CostParams(torque_projection="passed", grip_force=1e9)).tau)
+    some = np.asarray(itup.wrench_costs(tool, task, g, CostParams(torque_projection="passed", grip_force=100.0)).tau)
+    np.testing.assert_allclose(none, tau["perp"], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(every, tau["full"], rtol=1e-9, atol=1e-9)
+    assert np.all(some >= tau["perp"] - 1e-9) and np.all(some <= tau["full"] + 1e-9)
+    assert np.any(some < tau["full"] - 1e-3)  # the cap bites on some grasp here
 
 
 def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
