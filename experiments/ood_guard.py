@@ -151,6 +151,7 @@ def calibrate(rows: list[dict]) -> dict:
 
 
 def _median(rows: list[dict], key: str) -> float:
+    """The median of `key` over `rows`, NaN (a constant ranking's rho) left out; NaN for no rows."""
     return float(np.nanmedian([r[key] for r in rows])) if rows else float("nan")
 
 
@@ -165,8 +166,8 @@ def judge(rows: list[dict], threshold: float) -> dict:
         "caught": sum(fired(r) for r in bad),
         "fires_on_held_out": sum(fired(r) for r in held), "fires_on_builtin": sum(fired(r) for r in builtin),
         "builtin_tools": len(builtin),
-        "median_rho_held_out": float(np.nanmedian([r["rho_induced"] for r in held])) if held else float("nan"),
-        "median_rho_builtin": float(np.nanmedian([r["rho_induced"] for r in builtin])) if builtin else float("nan"),
+        "median_rho_held_out": _median(held, "rho_induced"),
+        "median_rho_builtin": _median(builtin, "rho_induced"),
         "median_rho_analytic_held_out": _median(held, "rho_induced_analytic"),
         "median_rho_analytic_builtin": _median(builtin, "rho_induced_analytic"),
         "median_rho_random_draw_held_out": _median(held, "rho_induced_random_draw"),
@@ -188,8 +189,8 @@ def per_family(rows: list[dict]) -> list[dict]:
         for kind in dict.fromkeys(r["task"] for r in rows if r["family"] == fam):
             rs = [r for r in rows if r["family"] == fam and r["task"] == kind]
             out.append({"family": fam, "task": kind, "tools": len(rs), "builtin": rs[0]["builtin"],
-                        "median_rho_induced": float(np.nanmedian([r["rho_induced"] for r in rs])),
-                        "median_rho_grip": float(np.nanmedian([r["rho_grip"] for r in rs])),
+                        "median_rho_induced": _median(rs, "rho_induced"),
+                        "median_rho_grip": _median(rs, "rho_grip"),
                         "median_rho_analytic": _median(rs, "rho_induced_analytic"),
                         "median_rho_random_draw": _median(rs, "rho_induced_random_draw"),
                         "median_guard": float(np.median([r["guard"]["score"] for r in rs])),

@@ -64,17 +64,27 @@ def _context(width: int, height: int):
 _BACKEND: list = []  # the probe's answer, once
 
 
+def _probe() -> str:
+    """The backend that makes a (small) context here; RenderUnavailable, saying why, where none does."""
+    ctx, name = _context(16, 16)
+    ctx.free()
+    return name
+
+
 def gl_backend() -> str | None:
     """The OpenGL backend offscreen pictures use here ('egl', 'osmesa', or what MUJOCO_GL names), or None
     where none makes a context. Probed once per process."""
     if not _BACKEND:
         try:
-            ctx, name = _context(16, 16)
-            ctx.free()
-            _BACKEND.append(name)
+            _BACKEND.append(_probe())
         except RenderUnavailable:
             _BACKEND.append(None)
     return _BACKEND[0]
+
+
+def require_gl() -> str:
+    """`gl_backend()`, or RenderUnavailable naming what each backend said where none works."""
+    return gl_backend() or _probe()
 
 
 def free_camera(lookat: Sequence[float], distance: float, azimuth: float, elevation: float) -> mujoco.MjvCamera:

@@ -394,8 +394,8 @@ def resolve_view(view: str) -> str:
 
     if view not in VIEWS:
         raise InputError(f"picture: view {view!r} is not one of {', '.join(VIEWS)}")
-    if view == "camera" and render.gl_backend() is None:
-        render.Offscreen(mujoco.MjModel.from_xml_string("<mujoco/>"), 16, 16)  # raises, saying what each backend said
+    if view == "camera":
+        render.require_gl()
     if view == "auto":
         return "camera" if render.gl_backend() is not None else "top"
     return view
@@ -455,6 +455,20 @@ def _render_model(top: Tabletop, highlight: int | None) -> tuple[mujoco.MjModel,
     return spec.compile(), labels
 
 
+def _tool_marks(top: Tabletop) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
+    """The marks both views draw, per tool: its parts' labels ('2a': tool 2's first part) with each
+    part's centre, and its grasp part's centre, where its number goes (m, world)."""
+    from itup_jax import parts
+
+    out = []
+    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
+        ps = parts.tool_parts(t)
+        centres = [T[:3, :3] @ (0.5 * (p.region.lo + p.region.hi)) + T[:3, 3] for p in ps]
+        handle = next(k for k, p in enumerate(ps) if "grasp" in p.roles)
+        out.append(({f"{i + 1}{chr(97 + k)}": c for k, c in enumerate(centres)}, centres[handle]))
+    return out
+
+
 def _camera_picture(top: Tabletop, *, title: str | None, highlight: int | None):
     """The table rendered offscreen by MuJoCo (CAMERA_VIEW), the marks drawn where `render.project` puts
     their points."""
@@ -463,7 +477,7 @@ def _camera_picture(top: Tabletop, *, title: str | None, highlight: int | None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from itup_jax import parts, render
+    from itup_jax import render
 
     m, target_labels = _render_model(top, highlight)
     d = mujoco.MjData(m)
@@ -483,13 +497,10 @@ def _camera_picture(top: Tabletop, *, title: str | None, highlight: int | None):
     ax.imshow(rgb)
     ax.set_axis_off()
     colours = plt.get_cmap("tab10")
-    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
-        for k, p in enumerate(parts.tool_parts(t)):
-            centre = T[:3, :3] @ (0.5 * (p.region.lo + p.region.hi)) + T[:3, 3]
-            ax.annotate(f"{i + 1}{chr(97 + k)}", at(centre), fontsize=7, ha="center", va="center", color="black",
+    for i, (part_marks, grip) in enumerate(_tool_marks(top)):
+        for label, centre in part_marks.items():
+            ax.annotate(label, at(centre), fontsize=7, ha="center", va="center", color="black",
                         bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75))
-        handle = next(p for p in parts.tool_parts(t) if "grasp" in p.roles)
-        grip = T[:3, :3] @ (0.5 * (handle.region.lo + handle.region.hi)) + T[:3, 3]
         ax.annotate(str(i + 1), at(grip) + np.array([0.0, -24.0]), fontsize=13, weight="bold", ha="center",
                     va="center", color=colours(i % 10), bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
     for name, point in target_labels.items():
@@ -508,22 +519,18 @@ def _top_picture(top: Tabletop, *, title: str | None, highlight: int | None):
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
 
-    from itup_jax import parts
-
     fig, ax = plt.subplots(figsize=(7.5, 7.5), dpi=110)
     ax.set_facecolor((0.93, 0.9, 0.84))
     colours = plt.get_cmap("tab10")
-    for i, (t, T) in enumerate(zip(top.tools, top.poses)):
+    for i, ((t, T), (part_marks, at)) in enumerate(zip(zip(top.tools, top.poses), _tool_marks(top))):
         v = np.asarray(t.mesh.vertices, float) @ T[:3, :3].T + T[:3, 3]
         tri = v[np.asarray(t.mesh.faces)][:, :, :2]
         c = colours(i % 10)
         ax.add_collection(PolyCollection(tri, facecolors=[c], edgecolors="none", alpha=0.9 if highlight in (None, i) else 0.35))
-        for k, p in enumerate(parts.tool_parts(t)):
-            centre = T[:3, :3] @ (0.5 * (p.region.lo + p.region.hi)) + T[:3, 3]
-            ax.annotate(f"{i + 1}{chr(97 + k)}", centre[:2], fontsize=7, ha="center", va="center", color="black",
+        for label, centre in part_marks.items():
+            ax.annotate(label, centre[:2], fontsize=7, ha="center", va="center", color="black",
                         bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
-        handle = next(p for p in parts.tool_parts(t) if "grasp" in p.roles)  # the number beside the handle
-        at = T[:3, :3] @ (0.5 * (handle.region.lo + handle.region.hi)) + T[:3, 3]
+        # the number beside the handle
         ax.annotate(str(i + 1), (at[0] - 0.035, at[1]), fontsize=13, weight="bold", ha="center", va="center", color=c)
     for name, p in target_positions().items():
         if name in top.targets:  # the nail and the tower stand close: their labels go either side
