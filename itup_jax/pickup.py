@@ -107,6 +107,12 @@ LIFT_SIM_STEP = 0.002
 LIFT_WINDOW = 0.05
 #: IK samples per straight segment of the pick's path.
 PATH_SAMPLES = 12
+#: s, putting a tool back after a pick that cannot go on (`put_back`): lower it along the lift's path to
+#: its first sample above the grasp (PICK_LIFT / PATH_SAMPLES, 10 mm), open the jaw, raise the open
+#: gripper back up the lift's path; then the arm holds still until every tool is at rest (at least
+#: PUT_BACK_SETTLE[0], at most PUT_BACK_SETTLE[1]).
+PUT_BACK_PHASES = (0.8, 0.3, 0.8)
+PUT_BACK_SETTLE = (0.3, 3.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -341,6 +347,8 @@ class PickResult:
       diverged: the simulation went unstable (a non-finite state, MuJoCo's warning); never lifted.
       trace: with `execute_pick(record_every=k)`: {"t" [S] s, "bodies" [B], "pos" [S, B, 3],
         "quat" [S, B, 4]} every body's world pose every k-th step, and "model" (for `mcap_log`).
+      state: with `execute_pick(keep_state=True)`: (MjModel, MjData) at the end of the hold, from which
+        `put_back` goes on; not in the JSON.
     """
 
     lifted: bool
@@ -351,6 +359,7 @@ class PickResult:
     pads_touching: int
     diverged: bool = False
     trace: dict | None = None
+    state: tuple | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def to_json(self) -> dict:
         finite = lambda x, k: round(x, k) if math.isfinite(x) else None  # noqa: E731
@@ -394,10 +403,11 @@ def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
 
 
 def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *,
-                 grip_force: float = 100.0, record_every: int | None = None) -> PickResult:
+                 grip_force: float = 100.0, record_every: int | None = None, keep_state: bool = False) -> PickResult:
     """Roll the pick of table tool `index` with `grasp` ([1] or a single grasp, tool frame) along its
     joint path `q_path` [P, 6] (`PickCandidates.q_path`) out in MuJoCo (module docstring); with
-    `record_every` k, every body's pose every k-th step (`PickResult.trace`, for `mcap_log.bodies_mcap_bytes`)."""
+    `record_every` k, every body's pose every k-th step (`PickResult.trace`, for `mcap_log.bodies_mcap_bytes`);
+    with `keep_state`, the simulation's end state (`PickResult.state`, for `put_back`)."""
     from itup_jax.robot import ARM_JOINTS
     from itup_jax.simulate import INITIAL_SQUEEZE
 
@@ -489,4 +499,73 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     if record_every:
         trace = {"t": np.array(rec_t), "bodies": bodies, "pos": np.array(rec_p), "quat": np.array(rec_q), "model": m}
     return PickResult(lifted=bool(lifted), rise=rise, achieved=achieved, position_error=pos_err,
-                      angle_error=ang_err, pads_touching=len(touching), diverged=diverged, trace=trace)
+                      angle_error=ang_err, pads_touching=len(touching), diverged=diverged, trace=trace,
+                      state=(m, d) if keep_state else None)
+
+
+def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
+             grip_force: float = 100.0) -> Tabletop | None:
+    """Put table tool `index` back down after `pick` (run with `keep_state=True` along `q_path`) and let
+    the table settle: the arm lowers along the lift's path to PICK_LIFT / PATH_SAMPLES above the grasp
+    (10 mm; a tool that came up turned or only partly drops at most that far), the jaw opens, the open
+    gripper rises back up the lift's path and holds still while the tools come to rest (PUT_BACK_PHASES,
+    PUT_BACK_SETTLE). Returns the table with every tool's new rest pose (`settle_time`: this settling's
+    time), or None when the simulation went unstable or the tools did not come to rest (a tool left
+    hanging in the jaw counts: it does not rest on the table)."""
+    from itup_jax.robot import ARM_JOINTS
+    from itup_jax.tabletop import REST_SPEED, _point_speeds
+
+    if pick.state is None:
+        raise InputError("put_back: the pick was run without keep_state=True; there is no state to go on from")
+    m, d = pick.state
+    act = np.array([m.actuator(f"ur5e/{j}").id for j in ARM_JOINTS])
+    act_v = np.array([m.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS])
+    grip = m.actuator("gripper/grip").id
+    up = np.asarray(q_path, float)[PATH_SAMPLES + 1:]  # the lift's path from its first sample above the grasp
+    dt = m.opt.timestep
+    t_lower, t_open, t_raise = PUT_BACK_PHASES
+
+    def follow(path, duration, force):
+        n = len(path) - 1
+        for k in range(int(round(duration / dt))):
+            s = (k + 1) * dt / duration * n
+            i0 = min(int(s), n - 1)
+            d.ctrl[act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
+            d.ctrl[act_v] = (path[i0 + 1] - path[i0]) * n / duration
+            d.ctrl[grip] = force
+            mujoco.mj_step(m, d)
+
+    follow(up[::-1], t_lower, grip_force)
+    d.ctrl[act], d.ctrl[act_v], d.ctrl[grip] = up[0], np.zeros(6), -OPEN_FORCE
+    mujoco.mj_step(m, d, nstep=int(round(t_open / dt)))
+    follow(up, t_raise, -OPEN_FORCE)
+    d.ctrl[act], d.ctrl[act_v] = up[-1], np.zeros(6)
+    t, speed, check = 0.0, math.inf, int(round(0.05 / dt))
+    while t < PUT_BACK_SETTLE[1]:
+        mujoco.mj_step(m, d, nstep=check)
+        t += check * dt
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            return None
+        speed = _point_speeds(m, d, top.tools)
+        if t >= PUT_BACK_SETTLE[0] and speed < REST_SPEED:
+            break
+    else:
+        return None
+    warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                    mujoco.mjtWarning.mjWARN_BADQPOS))
+    if warned:
+        return None
+    poses = np.empty((len(top.tools), 4, 4))
+    for i in range(len(top.tools)):
+        b = m.body(f"tool_{i}").id
+        poses[i] = np.eye(4)
+        poses[i][:3, :3] = d.xmat[b].reshape(3, 3)
+        poses[i][:3, 3] = d.xpos[b]
+    # a tool still touching the gripper (hanging in the open jaw) is not at rest on the table
+    pads = {m.geom(g).id for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
+    tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
+    for c in d.contact[:d.ncon]:
+        g1, g2 = int(c.geom1), int(c.geom2)
+        if (g1 in pads and int(m.geom_bodyid[g2]) in tool_bodies) or (g2 in pads and int(m.geom_bodyid[g1]) in tool_bodies):
+            return None
+    return dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed))

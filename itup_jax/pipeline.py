@@ -20,12 +20,16 @@ The stages (the paper's six, in simulation):
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
        it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
        randomised physics by default), its task success and grip failure as the labels define them.
+       A pick that does not lift the tool, or lifts it into a grasp that cannot be carried through the
+       task, puts the tool back down (`pickup.put_back`, simulated on: the tools settle where they
+       come to rest) and stages 4-6 run again on that table, without the grasps near those tried, up
+       to MAX_PICK_ATTEMPTS picks (`run(max_attempts=)`).
 The move from the lift to the task's first pose is not simulated: the task rollout starts with the tool
 held at the grasp the pick achieved.
 
 `RunResult.stage` says where a run ended: 'grounding' (the instruction could not be grounded), 'plan'
 (no task trajectory or no grasp for the grounded tool), 'pick' (no grasp could be picked and carried,
-or the tool did not come up in the pads), 'grip' (the tool slipped or turned in the grip during the
+or the last pick did not bring the tool up in the pads in a grasp the task can use), 'grip' (the tool slipped or turned in the grip during the
 task), 'task' (held, but the task not done), 'done' (success).
 
 METHODS (the paper's Table II columns, in simulation):
@@ -73,6 +77,10 @@ DEFAULT_GRIP_FORCE = 100.0
 STAGES = ("grounding", "plan", "pick", "grip", "task", "done")
 #: Steps between the pick's recorded poses when traces are kept (every 10 ms at the pick's 2 ms step).
 PICK_LOG_EVERY = 5
+#: Picks a run tries at most (`run(max_attempts=)`), and how far (m, tool frame) a grasp must lie from
+#: every grasp already tried to be planned again.
+MAX_PICK_ATTEMPTS = 3
+RETRY_EXCLUSION = 0.015
 #: m, the band below a tool's far end whose points make the object-level default contact.
 FAR_END_BAND = 0.005
 
@@ -90,7 +98,10 @@ class RunResult:
         share, scored).
       choice: the chosen candidate's index among the scored ones, its score and its lift load
         (`pickup.lift_torque`).
-      pick: `pickup.PickResult` (None when no pick ran).
+      pick: `pickup.PickResult` of the last pick (None when no pick ran).
+      attempts: the picks before it that could not go on, each {"choice", "pick" (its JSON), "why"};
+        the tool was put back down after each (`pickup.put_back`) and the table planned again.
+      pick_tabletop: the table as the last pick found it (None when that is `tabletop`: no earlier pick).
       labels: the task rollout's labels as {name: value} (None when none ran).
       seed: the run's seed (sampling, physics).  wall_s: seconds.
       task, sim: the Task and the task rollout's SimResult (for logs; not in the JSON).
@@ -109,6 +120,8 @@ class RunResult:
     labels: dict | None
     seed: int
     wall_s: float
+    attempts: list = dataclasses.field(default_factory=list)
+    pick_tabletop: Tabletop | None = None
     task: Any = None
     sim: Any = None
 
@@ -121,7 +134,9 @@ class RunResult:
                 "success": self.success, "message": self.message, "seed": self.seed,
                 "grounding": None if self.grounding is None else self.grounding.to_json(),
                 "tabletop": self.tabletop.to_json(), "counts": self.counts, "choice": self.choice,
-                "pick": None if self.pick is None else self.pick.to_json(), "labels": self.labels,
+                "pick": None if self.pick is None else self.pick.to_json(), "attempts": self.attempts,
+                "pick_tabletop": None if self.pick_tabletop is None else self.pick_tabletop.to_json(),
+                "labels": self.labels,
                 "wall_s": round(self.wall_s, 3)}
 
 
@@ -170,62 +185,23 @@ def ground_for(method: str, instruction: str, top: Tabletop, grounder: Any, rng:
     return g, _whole_tool(tool, c, n, region)
 
 
-def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
-        method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
-        grip_force: float = DEFAULT_GRIP_FORCE, randomize: bool = True, model: Any = None,
-        traces: bool = False) -> RunResult:
-    """Run the whole chain once (module docstring).
-
-    Args:
-      instruction: plain words, e.g. "drive the nail with the hammer".
-      tabletop: the table (default: `make_tabletop(clutter=clutter, seed=seed)`).
-      seed: seeds the table (when built here), the sampling, the random ablation and the physics draw.
-      method: a key of METHODS.  grounder: 'rule' or a grounder object (`vlm.VLMGrounder`).
-      samples: grasps sampled per round before the pick and reach filters (rounds until MIN_CANDIDATES
-        pass, at most SAMPLE_ROUNDS).
-      grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
-        (`simulate.Randomization`), else nominal.
-      model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
-      traces: keep the task rollout's per-step traces and the pick's body poses (for `mcap_log`).
-    """
+def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: int, grip_force: float,
+          tried: list[np.ndarray]) -> dict:
+    """Stage 4 on table `top`: rounds of `samples` grasps (seeds seed * SAMPLE_ROUNDS + r) until
+    MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried through the task with margin,
+    leaving out grasps within RETRY_EXCLUSION of a `tried` origin. Returns {"counts", "grasps", "shifts",
+    "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends}."""
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
-    from itup_jax.pickup import LIFT_TORQUE_SHARE, execute_pick, pick_candidates, reachable_with_margin
-    from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
+    from itup_jax.pickup import LIFT_TORQUE_SHARE, pick_candidates, reachable_with_margin
 
-    if method not in METHODS:
-        raise InputError(f"run: method {method!r}: unknown; choose from {', '.join(METHODS)}")
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise InputError(f"run: samples must be an integer >= 1, got {samples!r}")
-    if not (isinstance(grip_force, (int, float)) and math.isfinite(grip_force) and grip_force > 0):
-        raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
-    t0 = time.perf_counter()
-    top = tabletop if tabletop is not None else make_tabletop(clutter=clutter, seed=seed)
-    rng = np.random.default_rng([int(seed), 4049])
-    base = dict(instruction=instruction, method=method, tabletop=top, seed=int(seed))
-
-    def end(stage, message, **kw):
-        fields = dict(grounding=None, tool=None, counts={}, choice=None, pick=None, labels=None)
-        fields.update(kw)
-        return RunResult(**base, stage=stage, message=message, wall_s=time.perf_counter() - t0, **fields)
-
-    try:
-        g, tool = ground_for(method, instruction, top, grounder, rng)
-    except grounding_mod.GroundingError as exc:
-        return end("grounding", str(exc))
-    try:
-        task = itup.make_task(g.task, tool)
-    except InputError as exc:
-        return end("plan", str(exc), grounding=g, tool=tool)
-    # rounds of `samples` grasps until MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried
-    # through the task
     counts: dict = {"sampled": 0, "rounds": 0}
     found = []  # (grasps, shift, q_path, lift_load) of each round's pickable, task-reachable candidates
     for r in range(SAMPLE_ROUNDS):
         try:
             grasps = itup.sample_grasps(tool, int(samples), seed=int(seed) * SAMPLE_ROUNDS + r)
         except SamplingError as exc:
-            return end("plan", str(exc), grounding=g, tool=tool, counts=counts)
+            return {"counts": counts, "failure": str(exc), "stage": "plan"}
         cands = pick_candidates(top, g.tool_index, tool, grasps, grip_force=grip_force,
                                 lift_torque_share=math.inf)
         counts["sampled"] += int(samples)
@@ -235,6 +211,11 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
                 counts[f"pick_{k}"] = counts.get(f"pick_{k}", 0) + v
         ok = reachable_with_margin(task, cands.grasps) if cands.grasps is not None else np.zeros(0, bool)
         counts["task_reachable"] = counts.get("task_reachable", 0) + int(ok.sum())
+        if tried and ok.any():
+            p = np.asarray(cands.grasps.p_tool_grasp, float)
+            near = np.min(np.linalg.norm(p[:, None, :] - np.asarray(tried)[None], axis=-1), axis=1) < RETRY_EXCLUSION
+            counts["tried_nearby"] = counts.get("tried_nearby", 0) + int((ok & near).sum())
+            ok &= ~near
         if ok.any():
             keep = np.nonzero(ok)[0]
             found.append((cands.grasps[keep], cands.shift[keep], cands.q_path[keep], cands.lift_load[keep]))
@@ -243,10 +224,14 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         if counts.get("lift_within_share", 0) >= MIN_CANDIDATES:
             break
     if not found:
-        what = (f"none of {counts['sampled']} grasps on the {tool.name} can be picked from its rest pose"
-                if not counts.get("pick_reachable") else
-                f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task")
-        return end("pick", what, grounding=g, tool=tool, counts=counts)
+        if not counts.get("pick_reachable"):
+            what = f"none of {counts['sampled']} grasps on the {tool.name} can be picked from its rest pose"
+        elif counts.get("tried_nearby"):
+            what = (f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} "
+                    f"task but the {counts['tried_nearby']} near those already tried")
+        else:
+            what = f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task"
+        return {"counts": counts, "failure": what, "stage": "pick"}
     grasps_k = itup.make_grasps(np.concatenate([np.asarray(f[0].p_tool_grasp) for f in found]),
                                 q_tool_grasp=np.concatenate([np.asarray(f[0].q_tool_grasp) for f in found]),
                                 width=np.concatenate([np.asarray(f[0].width) for f in found]))
@@ -259,26 +244,112 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         keep = np.nonzero(lift_load <= LIFT_TORQUE_SHARE)[0]
     else:
         keep = np.sort(np.argsort(lift_load, kind="stable")[:MIN_CANDIDATES])
-    grasps_k, shifts, q_paths, lift_load = grasps_k[keep], shifts[keep], q_paths[keep], lift_load[keep]
     counts["scored"] = len(keep)
-    scorer = METHODS[method][1]
-    scores = itup.score(tool, task, grasps_k, model=model if (scorer == "sdgnet" and model is not None) else scorer,
-                        seed=int(seed))
-    total = np.asarray(scores.total, float)
-    best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
-    choice = {"index": best, "scorer": scorer, "score": float(total[best]), "shift_m": float(shifts[best]),
-              "lift_load": round(float(lift_load[best]), 4),
-              "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
-    pick = execute_pick(top, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
-                        record_every=PICK_LOG_EVERY if traces else None)
-    kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick)
-    if pick.diverged:
-        return end("pick", f"the pick's simulation went unstable (MuJoCo); the {tool.name} was not lifted", **kw)
-    if not pick.lifted:
-        return end("pick", f"the {tool.name} did not come up in the pads (rose {pick.rise * 1000:.0f} mm, "
-                   f"{pick.pads_touching} pads touching)", **kw)
-    if not reachable(task, pick.achieved)[0]:
-        return end("pick", "the grasp the pick achieved cannot be carried through the task", **kw)
+    return {"counts": counts, "grasps": grasps_k[keep], "shifts": shifts[keep], "q_paths": q_paths[keep],
+            "lift_load": lift_load[keep]}
+
+
+def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
+        method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
+        grip_force: float = DEFAULT_GRIP_FORCE, randomize: bool = True, model: Any = None,
+        traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS) -> RunResult:
+    """Run the whole chain once (module docstring).
+
+    Args:
+      instruction: plain words, e.g. "drive the nail with the hammer".
+      tabletop: the table (default: `make_tabletop(clutter=clutter, seed=seed)`).
+      seed: seeds the table (when built here), the sampling, the random ablation and the physics draw.
+      method: a key of METHODS.  grounder: 'rule' or a grounder object (`vlm.VLMGrounder`).
+      samples: grasps sampled per round before the pick and reach filters (rounds until MIN_CANDIDATES
+        pass, at most SAMPLE_ROUNDS).
+      grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
+        (`simulate.Randomization`), else nominal.
+      model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
+      traces: keep the task rollout's per-step traces and the pick's body poses (for `mcap_log`; the
+        last pick's).
+      max_attempts: picks tried at most. A pick that does not lift the tool, or lifts it into a grasp
+        that cannot be carried through the task, puts it back down (`pickup.put_back`); the table is
+        planned again from the tools' new rest poses, without the grasps within RETRY_EXCLUSION of
+        those tried. 1: no second pick.
+    """
+    import itup_jax as itup
+    from itup_jax.pickup import execute_pick, put_back
+    from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
+
+    if method not in METHODS:
+        raise InputError(f"run: method {method!r}: unknown; choose from {', '.join(METHODS)}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError(f"run: samples must be an integer >= 1, got {samples!r}")
+    if not (isinstance(grip_force, (int, float)) and math.isfinite(grip_force) and grip_force > 0):
+        raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
+    if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
+        raise InputError(f"run: max_attempts must be an integer >= 1, got {max_attempts!r}")
+    t0 = time.perf_counter()
+    top = tabletop if tabletop is not None else make_tabletop(clutter=clutter, seed=seed)
+    rng = np.random.default_rng([int(seed), 4049])
+    base = dict(instruction=instruction, method=method, tabletop=top, seed=int(seed))
+
+    def end(stage, message, **kw):
+        fields = dict(grounding=None, tool=None, counts={}, choice=None, pick=None, labels=None, attempts=[],
+                      pick_tabletop=None)
+        board = kw.pop("board", top)
+        fields.update(kw)
+        fields["attempts"] = list(fields["attempts"])
+        fields["pick_tabletop"] = None if board is top else board
+        return RunResult(**base, stage=stage, message=message, wall_s=time.perf_counter() - t0, **fields)
+
+    try:
+        g, tool = ground_for(method, instruction, top, grounder, rng)
+    except grounding_mod.GroundingError as exc:
+        return end("grounding", str(exc))
+    try:
+        task = itup.make_task(g.task, tool)
+    except InputError as exc:
+        return end("plan", str(exc), grounding=g, tool=tool)
+    counts: dict = {}
+    attempts: list[dict] = []  # the picks that could not go on: what was tried, what happened
+    tried: list[np.ndarray] = []  # their planned grasp origins (tool frame)
+    board = top
+    for attempt in range(max_attempts):
+        planned = _plan(board, g, tool, task, seed=int(seed), samples=int(samples), grip_force=grip_force,
+                        tried=tried)
+        counts = planned["counts"]
+        counts["pick_attempts"] = attempt + 1
+        if "failure" in planned:
+            msg = planned["failure"]
+            if attempts:
+                msg = f"{msg} (after {len(attempts)} failed pick{'s' if len(attempts) > 1 else ''}: {attempts[-1]['why']})"
+            return end(planned["stage"], msg, grounding=g, tool=tool, counts=counts, attempts=attempts, board=board)
+        grasps_k, q_paths = planned["grasps"], planned["q_paths"]
+        scorer = METHODS[method][1]
+        scores = itup.score(tool, task, grasps_k,
+                            model=model if (scorer == "sdgnet" and model is not None) else scorer, seed=int(seed))
+        total = np.asarray(scores.total, float)
+        best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
+        choice = {"index": best, "scorer": scorer, "score": float(total[best]),
+                  "shift_m": float(planned["shifts"][best]), "lift_load": round(float(planned["lift_load"][best]), 4),
+                  "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
+        last = attempt + 1 == max_attempts
+        pick = execute_pick(board, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
+                            record_every=PICK_LOG_EVERY if traces else None, keep_state=not last)
+        kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick, attempts=attempts, board=board)
+        if pick.diverged:
+            why = f"the pick's simulation went unstable (MuJoCo); the {tool.name} was not lifted"
+        elif not pick.lifted:
+            why = (f"the {tool.name} did not come up in the pads (rose {pick.rise * 1000:.0f} mm, "
+                   f"{pick.pads_touching} pads touching)")
+        elif not reachable(task, pick.achieved)[0]:
+            why = "the grasp the pick achieved cannot be carried through the task"
+        else:
+            break
+        if last or pick.diverged:
+            return end("pick", why, **kw)
+        attempts.append({"choice": choice, "pick": pick.to_json(), "why": why})
+        tried.append(np.asarray(grasps_k.p_tool_grasp, float)[best])
+        after = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force)
+        if after is None:
+            return end("pick", f"{why}; putting it back down did not leave the table at rest", **kw)
+        board = after
     sim = simulate(tool, task, pick.achieved, seed=int(seed), randomize=Randomization() if randomize else None,
                    config=SimConfig(grip_force=float(grip_force)), traces=traces)
     L = sim.labels

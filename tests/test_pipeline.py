@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import families, grounding, parts, pickup, tabletop
+from itup_jax import families, grounding, parts, pickup, pipeline, tabletop
 from itup_jax.errors import InputError
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -291,6 +291,26 @@ def test_a_pick_lifts_the_tool_in_the_pads_and_measures_the_grasp_it_achieved(ha
     assert not bad.lifted and bad.achieved is None
 
 
+def test_put_back_leaves_the_tool_at_rest_on_the_table_near_where_it_lay(hammer_pick):
+    top, i, tool, c = hammer_pick
+    r = pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0], keep_state=True)
+    assert r.lifted and r.state is not None and "state" not in r.to_json()
+    after = pickup.put_back(top, i, r, c.q_path[0])
+    assert after is not None and after.rest_speed < tabletop.REST_SPEED
+    assert pickup.PUT_BACK_SETTLE[0] <= after.settle_time <= pickup.PUT_BACK_SETTLE[1]
+    moved = np.linalg.norm(after.poses[:, :3, 3] - top.poses[:, :3, 3], axis=1)
+    # the picked tool lies again where it was taken from (put down from 10 mm above its grasp), the others
+    # were not touched
+    assert moved[i] < 0.02 and np.all(np.delete(moved, i) < 1e-3)
+    assert abs(after.poses[i, 2, 3] - top.poses[i, 2, 3]) < 0.005
+    # at rest there: dropped again from these poses it hardly moves, and nothing interpenetrates
+    m, d = _rest_model(after)
+    mujoco.mj_forward(m, d)
+    assert min((d.contact[k].dist for k in range(d.ncon)), default=0.0) > -0.002
+    with pytest.raises(InputError, match="keep_state"):
+        pickup.put_back(top, i, pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0]), c.q_path[0])
+
+
 def test_the_jaw_approaches_pre_shaped_to_the_checked_opening(hammer_pick, monkeypatch):
     """While the arm settles and descends, the pre-shape servo holds the pad faces at `approach_opening`
     (the opening the clearance checks assumed), then the jaw closes on the tool."""
@@ -436,6 +456,36 @@ def test_run_scores_the_least_loaded_grasps_when_none_is_within_the_share(tables
     c = r.counts
     assert c["lift_within_share"] == 0 and c["rounds"] == 4 and c["scored"] == min(c["task_reachable"], 16) > 0
     assert r.choice["lift_load"] > 0 and r.pick is not None
+
+
+def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monkeypatch):
+    """The first pick is made to fail (as a tool that came up only partly); the run puts it back down,
+    plans the table again and picks a grasp away from the one tried."""
+    real, calls = pickup.execute_pick, []
+
+    def first_fails(*a, **kw):
+        r = real(*a, **kw)
+        calls.append(kw.get("keep_state"))
+        return dataclasses.replace(r, lifted=False, achieved=None) if len(calls) == 1 else r
+    monkeypatch.setattr(pickup, "execute_pick", first_fails)
+    r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024)
+    assert calls == [True, True] and r.counts["pick_attempts"] == 2 and len(r.attempts) == 1
+    assert r.stage == "done" and "did not come up" in r.attempts[0]["why"]
+    first, second = (np.asarray(x["p_tool_grasp"]) for x in (r.attempts[0]["choice"], r.choice))
+    assert np.linalg.norm(first - second) >= pipeline.RETRY_EXCLUSION
+    assert r.pick_tabletop is not None and r.pick_tabletop is not r.tabletop
+    j = r.to_json()
+    assert j["attempts"][0]["pick"]["lifted"] is False and j["pick_tabletop"]["tools"][0]["name"] == "hammer"
+    import jsonschema
+
+    with open(os.path.join(ROOT, "itup_jax", "schemas", "run.schema.json")) as fh:
+        jsonschema.validate(json.loads(json.dumps(j)), json.load(fh))
+    # one attempt only: the failed pick ends the run, nothing is put back
+    calls.clear()
+    one = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024, max_attempts=1)
+    assert calls == [False] and one.stage == "pick" and one.attempts == [] and one.pick_tabletop is None
+    with pytest.raises(InputError, match="max_attempts"):
+        itup.run("drive the nail", tabletop=tables[0], max_attempts=0)
 
 
 def test_run_reports_the_stage_it_ended_at(tables):
