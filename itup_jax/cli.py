@@ -658,6 +658,8 @@ def cmd_run(args) -> int:
     from itup_jax.grounding import GroundingError
 
     _check_out_dir("--out", args.out)
+    if args.attempts < 1:
+        raise_input(f"--attempts must be at least 1 (picks tried), got {args.attempts}")
     model = _check_model_arg(args)
     grounder = "rule"
     if args.grounder == "vlm":
@@ -686,7 +688,8 @@ def cmd_run(args) -> int:
     print(f"itup run: {args.instruction!r}; table seed {args.seed}: {len(top.tools)} tools "
           f"({', '.join(t.name for t in top.tools)}), method {args.method}", flush=True)
     r = itup.run(args.instruction, tabletop=top, seed=args.seed, method=args.method, samples=args.samples,
-                 grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True, grounder=grounder)
+                 grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True, grounder=grounder,
+                 max_attempts=args.attempts)
     if r.stage == "grounding":
         raise GroundingError(r.message)
     g = r.grounding
@@ -700,9 +703,11 @@ def cmd_run(args) -> int:
               f"{pickup.LIFT_TORQUE_SHARE:.0%} of the grip's capacity)")
         if c.get("scored") and not c.get("lift_within_share"):
             print(f"  none does: scored the {c['scored']} that load it least (the tool may turn in the pads)")
+    for k, a in enumerate(r.attempts):
+        print(f"pick {k + 1}: {a['why']}; put back down, planned again")
     if r.pick is not None:
         p = r.pick
-        print(f"pick: {'lifted' if p.lifted else 'failed'} (rose {p.rise * 1000:.0f} mm); achieved grasp "
+        print(f"pick{'' if not r.attempts else f' {len(r.attempts) + 1}'}: {'lifted' if p.lifted else 'failed'} (rose {p.rise * 1000:.0f} mm); achieved grasp "
               f"{p.position_error * 1000:.1f} mm and {np.degrees(p.angle_error):.1f} deg from the planned one")
     if r.labels is not None:
         L = r.labels
@@ -1055,7 +1060,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"a smoke run: at most {QUICK_DEMO[0]} candidates and {QUICK_DEMO[1]} draws per pick")
     dm.set_defaults(fn=cmd_demo)
 
-    from itup_jax.pipeline import DEFAULT_GRIP_FORCE, DEFAULT_SAMPLES, METHODS
+    from itup_jax.pipeline import DEFAULT_GRIP_FORCE, DEFAULT_SAMPLES, MAX_PICK_ATTEMPTS, METHODS
     from itup_jax.tabletop import MAX_CLUTTER
 
     rn = sub.add_parser("run", help="the whole chain from an instruction: ground it, pick the tool up, do the task",
@@ -1075,6 +1080,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="itup (default) or an ablation: no_sdgnet, object_level, copa, no_grounding")
     rn.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="grasps sampled before the pick and reach filters")
     rn.add_argument("--grip-force", type=float, default=DEFAULT_GRIP_FORCE, metavar="N", help="N per pad, pick and task")
+    rn.add_argument("--attempts", type=int, default=MAX_PICK_ATTEMPTS, metavar="K",
+                    help=f"picks tried at most (default {MAX_PICK_ATTEMPTS}): a pick that does not bring the tool up in a "
+                    "grasp the task can use puts it back down, and the table is planned again away from the grasps tried")
     rn.add_argument("--nominal", action="store_true", help="nominal physics for the task (default: drawn around the priors)")
     rn.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     rn.add_argument("--grounder", choices=("rule", "vlm"), default="rule",
@@ -1090,7 +1098,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "offscreen rendering (OpenGL: EGL or OSMesa); top, a drawing from above; auto (default): the "
                     "camera where OpenGL works, else the top view")
     rn.add_argument("--out", default="itup-run",
-                    help="output folder: run.json, scene.png, pick.mcap, task.mcap (default ./itup-run/)")
+                    help="output folder: run.json, scene.png, pick.mcap (every pick and put-back), task.mcap (default ./itup-run/)")
     rn.set_defaults(fn=cmd_run)
 
     t = sub.add_parser("tools", help="list the built-in tools, the tool families and the category priors")

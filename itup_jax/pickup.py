@@ -2,7 +2,8 @@
 
     from itup_jax import pickup
     cands = pickup.pick_candidates(top, i, tool, grasps)   # which grasps can be picked from the rest pose
-    result = pickup.execute_pick(top, i, tool, cands.grasps[k])   # approach, close, lift; the grasp achieved
+    result = pickup.execute_pick(top, i, cands.grasps[k:k+1], cands.q_path[k], keep_state=True)
+    back = pickup.put_back(top, i, result, cands.q_path[k])       # lower, release, rise; the table at rest
 
 A grasp sampled on the tool (`grasp_sampler`, tool frame) is turned into a pick from the tool's resting
 pose (`tabletop.Tabletop.poses`):
@@ -34,7 +35,9 @@ descends along the approach, closes (the grip force rises to `grip_force` per pa
 lifts PICK_LIFT and holds. It measures, rather than assumes, the grasp it achieved: the tool's pose in
 the grasp frame after the lift (`PickResult.achieved`), its error against the planned grasp, and
 whether the tool came up in the pads. The gripper's actuator opens the jaw with a negative force in
-this scene only (the task scenes hold a closed grip throughout).
+this scene only (the task scenes hold a closed grip throughout). `put_back` goes on from a pick's end
+state: it lowers the tool back down, opens the jaw, raises the gripper and lets the table come to rest,
+the new rest poses the table a second pick plans on (`pipeline.run(max_attempts=)`).
 """
 
 from __future__ import annotations
@@ -503,15 +506,30 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
                       state=(m, d) if keep_state else None)
 
 
+@dataclasses.dataclass(frozen=True)
+class PutBack:
+    """What putting a tool back did (`put_back`).
+
+    Attributes:
+      tabletop: the table with every tool's new rest pose (`settle_time`: this settling's time), or None
+        when the simulation went unstable, the tools did not come to rest, or a tool was left touching
+        the gripper (it does not rest on the table).
+      why: None, or one sentence on why `tabletop` is None.
+      trace: with `put_back(record_every=k)`, as `PickResult.trace` (times go on from the pick's).
+    """
+
+    tabletop: Tabletop | None
+    why: str | None = None
+    trace: dict | None = None
+
+
 def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
-             grip_force: float = 100.0) -> Tabletop | None:
+             grip_force: float = 100.0, record_every: int | None = None) -> PutBack:
     """Put table tool `index` back down after `pick` (run with `keep_state=True` along `q_path`) and let
     the table settle: the arm lowers along the lift's path to PICK_LIFT / PATH_SAMPLES above the grasp
     (10 mm; a tool that came up turned or only partly drops at most that far), the jaw opens, the open
     gripper rises back up the lift's path and holds still while the tools come to rest (PUT_BACK_PHASES,
-    PUT_BACK_SETTLE). Returns the table with every tool's new rest pose (`settle_time`: this settling's
-    time), or None when the simulation went unstable or the tools did not come to rest (a tool left
-    hanging in the jaw counts: it does not rest on the table)."""
+    PUT_BACK_SETTLE). The pick's state goes on (it is used up)."""
     from itup_jax.robot import ARM_JOINTS
     from itup_jax.tabletop import REST_SPEED, _point_speeds
 
@@ -524,6 +542,17 @@ def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
     up = np.asarray(q_path, float)[PATH_SAMPLES + 1:]  # the lift's path from its first sample above the grasp
     dt = m.opt.timestep
     t_lower, t_open, t_raise = PUT_BACK_PHASES
+    bodies = [b for b in range(1, m.nbody) if np.any(m.geom_bodyid == b)]
+    rec_t, rec_p, rec_q = [], [], []
+    count = [0]
+
+    def step():
+        mujoco.mj_step(m, d)
+        if record_every and count[0] % record_every == 0:
+            rec_t.append(d.time)
+            rec_p.append(d.xpos[bodies].copy())
+            rec_q.append(d.xquat[bodies].copy())
+        count[0] += 1
 
     def follow(path, duration, force):
         n = len(path) - 1
@@ -533,39 +562,50 @@ def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
             d.ctrl[act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
             d.ctrl[act_v] = (path[i0 + 1] - path[i0]) * n / duration
             d.ctrl[grip] = force
-            mujoco.mj_step(m, d)
+            step()
+
+    def result(tabletop, why=None):
+        trace = None
+        if record_every:
+            trace = {"t": np.array(rec_t), "bodies": bodies, "pos": np.array(rec_p).reshape(-1, len(bodies), 3),
+                     "quat": np.array(rec_q).reshape(-1, len(bodies), 4), "model": m}
+        return PutBack(tabletop=tabletop, why=why, trace=trace)
 
     follow(up[::-1], t_lower, grip_force)
     d.ctrl[act], d.ctrl[act_v], d.ctrl[grip] = up[0], np.zeros(6), -OPEN_FORCE
-    mujoco.mj_step(m, d, nstep=int(round(t_open / dt)))
+    for _ in range(int(round(t_open / dt))):
+        step()
     follow(up, t_raise, -OPEN_FORCE)
     d.ctrl[act], d.ctrl[act_v] = up[-1], np.zeros(6)
     t, speed, check = 0.0, math.inf, int(round(0.05 / dt))
+    unstable = "putting it back down went unstable (MuJoCo)"
     while t < PUT_BACK_SETTLE[1]:
-        mujoco.mj_step(m, d, nstep=check)
+        for _ in range(check):
+            step()
         t += check * dt
         if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            return None
+            return result(None, unstable)
         speed = _point_speeds(m, d, top.tools)
         if t >= PUT_BACK_SETTLE[0] and speed < REST_SPEED:
             break
     else:
-        return None
+        return result(None, f"the tools had not come to rest {PUT_BACK_SETTLE[1]:g} s after putting it back down "
+                      f"(fastest point {speed:.3f} m/s)")
     warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
                                                     mujoco.mjtWarning.mjWARN_BADQPOS))
     if warned:
-        return None
+        return result(None, unstable)
+    # a tool still touching the gripper (hanging in the open jaw) is not at rest on the table
+    gripper = {g for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
+    tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
+    for c in d.contact[:d.ncon]:
+        g1, g2 = int(c.geom1), int(c.geom2)
+        if (g1 in gripper and int(m.geom_bodyid[g2]) in tool_bodies) or (g2 in gripper and int(m.geom_bodyid[g1]) in tool_bodies):
+            return result(None, "a tool stayed in the open jaw after putting it back down")
     poses = np.empty((len(top.tools), 4, 4))
     for i in range(len(top.tools)):
         b = m.body(f"tool_{i}").id
         poses[i] = np.eye(4)
         poses[i][:3, :3] = d.xmat[b].reshape(3, 3)
         poses[i][:3, 3] = d.xpos[b]
-    # a tool still touching the gripper (hanging in the open jaw) is not at rest on the table
-    pads = {m.geom(g).id for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
-    tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
-    for c in d.contact[:d.ncon]:
-        g1, g2 = int(c.geom1), int(c.geom2)
-        if (g1 in pads and int(m.geom_bodyid[g2]) in tool_bodies) or (g2 in pads and int(m.geom_bodyid[g1]) in tool_bodies):
-            return None
-    return dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed))
+    return result(dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed)))

@@ -185,6 +185,17 @@ def ground_for(method: str, instruction: str, top: Tabletop, grounder: Any, rng:
     return g, _whole_tool(tool, c, n, region)
 
 
+def _join_traces(traces: list[dict]) -> dict:
+    """One trace of several picks and put-backs in turn (`pickup.PickResult.trace`, each the same bodies):
+    times run on across them; the first's model."""
+    t, off = [], 0.0
+    for tr in traces:
+        t.append(np.asarray(tr["t"], float) - tr["t"][0] + off)
+        off = t[-1][-1] + PICK_LOG_EVERY * float(tr["model"].opt.timestep)
+    return {"t": np.concatenate(t), "bodies": traces[0]["bodies"], "pos": np.concatenate([tr["pos"] for tr in traces]),
+            "quat": np.concatenate([tr["quat"] for tr in traces]), "model": traces[0]["model"]}
+
+
 def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: int, grip_force: float,
           tried: list[np.ndarray]) -> dict:
     """Stage 4 on table `top`: rounds of `samples` grasps (seeds seed * SAMPLE_ROUNDS + r) until
@@ -265,8 +276,8 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
         (`simulate.Randomization`), else nominal.
       model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
-      traces: keep the task rollout's per-step traces and the pick's body poses (for `mcap_log`; the
-        last pick's).
+      traces: keep the task rollout's per-step traces and the picks' body poses (for `mcap_log`: every
+        pick and put-back in turn, in `pick.trace`).
       max_attempts: picks tried at most. A pick that does not lift the tool, or lifts it into a grasp
         that cannot be carried through the task, puts it back down (`pickup.put_back`); the table is
         planned again from the tools' new rest poses, without the grasps within RETRY_EXCLUSION of
@@ -309,6 +320,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     counts: dict = {}
     attempts: list[dict] = []  # the picks that could not go on: what was tried, what happened
     tried: list[np.ndarray] = []  # their planned grasp origins (tool frame)
+    logged: list[dict] = []  # with traces: the earlier picks' and put-backs' recorded poses
     board = top
     for attempt in range(max_attempts):
         planned = _plan(board, g, tool, task, seed=int(seed), samples=int(samples), grip_force=grip_force,
@@ -343,13 +355,22 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         else:
             break
         if last or pick.diverged:
+            if logged:
+                kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged + [pick.trace]))
             return end("pick", why, **kw)
         attempts.append({"choice": choice, "pick": pick.to_json(), "why": why})
         tried.append(np.asarray(grasps_k.p_tool_grasp, float)[best])
-        after = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force)
-        if after is None:
-            return end("pick", f"{why}; putting it back down did not leave the table at rest", **kw)
-        board = after
+        back = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force,
+                        record_every=PICK_LOG_EVERY if traces else None)
+        if traces:
+            logged += [pick.trace, back.trace]
+        if back.tabletop is None:
+            if logged:
+                kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged))
+            return end("pick", f"{why}; {back.why}", **kw)
+        board = back.tabletop
+    if logged:
+        kw["pick"] = pick = dataclasses.replace(pick, trace=_join_traces(logged + [pick.trace]))
     sim = simulate(tool, task, pick.achieved, seed=int(seed), randomize=Randomization() if randomize else None,
                    config=SimConfig(grip_force=float(grip_force)), traces=traces)
     L = sim.labels

@@ -295,8 +295,13 @@ def test_put_back_leaves_the_tool_at_rest_on_the_table_near_where_it_lay(hammer_
     top, i, tool, c = hammer_pick
     r = pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0], keep_state=True)
     assert r.lifted and r.state is not None and "state" not in r.to_json()
-    after = pickup.put_back(top, i, r, c.q_path[0])
-    assert after is not None and after.rest_speed < tabletop.REST_SPEED
+    back = pickup.put_back(top, i, r, c.q_path[0], record_every=5)
+    after = back.tabletop
+    assert after is not None and back.why is None and after.rest_speed < tabletop.REST_SPEED
+    # recorded from where the pick left off: lowered, released, the gripper up again and the table at rest
+    tr = back.trace
+    assert tr["t"][0] > 0 and np.all(np.diff(tr["t"]) > 0) and tr["pos"].shape == (len(tr["t"]), len(tr["bodies"]), 3)
+    assert tr["t"][-1] - tr["t"][0] >= sum(pickup.PUT_BACK_PHASES) + pickup.PUT_BACK_SETTLE[0] - 0.02
     assert pickup.PUT_BACK_SETTLE[0] <= after.settle_time <= pickup.PUT_BACK_SETTLE[1]
     moved = np.linalg.norm(after.poses[:, :3, 3] - top.poses[:, :3, 3], axis=1)
     # the picked tool lies again where it was taken from (put down from 10 mm above its grasp), the others
@@ -468,12 +473,15 @@ def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monk
         calls.append(kw.get("keep_state"))
         return dataclasses.replace(r, lifted=False, achieved=None) if len(calls) == 1 else r
     monkeypatch.setattr(pickup, "execute_pick", first_fails)
-    r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024)
+    r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024, traces=True)
     assert calls == [True, True] and r.counts["pick_attempts"] == 2 and len(r.attempts) == 1
     assert r.stage == "done" and "did not come up" in r.attempts[0]["why"]
     first, second = (np.asarray(x["p_tool_grasp"]) for x in (r.attempts[0]["choice"], r.choice))
     assert np.linalg.norm(first - second) >= pipeline.RETRY_EXCLUSION
     assert r.pick_tabletop is not None and r.pick_tabletop is not r.tabletop
+    # the log holds both picks and the put-back between them, in turn
+    tr = r.pick.trace
+    assert np.all(np.diff(tr["t"]) > 0) and tr["t"][-1] > 2 * sum(pickup.PICK_PHASES) + sum(pickup.PUT_BACK_PHASES) - 0.05
     j = r.to_json()
     assert j["attempts"][0]["pick"]["lifted"] is False and j["pick_tabletop"]["tools"][0]["name"] == "hammer"
     import jsonschema
@@ -523,6 +531,8 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path, capsys):
     assert "not found" in capsys.readouterr().err and not (tmp_path / "y" / "run.json").exists()
     assert main(["run", "drive the nail", "--tools", "wand", "--out", str(tmp_path / "y")]) == 2
     assert "tool 'wand'" in capsys.readouterr().err
+    assert main(["run", "drive the nail", "--attempts", "0", "--out", str(tmp_path / "z")]) == 2
+    assert "--attempts must be at least 1" in capsys.readouterr().err and not (tmp_path / "z").exists()
 
 
 def test_ablation_experiment_quick(tmp_path):
