@@ -76,7 +76,7 @@ def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
                     continue
                 k, n = sum(r["success"] for r in sel), len(sel)
                 lo, hi = clopper_pearson(k, n)
-                k1 = sum(r["success"] and (r.get("pick_attempts") or 1) == 1 for r in sel)
+                k1 = sum(r["success"] and (r.get("picks") or 1) == 1 for r in sel)
                 stages = collections.Counter(r["stage"] for r in sel)
                 picked = [r for r in sel if r["stage"] in ("grip", "task", "done")]
                 torques = [r["peak_torque_induced"] for r in picked if r["peak_torque_induced"] is not None]
@@ -85,7 +85,7 @@ def summarize(rows: list[dict], tasks, methods, clutters) -> dict:
                     "clutter": clutter, "task": task, "method": m, "successes": k, "trials": n, "rate": k / n,
                     "ci95": [lo, hi], "first_pick_successes": k1, "first_pick_rate": k1 / n,
                     "first_pick_ci95": list(clopper_pearson(k1, n)),
-                    "repicked": sum((r.get("pick_attempts") or 1) > 1 for r in sel),
+                    "repicked": sum((r.get("picks") or 1) > 1 for r in sel),
                     "stages": {s: stages.get(s, 0) for s in STAGES}, "picked": len(picked),
                     "done_given_picked": (sum(r["success"] for r in picked) / len(picked)) if picked else None,
                     "median_peak_torque_induced": float(np.median(torques)) if torques else None,
@@ -196,7 +196,7 @@ def main(argv=None) -> int:
                                  "success": r.success, "message": r.message,
                                  "tool": None if r.grounding is None else r.grounding.tool_name,
                                  "task_reachable": r.counts.get("task_reachable"),
-                                 "pick_attempts": r.counts.get("pick_attempts"),
+                                 "picks": r.counts.get("picks"),
                                  "pick_position_error_m": None if r.pick is None else r.pick.position_error,
                                  "pick_angle_error_rad": None if r.pick is None else r.pick.angle_error,
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],

@@ -116,6 +116,16 @@ PATH_SAMPLES = 12
 #: PUT_BACK_SETTLE[0], at most PUT_BACK_SETTLE[1]).
 PUT_BACK_PHASES = (0.8, 0.3, 0.8)
 PUT_BACK_SETTLE = (0.3, 3.0)
+#: Turning a tool over (`turn_over`), for a rest pose from which no grasp the task can use is pickable
+#: (an L-stick lying with its hook up is picked from above only along the hook, and the reach needs the
+#: opposite): m, the grasp point's height above the table while the tool turns; rad, the turn about the
+#: tool's handle axis (either way, whichever the arm can follow); m, the gripper's lowest point above the
+#: table when the jaw opens; s, the phases: rise, turn, lower, open, withdraw (back along the approach,
+#: the fingers out from under the tool), then the settling of PUT_BACK_SETTLE.
+TURN_HEIGHT = 0.25
+TURN_ANGLE = math.pi / 2
+TURN_RELEASE = 0.01
+TURN_PHASES = (0.6, 1.2, 0.8, 0.3, 0.8)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -523,6 +533,101 @@ class PutBack:
     trace: dict | None = None
 
 
+class _Going:
+    """Drives a pick's MuJoCo state on (`put_back`, `turn_over`): the arm's servos along joint paths, the
+    grip's force, every body's pose recorded every `record_every` steps."""
+
+    def __init__(self, pick: PickResult, record_every: int | None):
+        from itup_jax.robot import ARM_JOINTS
+
+        self.m, self.d = pick.state
+        m = self.m
+        self.act = np.array([m.actuator(f"ur5e/{j}").id for j in ARM_JOINTS])
+        self.act_v = np.array([m.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS])
+        self.arm_q = np.array([m.joint(f"ur5e/{j}").qposadr[0] for j in ARM_JOINTS])
+        self.grip = m.actuator("gripper/grip").id
+        self.every = record_every
+        self.bodies = [b for b in range(1, m.nbody) if np.any(m.geom_bodyid == b)]
+        self.rec_t, self.rec_p, self.rec_q, self.count = [], [], [], 0
+
+    def step(self, n: int = 1) -> None:
+        for _ in range(n):
+            mujoco.mj_step(self.m, self.d)
+            if self.every and self.count % self.every == 0:
+                self.rec_t.append(self.d.time)
+                self.rec_p.append(self.d.xpos[self.bodies].copy())
+                self.rec_q.append(self.d.xquat[self.bodies].copy())
+            self.count += 1
+
+    def hold(self, q: np.ndarray, force: float, duration: float) -> None:
+        d = self.d
+        d.ctrl[self.act], d.ctrl[self.act_v], d.ctrl[self.grip] = q, np.zeros(6), force
+        self.step(int(round(duration / self.m.opt.timestep)))
+
+    def follow(self, path: np.ndarray, duration: float, force: float) -> None:
+        """Along joint path [P, 6] in `duration` s (linear between samples, the servos' velocity feed-forward)."""
+        d, dt, n = self.d, self.m.opt.timestep, len(path) - 1
+        for k in range(int(round(duration / dt))):
+            s = (k + 1) * dt / duration * n
+            i0 = min(int(s), n - 1)
+            d.ctrl[self.act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
+            d.ctrl[self.act_v] = (path[i0 + 1] - path[i0]) * n / duration
+            d.ctrl[self.grip] = force
+            self.step()
+
+    def settle(self, top: Tabletop, what: str) -> PutBack:
+        """Hold the arm still until every tool is at rest (PUT_BACK_SETTLE); the table as it then lies."""
+        from itup_jax.tabletop import REST_SPEED, _point_speeds
+
+        m, d = self.m, self.d
+        d.ctrl[self.act], d.ctrl[self.act_v] = d.qpos[self.arm_q], np.zeros(6)
+        t, speed, check = 0.0, math.inf, int(round(0.05 / m.opt.timestep))
+        unstable = f"{what} went unstable (MuJoCo)"
+        while t < PUT_BACK_SETTLE[1]:
+            self.step(check)
+            t += check * m.opt.timestep
+            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+                return self.result(None, unstable)
+            speed = _point_speeds(m, d, top.tools)
+            if t >= PUT_BACK_SETTLE[0] and speed < REST_SPEED:
+                break
+        else:
+            return self.result(None, f"the tools had not come to rest {PUT_BACK_SETTLE[1]:g} s after {what} "
+                               f"(fastest point {speed:.3f} m/s)")
+        warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC,
+                                                        mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS))
+        if warned:
+            return self.result(None, unstable)
+        # a tool still touching the gripper (left in the open jaw) is not at rest on the table
+        gripper = {g for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
+        tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
+        for c in d.contact[:d.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            if (g1 in gripper and int(m.geom_bodyid[g2]) in tool_bodies) or (
+                    g2 in gripper and int(m.geom_bodyid[g1]) in tool_bodies):
+                return self.result(None, f"a tool stayed in the open jaw after {what}")
+        poses = np.empty((len(top.tools), 4, 4))
+        for i in range(len(top.tools)):
+            b = m.body(f"tool_{i}").id
+            poses[i] = np.eye(4)
+            poses[i][:3, :3] = d.xmat[b].reshape(3, 3)
+            poses[i][:3, 3] = d.xpos[b]
+        return self.result(dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed)))
+
+    def result(self, tabletop: Tabletop | None, why: str | None = None) -> PutBack:
+        trace = None
+        if self.every:
+            nb = len(self.bodies)
+            trace = {"t": np.array(self.rec_t), "bodies": self.bodies, "pos": np.array(self.rec_p).reshape(-1, nb, 3),
+                     "quat": np.array(self.rec_q).reshape(-1, nb, 4), "model": self.m}
+        return PutBack(tabletop=tabletop, why=why, trace=trace)
+
+
+def _check_state(pick: PickResult, what: str) -> None:
+    if pick.state is None:
+        raise InputError(f"{what}: the pick was run without keep_state=True; there is no state to go on from")
+
+
 def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
              grip_force: float = 100.0, record_every: int | None = None) -> PutBack:
     """Put table tool `index` back down after `pick` (run with `keep_state=True` along `q_path`) and let
@@ -530,82 +635,87 @@ def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
     (10 mm; a tool that came up turned or only partly drops at most that far), the jaw opens, the open
     gripper rises back up the lift's path and holds still while the tools come to rest (PUT_BACK_PHASES,
     PUT_BACK_SETTLE). The pick's state goes on (it is used up)."""
-    from itup_jax.robot import ARM_JOINTS
-    from itup_jax.tabletop import REST_SPEED, _point_speeds
-
-    if pick.state is None:
-        raise InputError("put_back: the pick was run without keep_state=True; there is no state to go on from")
-    m, d = pick.state
-    act = np.array([m.actuator(f"ur5e/{j}").id for j in ARM_JOINTS])
-    act_v = np.array([m.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS])
-    grip = m.actuator("gripper/grip").id
+    _check_state(pick, "put_back")
+    go = _Going(pick, record_every)
     up = np.asarray(q_path, float)[PATH_SAMPLES + 1:]  # the lift's path from its first sample above the grasp
-    dt = m.opt.timestep
     t_lower, t_open, t_raise = PUT_BACK_PHASES
-    bodies = [b for b in range(1, m.nbody) if np.any(m.geom_bodyid == b)]
-    rec_t, rec_p, rec_q = [], [], []
-    count = [0]
+    go.follow(up[::-1], t_lower, grip_force)
+    go.hold(up[0], -OPEN_FORCE, t_open)
+    go.follow(up, t_raise, -OPEN_FORCE)
+    return go.settle(top, "putting it back down")
 
-    def step():
-        mujoco.mj_step(m, d)
-        if record_every and count[0] % record_every == 0:
-            rec_t.append(d.time)
-            rec_p.append(d.xpos[bodies].copy())
-            rec_q.append(d.xquat[bodies].copy())
-        count[0] += 1
 
-    def follow(path, duration, force):
-        n = len(path) - 1
-        for k in range(int(round(duration / dt))):
-            s = (k + 1) * dt / duration * n
-            i0 = min(int(s), n - 1)
-            d.ctrl[act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
-            d.ctrl[act_v] = (path[i0 + 1] - path[i0]) * n / duration
-            d.ctrl[grip] = force
-            step()
+def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: float) -> np.ndarray:
+    """[4 PATH_SAMPLES + 1, 4, 4] flange poses that turn a held tool over: from the grasp frame
+    `T_world_grasp` [4, 4] straight up to TURN_HEIGHT, a turn by `angle` rad about the world `axis` [3]
+    through the grasp point, down until the gripper's lowest point (its boxes at the jaw's `width` m) is
+    TURN_RELEASE above the table; then (after the jaw opens) back along the turned approach axis by
+    PICK_APPROACH."""
+    s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    rot = lambda th: np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K  # noqa: E731
+    T0 = np.asarray(T_world_grasp, float)
+    poses = [T0.copy() for _ in s]
+    for T, x in zip(poses, s):
+        T[2, 3] += x * (TURN_HEIGHT - T0[2, 3])
+    top = poses[-1]
+    for x in s[1:]:
+        T = top.copy()
+        T[:3, :3] = rot(angle * x) @ top[:3, :3]
+        poses.append(T)
+    turned = poses[-1]
+    lowest = float(np.min(np.einsum("j,cj->c", turned[:3, :3][2], _corners(np.array([width]))[0])))
+    drop = turned[2, 3] + lowest - TURN_RELEASE
+    for x in s[1:]:
+        T = turned.copy()
+        T[2, 3] -= x * drop
+        poses.append(T)
+    down = poses[-1]
+    for x in s[1:]:
+        T = down.copy()
+        T[:3, 3] -= x * PICK_APPROACH * down[:3, 2]
+        poses.append(T)
+    flange = np.eye(4)
+    flange[2, 3] = -robot.FLANGE_TO_GRASP
+    return np.stack(poses) @ flange
 
-    def result(tabletop, why=None):
-        trace = None
-        if record_every:
-            trace = {"t": np.array(rec_t), "bodies": bodies, "pos": np.array(rec_p).reshape(-1, len(bodies), 3),
-                     "quat": np.array(rec_q).reshape(-1, len(bodies), 4), "model": m}
-        return PutBack(tabletop=tabletop, why=why, trace=trace)
 
-    follow(up[::-1], t_lower, grip_force)
-    d.ctrl[act], d.ctrl[act_v], d.ctrl[grip] = up[0], np.zeros(6), -OPEN_FORCE
-    for _ in range(int(round(t_open / dt))):
-        step()
-    follow(up, t_raise, -OPEN_FORCE)
-    d.ctrl[act], d.ctrl[act_v] = up[-1], np.zeros(6)
-    t, speed, check = 0.0, math.inf, int(round(0.05 / dt))
-    unstable = "putting it back down went unstable (MuJoCo)"
-    while t < PUT_BACK_SETTLE[1]:
-        for _ in range(check):
-            step()
-        t += check * dt
-        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            return result(None, unstable)
-        speed = _point_speeds(m, d, top.tools)
-        if t >= PUT_BACK_SETTLE[0] and speed < REST_SPEED:
+def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float = 100.0,
+              record_every: int | None = None) -> PutBack:
+    """Turn table tool `index`, lifted by `pick` (run with `keep_state=True`), over about its handle axis
+    and set it down on another face: up to TURN_HEIGHT, a turn of TURN_ANGLE (whichever way the arm can
+    follow, `turn_path`, closed-form IK with the elbow and wrist above the table), down until the gripper
+    is TURN_RELEASE above the table, the jaw opened, the gripper back along its approach (the fingers
+    out from under the tool, which drops the last centimetres), the table settled (PUT_BACK_SETTLE).
+    The pick's state goes on (it is used up). `PutBack.tabletop` is None, with why, when neither way
+    can be followed, the tool was not held, or the table did not come to rest."""
+    _check_state(pick, "turn_over")
+    if not pick.lifted:
+        return PutBack(tabletop=None, why="the tool was not held; it cannot be turned over")
+    go = _Going(pick, record_every)
+    m, d = go.m, go.d
+    site = m.site("gripper/grasp").id
+    T_wg = np.eye(4)
+    T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
+    tq = m.joint(f"tool_{index}").qposadr[0]
+    handle = _quat_to_matrix(d.qpos[tq + 3:tq + 7].copy())[:, 2]
+    axis = np.array([handle[0], handle[1], 0.0])
+    if np.linalg.norm(axis) < 0.3:
+        return PutBack(tabletop=None, why="the tool's handle is not lying along the table; it cannot be turned over")
+    width = float(np.asarray(pick.achieved.width, float)[0])
+    q_now = d.qpos[go.arm_q].copy()
+    n = PATH_SAMPLES
+    for angle in (TURN_ANGLE, -TURN_ANGLE):
+        q = ik.track(turn_path(T_wg, axis, width, angle)[None], q_now, min_height=robot.ARM_CLEARANCE)[0]
+        if not (np.isnan(q).any() or (np.abs(q) > robot.JOINT_LIMITS).any()):
             break
     else:
-        return result(None, f"the tools had not come to rest {PUT_BACK_SETTLE[1]:g} s after putting it back down "
-                      f"(fastest point {speed:.3f} m/s)")
-    warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
-                                                    mujoco.mjtWarning.mjWARN_BADQPOS))
-    if warned:
-        return result(None, unstable)
-    # a tool still touching the gripper (hanging in the open jaw) is not at rest on the table
-    gripper = {g for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
-    tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
-    for c in d.contact[:d.ncon]:
-        g1, g2 = int(c.geom1), int(c.geom2)
-        if (g1 in gripper and int(m.geom_bodyid[g2]) in tool_bodies) or (g2 in gripper and int(m.geom_bodyid[g1]) in tool_bodies):
-            return result(None, "a tool stayed in the open jaw after putting it back down")
-    poses = np.empty((len(top.tools), 4, 4))
-    for i in range(len(top.tools)):
-        b = m.body(f"tool_{i}").id
-        poses[i] = np.eye(4)
-        poses[i][:3, :3] = d.xmat[b].reshape(3, 3)
-        poses[i][:3, 3] = d.xpos[b]
-    return result(dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed)))
+        return PutBack(tabletop=None, why="the arm cannot turn the tool over either way (IK)")
+    t_rise, t_turn, t_lower, t_open, t_back = TURN_PHASES
+    go.follow(np.concatenate([q_now[None], q[:n + 1]]), t_rise, grip_force)
+    go.follow(q[n:2 * n + 1], t_turn, grip_force)
+    go.follow(q[2 * n:3 * n + 1], t_lower, grip_force)
+    go.hold(q[3 * n], -OPEN_FORCE, t_open)
+    go.follow(q[3 * n:], t_back, -OPEN_FORCE)
+    return go.settle(top, "turning it over")

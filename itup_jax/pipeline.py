@@ -201,13 +201,16 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
     """Stage 4 on table `top`: rounds of `samples` grasps (seeds seed * SAMPLE_ROUNDS + r) until
     MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried through the task with margin,
     leaving out grasps within RETRY_EXCLUSION of a `tried` origin. Returns {"counts", "grasps", "shifts",
-    "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends}."""
+    "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends, and where
+    grasps could be picked but none carried: "turnable": (the pickable grasp [1] whose lift loads the
+    pads least, its joint path, its lift load), to turn the tool over with}."""
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
     from itup_jax.pickup import LIFT_TORQUE_SHARE, pick_candidates, reachable_with_margin
 
     counts: dict = {"sampled": 0, "rounds": 0}
     found = []  # (grasps, shift, q_path, lift_load) of each round's pickable, task-reachable candidates
+    pickable = []  # (grasps, q_path, lift_load) of each round's pickable ones (to turn the tool over)
     for r in range(SAMPLE_ROUNDS):
         try:
             grasps = itup.sample_grasps(tool, int(samples), seed=int(seed) * SAMPLE_ROUNDS + r)
@@ -220,6 +223,8 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
         for k, v in cands.counts.items():
             if k != "given":
                 counts[f"pick_{k}"] = counts.get(f"pick_{k}", 0) + v
+        if cands.grasps is not None:
+            pickable.append((cands.grasps, cands.q_path, cands.lift_load))
         ok = reachable_with_margin(task, cands.grasps) if cands.grasps is not None else np.zeros(0, bool)
         counts["task_reachable"] = counts.get("task_reachable", 0) + int(ok.sum())
         if tried and ok.any():
@@ -242,7 +247,12 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
                     f"task but the {counts['tried_nearby']} near those already tried")
         else:
             what = f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task"
-        return {"counts": counts, "failure": what, "stage": "pick"}
+        out = {"counts": counts, "failure": what, "stage": "pick"}
+        if pickable:
+            k = int(np.argmin([np.min(f[2]) for f in pickable]))
+            j = int(np.argmin(pickable[k][2]))
+            out["turnable"] = (pickable[k][0][j:j + 1], pickable[k][1][j], float(pickable[k][2][j]))
+        return out
     grasps_k = itup.make_grasps(np.concatenate([np.asarray(f[0].p_tool_grasp) for f in found]),
                                 q_tool_grasp=np.concatenate([np.asarray(f[0].q_tool_grasp) for f in found]),
                                 width=np.concatenate([np.asarray(f[0].width) for f in found]))
@@ -284,7 +294,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         those tried. 1: no second pick.
     """
     import itup_jax as itup
-    from itup_jax.pickup import execute_pick, put_back
+    from itup_jax.pickup import execute_pick, put_back, turn_over
     from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
 
     if method not in METHODS:
@@ -325,12 +335,39 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     for attempt in range(max_attempts):
         planned = _plan(board, g, tool, task, seed=int(seed), samples=int(samples), grip_force=grip_force,
                         tried=tried)
-        counts = planned["counts"]
-        counts["pick_attempts"] = attempt + 1
+        counts = dict(planned["counts"], picks=len(attempts))
+        if "failure" in planned and "turnable" in planned and attempt + 1 < max_attempts:
+            # no grasp the task can use is pickable from this rest pose: pick the tool up by the grasp
+            # whose lift loads the pads least and turn it over onto another face (every method alike)
+            gk, qk, load = planned["turnable"]
+            choice = {"index": -1, "scorer": "turn over: the least lift load", "score": load, "shift_m": 0.0,
+                      "lift_load": round(load, 4), "p_tool_grasp": np.round(np.asarray(gk.p_tool_grasp)[0], 5).tolist()}
+            pick = execute_pick(board, g.tool_index, gk, qk, grip_force=grip_force,
+                                record_every=PICK_LOG_EVERY if traces else None, keep_state=True)
+            counts["picks"] += 1
+            kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick, attempts=attempts, board=board)
+            if pick.diverged:
+                return end("pick", f"{planned['failure']}; the pick to turn it over went unstable (MuJoCo)", **kw)
+            if pick.lifted:
+                why, back = f"{planned['failure']}: turned it over", turn_over(
+                    board, g.tool_index, pick, grip_force=grip_force, record_every=PICK_LOG_EVERY if traces else None)
+            else:
+                why, back = f"{planned['failure']}; the pick to turn it over did not lift it", put_back(
+                    board, g.tool_index, pick, qk, grip_force=grip_force, record_every=PICK_LOG_EVERY if traces else None)
+            attempts.append({"choice": choice, "pick": pick.to_json(), "why": why,
+                             "action": "turn_over" if pick.lifted else "put_back"})
+            if traces:
+                logged += [pick.trace] + ([back.trace] if back.trace is not None else [])
+            if back.tabletop is None:
+                if logged:
+                    kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged))
+                return end("pick", f"{why}; {back.why}", **kw)
+            board = back.tabletop
+            continue
         if "failure" in planned:
             msg = planned["failure"]
             if attempts:
-                msg = f"{msg} (after {len(attempts)} failed pick{'s' if len(attempts) > 1 else ''}: {attempts[-1]['why']})"
+                msg = f"{msg} (after {len(attempts)} earlier pick{'s' if len(attempts) > 1 else ''}: {attempts[-1]['why']})"
             return end(planned["stage"], msg, grounding=g, tool=tool, counts=counts, attempts=attempts, board=board)
         grasps_k, q_paths = planned["grasps"], planned["q_paths"]
         scorer = METHODS[method][1]
@@ -344,6 +381,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         last = attempt + 1 == max_attempts
         pick = execute_pick(board, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
                             record_every=PICK_LOG_EVERY if traces else None, keep_state=not last)
+        counts["picks"] += 1
         kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick, attempts=attempts, board=board)
         if pick.diverged:
             why = f"the pick's simulation went unstable (MuJoCo); the {tool.name} was not lifted"
@@ -358,7 +396,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
             if logged:
                 kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged + [pick.trace]))
             return end("pick", why, **kw)
-        attempts.append({"choice": choice, "pick": pick.to_json(), "why": why})
+        attempts.append({"choice": choice, "pick": pick.to_json(), "why": why, "action": "put_back"})
         tried.append(np.asarray(grasps_k.p_tool_grasp, float)[best])
         back = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force,
                         record_every=PICK_LOG_EVERY if traces else None)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import runpy
 
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import families, grounding, parts, pickup, pipeline, tabletop
+from itup_jax import families, grounding, parts, pickup, pipeline, robot, tabletop
 from itup_jax.errors import InputError
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -316,6 +317,74 @@ def test_put_back_leaves_the_tool_at_rest_on_the_table_near_where_it_lay(hammer_
         pickup.put_back(top, i, pickup.execute_pick(top, i, c.grasps[0:1], c.q_path[0]), c.q_path[0])
 
 
+def test_turn_path_rises_turns_about_the_grasp_point_lowers_to_the_release_height_and_withdraws():
+    R0 = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # approach straight down
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = R0, [0.4, 0.2, 0.02]
+    flange = np.eye(4)
+    flange[2, 3] = -robot.FLANGE_TO_GRASP
+    n = pickup.PATH_SAMPLES
+    path = pickup.turn_path(T0, np.array([1.0, 0.0, 0.0]), 0.012, math.pi / 2) @ np.linalg.inv(flange)  # grasp frames
+    assert path.shape == (4 * n + 1, 4, 4) and np.allclose(path[0], T0)
+    assert np.allclose(path[n, :3, 3], [0.4, 0.2, pickup.TURN_HEIGHT]) and np.allclose(path[n, :3, :3], R0)
+    # the turn: the grasp point stays, the frame turns by the angle about the axis
+    assert np.allclose(path[n:2 * n + 1, :3, 3], path[n, :3, 3])
+    turned = path[2 * n, :3, :3]
+    assert np.allclose(turned[:, 2], [0.0, 1.0, 0.0], atol=1e-12)  # the approach now horizontal
+    # lowered until the gripper's lowest corner is TURN_RELEASE above the table, then back along the approach
+    low = path[3 * n]
+    corners = pickup._corners(np.array([0.012]))[0] @ low[:3, :3].T + low[:3, 3]
+    assert corners[:, 2].min() == pytest.approx(pickup.TURN_RELEASE, abs=1e-9)
+    assert np.allclose(path[-1, :3, 3] - low[:3, 3], -pickup.PICK_APPROACH * low[:3, 2])
+
+
+@pytest.fixture(scope="module")
+def hook_up():
+    """A table on which the L-stick came to rest with its hook pointing up."""
+    top = tabletop.make_tabletop(seed=2)
+    i = [t.name for t in top.tools].index("l_stick")
+    return top, i
+
+
+def test_a_tool_no_task_grasp_can_be_picked_from_is_turned_over(hook_up):
+    top, i = hook_up
+    assert top.poses[i][2, 0] > 0.9  # the hook (tool +x) points up
+    g = grounding.ground("pull the block closer", top)
+    tool = g.grounded_tool(top)
+    task = itup.make_task("reach", tool)
+    planned = pipeline._plan(top, g, tool, task, seed=2, samples=2048, grip_force=100.0, tried=[])
+    assert "none of the" in planned["failure"] and "carried" in planned["failure"] and "turnable" in planned
+    gk, qk, load = planned["turnable"]
+    pick = pickup.execute_pick(top, i, gk, qk, keep_state=True)
+    assert pick.lifted
+    back = pickup.turn_over(top, i, pick, record_every=10)
+    after = back.tabletop
+    # held turned: when the jaw opens the hook already lies along the table
+    tr = back.trace
+    b = tr["bodies"].index(tr["model"].body(f"tool_{i}").id)
+    k = int(np.searchsorted(tr["t"], tr["t"][0] + sum(pickup.TURN_PHASES[:3]) - 0.02))
+    assert abs(pickup._quat_to_matrix(tr["quat"][k, b])[2, 0]) < 0.2
+    assert after is not None and after.rest_speed < tabletop.REST_SPEED
+    R = after.poses[i][:3, :3]
+    assert abs(R[2, 0]) < 0.5 and abs(R[2, 1]) > 0.8  # lying on its side: the hook along the table
+    moved = np.linalg.norm(after.poses[:, :3, 3] - top.poses[:, :3, 3], axis=1)
+    assert np.all(np.delete(moved, i) < 2e-3)  # the other tools were not touched
+    again = pipeline._plan(after, g, tool, task, seed=2, samples=2048, grip_force=100.0, tried=[])
+    assert "failure" not in again and again["counts"]["task_reachable"] > 0
+    with pytest.raises(InputError, match="keep_state"):
+        pickup.turn_over(top, i, dataclasses.replace(pick, state=None))
+
+
+def test_run_turns_the_tool_over_then_picks_it_for_the_task(hook_up):
+    top, i = hook_up
+    r = itup.run("pull the block closer", tabletop=top, seed=2)
+    assert r.attempts[0]["action"] == "turn_over" and "turned it over" in r.attempts[0]["why"]
+    assert r.counts["picks"] == 2 and r.stage in ("grip", "task", "done") and r.pick.lifted
+    assert r.pick_tabletop is not None and abs(r.pick_tabletop.poses[i][2, 0]) < 0.5
+    one = itup.run("pull the block closer", tabletop=top, seed=2, max_attempts=1)
+    assert one.stage == "pick" and "carried through the reach" in one.message and one.counts["picks"] == 0
+
+
 def test_the_jaw_approaches_pre_shaped_to_the_checked_opening(hammer_pick, monkeypatch):
     """While the arm settles and descends, the pre-shape servo holds the pad faces at `approach_opening`
     (the opening the clearance checks assumed), then the jaw closes on the tool."""
@@ -474,7 +543,7 @@ def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monk
         return dataclasses.replace(r, lifted=False, achieved=None) if len(calls) == 1 else r
     monkeypatch.setattr(pickup, "execute_pick", first_fails)
     r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=1024, traces=True)
-    assert calls == [True, True] and r.counts["pick_attempts"] == 2 and len(r.attempts) == 1
+    assert calls == [True, True] and r.counts["picks"] == 2 and len(r.attempts) == 1
     assert r.stage == "done" and "did not come up" in r.attempts[0]["why"]
     first, second = (np.asarray(x["p_tool_grasp"]) for x in (r.attempts[0]["choice"], r.choice))
     assert np.linalg.norm(first - second) >= pipeline.RETRY_EXCLUSION
@@ -545,6 +614,14 @@ def test_ablation_experiment_quick(tmp_path):
     assert len(j["rows"]) == 4 and j["cells"]["0/total/itup"]["trials"] == 1
     assert j["first_table"] == 3 and {r["trial"] for r in j["rows"]} == {3}  # the table laid out with seed 3
     assert sum(j["cells"]["2/hammer/copa"]["stages"].values()) == 1
+    # the success with the first pick alone, from the same runs: never above the success with picking again
+    assert j["max_attempts"] == pipeline.MAX_PICK_ATTEMPTS
+    for c in j["cells"].values():
+        assert c["first_pick_successes"] <= c["successes"] and c["repicked"] <= c["trials"]
+    rows = [dict(r, success=True, picks=k) for r, k in zip(j["rows"], (1, 2, None, 3))]
+    cells = ns["summarize"](rows, ["hammer"], ["itup", "copa"], (0, 2))
+    assert [cells[f"{c}/hammer/{m}"]["first_pick_successes"] for c in (0, 2) for m in ("itup", "copa")] == [1, 0, 1, 0]
+    assert [cells[f"{c}/total/{m}"]["repicked"] for c in (0, 2) for m in ("itup", "copa")] == [0, 1, 0, 1]
     # a run that reached the task reports its full induced and raw peak wrist torques, the cell their medians
     for r in j["rows"]:
         reached = r["stage"] in ("grip", "task", "done")
