@@ -704,7 +704,8 @@ def cmd_run(args) -> int:
         if c.get("scored") and not c.get("lift_within_share"):
             print(f"  none does: scored the {c['scored']} that load it least (the tool may turn in the pads)")
     for k, a in enumerate(r.attempts):
-        print(f"pick {k + 1}: {a['why']}; put back down, planned again")
+        print(f"pick {k + 1}: {a['why']}; " + ("turned the tool over" if a["action"] == "turn_over" else
+                                               "put the tool back down") + ", planned again")
     if r.pick is not None:
         p = r.pick
         print(f"pick{'' if not r.attempts else f' {len(r.attempts) + 1}'}: {'lifted' if p.lifted else 'failed'} (rose {p.rise * 1000:.0f} mm); achieved grasp "
@@ -1081,8 +1082,9 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="grasps sampled before the pick and reach filters")
     rn.add_argument("--grip-force", type=float, default=DEFAULT_GRIP_FORCE, metavar="N", help="N per pad, pick and task")
     rn.add_argument("--attempts", type=int, default=MAX_PICK_ATTEMPTS, metavar="K",
-                    help=f"picks tried at most (default {MAX_PICK_ATTEMPTS}): a pick that does not bring the tool up in a "
-                    "grasp the task can use puts it back down, and the table is planned again away from the grasps tried")
+                    help=f"picks made at most (default {MAX_PICK_ATTEMPTS}): a pick that does not bring the tool up in a "
+                    "grasp the task can use puts it back down, one where no such grasp is pickable turns the tool "
+                    "over, and the table is planned again away from the grasps tried")
     rn.add_argument("--nominal", action="store_true", help="nominal physics for the task (default: drawn around the priors)")
     rn.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     rn.add_argument("--grounder", choices=("rule", "vlm"), default="rule",

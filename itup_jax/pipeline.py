@@ -22,8 +22,10 @@ The stages (the paper's six, in simulation):
        randomised physics by default), its task success and grip failure as the labels define them.
        A pick that does not lift the tool, or lifts it into a grasp that cannot be carried through the
        task, puts the tool back down (`pickup.put_back`, simulated on: the tools settle where they
-       come to rest) and stages 4-6 run again on that table, without the grasps near those tried, up
-       to MAX_PICK_ATTEMPTS picks (`run(max_attempts=)`).
+       come to rest) and stages 4-6 run again on that table, without the grasps near those tried; where
+       grasps are pickable but none can be carried through the task, the tool is picked by the one
+       whose lift loads the pads least and turned over onto another face (`pickup.turn_over`) before
+       planning again; up to MAX_PICK_ATTEMPTS picks in all (`run(max_attempts=)`).
 The move from the lift to the task's first pose is not simulated: the task rollout starts with the tool
 held at the grasp the pick achieved.
 
@@ -99,8 +101,10 @@ class RunResult:
       choice: the chosen candidate's index among the scored ones, its score and its lift load
         (`pickup.lift_torque`).
       pick: `pickup.PickResult` of the last pick (None when no pick ran).
-      attempts: the picks before it that could not go on, each {"choice", "pick" (its JSON), "why"};
-        the tool was put back down after each (`pickup.put_back`) and the table planned again.
+      attempts: the picks before it, each {"choice", "pick" (its JSON), "why", "action"}: 'put_back'
+        (it could not go on: the tool put back down, `pickup.put_back`) or 'turn_over' (no grasp the
+        task can use was pickable: the tool turned over, `pickup.turn_over`); the table was planned
+        again after each.
       pick_tabletop: the table as the last pick found it (None when that is `tabletop`: no earlier pick).
       labels: the task rollout's labels as {name: value} (None when none ran).
       seed: the run's seed (sampling, physics).  wall_s: seconds.
@@ -288,10 +292,11 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
       traces: keep the task rollout's per-step traces and the picks' body poses (for `mcap_log`: every
         pick and put-back in turn, in `pick.trace`).
-      max_attempts: picks tried at most. A pick that does not lift the tool, or lifts it into a grasp
-        that cannot be carried through the task, puts it back down (`pickup.put_back`); the table is
-        planned again from the tools' new rest poses, without the grasps within RETRY_EXCLUSION of
-        those tried. 1: no second pick.
+      max_attempts: picks made at most. A pick that does not lift the tool, or lifts it into a grasp
+        that cannot be carried through the task, puts it back down (`pickup.put_back`); where no
+        pickable grasp can be carried through the task, a pick turns the tool over (`pickup.turn_over`);
+        either way the table is planned again from the tools' new rest poses, without the grasps within
+        RETRY_EXCLUSION of those tried. 1: one pick, as planned first.
     """
     import itup_jax as itup
     from itup_jax.pickup import execute_pick, put_back, turn_over
@@ -349,7 +354,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
             if pick.diverged:
                 return end("pick", f"{planned['failure']}; the pick to turn it over went unstable (MuJoCo)", **kw)
             if pick.lifted:
-                why, back = f"{planned['failure']}: turned it over", turn_over(
+                why, back = planned["failure"], turn_over(
                     board, g.tool_index, pick, grip_force=grip_force, record_every=PICK_LOG_EVERY if traces else None)
             else:
                 why, back = f"{planned['failure']}; the pick to turn it over did not lift it", put_back(
