@@ -681,6 +681,39 @@ def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: 
     return np.stack(poses) @ flange
 
 
+def _turn_axis(R_world_tool: np.ndarray) -> np.ndarray | None:
+    """The horizontal direction of the tool's handle axis (+z), or None when the handle stands too
+    steeply (more than ~72 degrees) for a turn about it to lay the tool on another face."""
+    h = np.asarray(R_world_tool, float)[:, 2]
+    axis = np.array([h[0], h[1], 0.0])
+    return axis if np.linalg.norm(axis) >= 0.3 else None
+
+
+def can_turn_over(top: Tabletop, index: int, grasps: Grasps, q_paths: np.ndarray) -> np.ndarray:
+    """[M] bool: the arm can follow `turn_path` (either way) from the end of each pick's planned lift:
+    grasps [M] of table tool `index` (tool frame, as `pick_candidates` returns them) with their joint
+    paths `q_paths` [M, P, 6]. The planned grasp stands in for the achieved one (`turn_over` plans again
+    from the achieved)."""
+    T_wt = np.asarray(top.poses[index], float)
+    axis = _turn_axis(T_wt[:3, :3])
+    m = len(np.asarray(grasps.width).reshape(-1))
+    if axis is None or m == 0:
+        return np.zeros(m, bool)
+    R_wg = T_wt[:3, :3] @ _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float).reshape(-1, 4))
+    p_wg = np.asarray(grasps.p_tool_grasp, float).reshape(-1, 3) @ T_wt[:3, :3].T + T_wt[:3, 3]
+    width = np.asarray(grasps.width, float).reshape(-1)
+    ok = np.zeros(m, bool)
+    for angle in (TURN_ANGLE, -TURN_ANGLE):
+        paths = []
+        for k in range(m):
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = R_wg[k], p_wg[k] + [0.0, 0.0, PICK_LIFT]
+            paths.append(turn_path(T, axis, float(width[k]), angle))
+        q = ik.track(np.stack(paths), np.asarray(q_paths, float)[:, -1], min_height=robot.ARM_CLEARANCE)
+        ok |= ~(np.isnan(q).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(1, 2)))
+    return ok
+
+
 def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float = 100.0,
               record_every: int | None = None) -> PutBack:
     """Turn table tool `index`, lifted by `pick` (run with `keep_state=True`), over about its handle axis
@@ -699,9 +732,8 @@ def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float 
     T_wg = np.eye(4)
     T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
     tq = m.joint(f"tool_{index}").qposadr[0]
-    handle = _quat_to_matrix(d.qpos[tq + 3:tq + 7].copy())[:, 2]
-    axis = np.array([handle[0], handle[1], 0.0])
-    if np.linalg.norm(axis) < 0.3:
+    axis = _turn_axis(_quat_to_matrix(d.qpos[tq + 3:tq + 7].copy()))
+    if axis is None:
         return PutBack(tabletop=None, why="the tool's handle is not lying along the table; it cannot be turned over")
     width = float(np.asarray(pick.achieved.width, float)[0])
     q_now = d.qpos[go.arm_q].copy()

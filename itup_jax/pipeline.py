@@ -206,8 +206,9 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
     MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried through the task with margin,
     leaving out grasps within RETRY_EXCLUSION of a `tried` origin. Returns {"counts", "grasps", "shifts",
     "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends, and where
-    grasps could be picked but none carried: "turnable": (the pickable grasp [1] whose lift loads the
-    pads least, its joint path, its lift load), to turn the tool over with}."""
+    grasps could be picked but none carried: "turnable": (of the pickable grasps whose turn the arm can
+    follow, `pickup.can_turn_over`, the one [1] whose lift loads the pads least, its joint path, its lift
+    load), to turn the tool over with}."""
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
     from itup_jax.pickup import LIFT_TORQUE_SHARE, pick_candidates, reachable_with_margin
@@ -253,9 +254,19 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
             what = f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task"
         out = {"counts": counts, "failure": what, "stage": "pick"}
         if pickable:
-            k = int(np.argmin([np.min(f[2]) for f in pickable]))
-            j = int(np.argmin(pickable[k][2]))
-            out["turnable"] = (pickable[k][0][j:j + 1], pickable[k][1][j], float(pickable[k][2][j]))
+            from itup_jax.pickup import can_turn_over
+
+            # of the pickable grasps whose turn the arm can follow, the one whose lift loads the pads least
+            best = None
+            for gr, qp, load in pickable:
+                turn = can_turn_over(top, g.tool_index, gr, qp)
+                counts["turnable"] = counts.get("turnable", 0) + int(turn.sum())
+                if turn.any():
+                    j = int(np.argmin(np.where(turn, load, np.inf)))
+                    if best is None or load[j] < best[2]:
+                        best = (gr[j:j + 1], qp[j], float(load[j]))
+            if best is not None:
+                out["turnable"] = best
         return out
     grasps_k = itup.make_grasps(np.concatenate([np.asarray(f[0].p_tool_grasp) for f in found]),
                                 q_tool_grasp=np.concatenate([np.asarray(f[0].q_tool_grasp) for f in found]),

@@ -355,6 +355,13 @@ def test_a_tool_no_task_grasp_can_be_picked_from_is_turned_over(hook_up):
     planned = pipeline._plan(top, g, tool, task, seed=2, samples=2048, grip_force=100.0, tried=[])
     assert "none of the" in planned["failure"] and "carried" in planned["failure"] and "turnable" in planned
     gk, qk, load = planned["turnable"]
+    # the turn is planned before the pick: the arm can follow it from the planned lift, and a tool whose
+    # handle stands upright cannot be turned about it
+    assert pickup.can_turn_over(top, i, gk, qk[None]).all() and planned["counts"]["turnable"] >= 1
+    upright = top.poses.copy()
+    upright[i, :3, :3] = upright[i, :3, :3] @ np.array([[0.0, 0, 1.0], [0, 1.0, 0], [-1.0, 0, 0]])
+    assert abs(upright[i, 2, 2]) > 0.99
+    assert not pickup.can_turn_over(dataclasses.replace(top, poses=upright), i, gk, qk[None]).any()
     pick = pickup.execute_pick(top, i, gk, qk, keep_state=True)
     assert pick.lifted
     back = pickup.turn_over(top, i, pick, record_every=10)
