@@ -119,11 +119,14 @@ PUT_BACK_SETTLE = (0.3, 3.0)
 #: Turning a tool over (`turn_over`), for a rest pose from which no grasp the task can use is pickable
 #: (an L-stick lying with its hook up is picked from above only along the hook, and the reach needs the
 #: opposite): m, the grasp point's height above the table while the tool turns; rad, the turn about the
-#: tool's handle axis (either way, whichever the arm can follow); m, the gripper's lowest point above the
-#: table when the jaw opens; s, the phases: rise, turn, lower, open, withdraw (back along the approach,
-#: the fingers out from under the tool), then the settling of PUT_BACK_SETTLE.
+#: tool's handle axis (either way, whichever the arm can follow): held tilted by it past where it
+#: balanced, the tool falls onto another face when let go (turned a quarter turn, the lower finger
+#: lies under it and carries it along as it withdraws); m, the gripper's lowest point above the table
+#: when the jaw opens (to the pick's pre-shape opening only, so the lower finger does not sweep down
+#: onto the table); s, the phases: rise, turn, lower, open, withdraw (back along the approach), then
+#: the settling of PUT_BACK_SETTLE.
 TURN_HEIGHT = 0.25
-TURN_ANGLE = math.pi / 2
+TURN_ANGLE = math.pi / 4
 TURN_RELEASE = 0.01
 TURN_PHASES = (0.6, 1.2, 0.8, 0.3, 0.8)
 
@@ -564,15 +567,36 @@ class _Going:
         d.ctrl[self.act], d.ctrl[self.act_v], d.ctrl[self.grip] = q, np.zeros(6), force
         self.step(int(round(duration / self.m.opt.timestep)))
 
-    def follow(self, path: np.ndarray, duration: float, force: float) -> None:
-        """Along joint path [P, 6] in `duration` s (linear between samples, the servos' velocity feed-forward)."""
+    def open_to(self, q: np.ndarray, width: float, duration: float) -> None:
+        """Hold the arm at `q` [6] while the jaw opens to `approach_opening(width)` (the pre-shape servo,
+        within +-OPEN_FORCE, as the pick approaches): the tool is let go of without the fingers
+        sweeping their whole stroke."""
+        from itup_jax.simulate import INITIAL_SQUEEZE
+
+        m, d = self.m, self.d
+        fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
+        fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
+        q_open = float(approach_opening(np.array([width]))[0]) / 2 - INITIAL_SQUEEZE
+
+        def servo() -> float:
+            f = PRESHAPE_GAIN * (d.qpos[fq].mean() - q_open) + PRESHAPE_DAMPING * d.qvel[fv].mean()
+            return float(np.clip(f, -OPEN_FORCE, OPEN_FORCE))
+        self.jaw = servo
+        d.ctrl[self.act], d.ctrl[self.act_v] = q, np.zeros(6)
+        for _ in range(int(round(duration / m.opt.timestep))):
+            d.ctrl[self.grip] = servo()
+            self.step()
+
+    def follow(self, path: np.ndarray, duration: float, force: float | None) -> None:
+        """Along joint path [P, 6] in `duration` s (linear between samples, the servos' velocity feed-forward),
+        the grip at `force` N (None: the jaw held at the opening of the last `open_to`)."""
         d, dt, n = self.d, self.m.opt.timestep, len(path) - 1
         for k in range(int(round(duration / dt))):
             s = (k + 1) * dt / duration * n
             i0 = min(int(s), n - 1)
             d.ctrl[self.act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
             d.ctrl[self.act_v] = (path[i0 + 1] - path[i0]) * n / duration
-            d.ctrl[self.grip] = force
+            d.ctrl[self.grip] = self.jaw() if force is None else force
             self.step()
 
     def settle(self, top: Tabletop, what: str) -> PutBack:
@@ -717,10 +741,10 @@ def can_turn_over(top: Tabletop, index: int, grasps: Grasps, q_paths: np.ndarray
 def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float = 100.0,
               record_every: int | None = None) -> PutBack:
     """Turn table tool `index`, lifted by `pick` (run with `keep_state=True`), over about its handle axis
-    and set it down on another face: up to TURN_HEIGHT, a turn of TURN_ANGLE (whichever way the arm can
+    and let it fall onto another face: up to TURN_HEIGHT, a turn of TURN_ANGLE (whichever way the arm can
     follow, `turn_path`, closed-form IK with the elbow and wrist above the table), down until the gripper
-    is TURN_RELEASE above the table, the jaw opened, the gripper back along its approach (the fingers
-    out from under the tool, which drops the last centimetres), the table settled (PUT_BACK_SETTLE).
+    is TURN_RELEASE above the table, the jaw opened to the pick's pre-shape opening (`approach_opening`),
+    the gripper back along its approach, the table settled (PUT_BACK_SETTLE).
     The pick's state goes on (it is used up). `PutBack.tabletop` is None, with why, when neither way
     can be followed, the tool was not held, or the table did not come to rest."""
     _check_state(pick, "turn_over")
@@ -748,6 +772,6 @@ def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float 
     go.follow(np.concatenate([q_now[None], q[:n + 1]]), t_rise, grip_force)
     go.follow(q[n:2 * n + 1], t_turn, grip_force)
     go.follow(q[2 * n:3 * n + 1], t_lower, grip_force)
-    go.hold(q[3 * n], -OPEN_FORCE, t_open)
-    go.follow(q[3 * n:], t_back, -OPEN_FORCE)
+    go.open_to(q[3 * n], width, t_open)
+    go.follow(q[3 * n:], t_back, None)
     return go.settle(top, "turning it over")

@@ -74,3 +74,18 @@ for method in METHODS:
     if r.labels is not None:
         print(f"{'':13s} full induced peak wrist torque {r.labels['peak_torque_induced']:.2f} N m, "
               f"task metric {r.labels['task_metric']:.3f}")
+
+# %% [markdown]
+# ## When a pick cannot go on
+# A pick that does not bring the tool up, or brings it up in a grasp the arm cannot carry through the
+# task, puts the tool back down and the table is planned again (away from the grasp tried). Some rest
+# poses leave no usable grasp at all: on this table the L-stick lies on its shaft with the hook up,
+# where grasps from above hold it only along the hook, and the reach needs the gripper on the other
+# side. The run then picks it up, turns it over about its handle and sets it down on its side first.
+
+# %%
+hooked = tabletop.make_tabletop(seed=2)
+r = itup.run("pull the block closer", tabletop=hooked, seed=2, samples=SAMPLES)
+for k, a in enumerate(r.attempts):
+    print(f"pick {k + 1} ({a['action']}): {a['why']}")
+print(f"pick {len(r.attempts) + 1}: {r.stage}: {r.message}")
