@@ -25,6 +25,11 @@ argument), and `closure_along_swing` (|closure axis . w|, w the unit axis of the
 velocity in the tool frame: a swing about the jaw axis loads the pads in torsion, one across it loads
 them in bending; undefined, hence NaN, for tasks that do not turn the tool).
 
+With `--model sdgnet` (or a checkpoint's path) the network's predicted peak torque (`itup.score`'s
+`tau`, the full induced peak for the shipped objective) is ranked the same way beside them
+(`net[...]`), and so is an equal-weight mix of its ranks and the `wrist/passed` cost's ranks
+(`mix[...]`): does the physics add what the network misses on a family it never saw?
+
 By default the data is generated here with nominal physics (no randomisation: the analytic cost uses the
 nominal priors, so this isolates the model from the prior's spread); `--data` takes any dataset, e.g. a
 randomised one. Writes analytic_vs_measured.json and analytic_vs_measured.png into --out.
@@ -58,8 +63,9 @@ GEOMETRY = ("along_handle", "com_distance", "closure_along_swing")
 SLIP_LABELS = ("slip_translation", "slip_rotation")
 
 
-def per_tool(data_dir: str) -> tuple[list[dict], dict]:
-    """One row per shard: Spearman of every (variant, label) pair."""
+def per_tool(data_dir: str, model: str | None = None) -> tuple[list[dict], dict]:
+    """One row per shard: Spearman of every (variant, label) pair (and, with `model`, of the network's
+    prediction and of its rank mix with `wrist/passed`)."""
     with open(os.path.join(data_dir, MANIFEST)) as fh:
         manifest = json.load(fh)
     config = GenerateConfig.from_json(manifest["config"])
@@ -83,6 +89,18 @@ def per_tool(data_dir: str) -> tuple[list[dict], dict]:
             c = np.asarray(costs[params].slip, float)[ok]
             for lab in SLIP_LABELS:
                 row[f"slip[{name}]~{lab}"] = spearman(c, a[f"label_{lab}"][ok])
+        if model is not None:
+            from scipy.stats import rankdata
+
+            import itup_jax as itup
+
+            net = np.asarray(itup.score(tool, task, grasps, model=model).tau, float)[ok]
+            phys = np.asarray(costs[TORQUE_VARIANTS["wrist/passed"]].tau, float)[ok]
+            mix = rankdata(net) + rankdata(phys)
+            name = os.path.basename(str(model).rstrip("/"))
+            for lab in TORQUE_LABELS:
+                row[f"net[{name}]~{lab}"] = spearman(net, a[f"label_{lab}"][ok])
+                row[f"mix[{name}+wrist/passed]~{lab}"] = spearman(mix, a[f"label_{lab}"][ok])
         for name, d in grasp_descriptors(tool, task, a).items():
             for lab in TORQUE_LABELS:
                 row[f"geom[{name}]~{lab}"] = spearman(d[ok], a[f"label_{lab}"][ok])
@@ -174,6 +192,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--randomize", action="store_true", help="generate with randomised physics (default: nominal)")
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="hammer, 2 tools, 16 grasps (tests)")
+    ap.add_argument("--model", default=None,
+                    help="also rank an SDG-Net's predicted torque ('sdgnet': the shipped checkpoint, or a path) and "
+                    "its rank mix with the wrist/passed cost")
     ap.add_argument("--out", default="results/analytic_vs_measured")
     a = ap.parse_args(argv)
     if a.quick:
@@ -188,7 +209,7 @@ def main(argv=None) -> dict:
     elif not os.path.exists(os.path.join(a.data, MANIFEST)):
         print(f"analytic_vs_measured: --data {a.data!r} holds no dataset manifest", file=sys.stderr)
         raise SystemExit(2)
-    rows, config = per_tool(a.data)
+    rows, config = per_tool(a.data, a.model)
     if not rows:
         print(f"analytic_vs_measured: no shard of {a.data!r} has 3 or more valid rollouts", file=sys.stderr)
         raise SystemExit(2)

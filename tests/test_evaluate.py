@@ -441,8 +441,11 @@ def test_torque_failure_quick(tmp_path, monkeypatch):
 
 
 def test_analytic_vs_measured_quick(tmp_path, monkeypatch):
-    _run_experiment("analytic_vs_measured.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    _run_experiment("analytic_vs_measured.py", ["--quick", "--model", "sdgnet", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "analytic_vs_measured.json").read_text())
+    # the network's ranking beside the costs', and its rank mix with the wrist/passed cost
+    assert {"net[sdgnet]~peak_torque_induced", "mix[sdgnet+wrist/passed]~peak_torque_induced"} <= set(doc["per_tool"][0])
+    assert all(-1 <= r["net[sdgnet]~peak_torque_induced"] <= 1 for r in doc["per_tool"])
     jsonschema.validate(doc, load_schema("analytic_vs_measured"))
     assert len(doc["per_tool"]) == 2 and set(doc["summary"]) == {"hammer", "all"}
     # the com lever arm with the full torque does not depend on the grasp: no ranking, reported as null
