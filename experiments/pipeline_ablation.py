@@ -197,6 +197,7 @@ def main(argv=None) -> int:
                                  "tool": None if r.grounding is None else r.grounding.tool_name,
                                  "task_reachable": r.counts.get("task_reachable"),
                                  "picks": r.counts.get("picks"),
+                                 "actions": [a["action"] for a in r.attempts],
                                  "pick_position_error_m": None if r.pick is None else r.pick.position_error,
                                  "pick_angle_error_rad": None if r.pick is None else r.pick.angle_error,
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],

@@ -631,6 +631,7 @@ def test_ablation_experiment_quick(tmp_path):
     assert sum(j["cells"]["2/hammer/copa"]["stages"].values()) == 1
     # the success with the first pick alone, from the same runs: never above the success with picking again
     assert j["max_attempts"] == pipeline.MAX_PICK_ATTEMPTS
+    assert all(len(r["actions"]) == max((r["picks"] or 0) - 1, 0) for r in j["rows"] if r["stage"] in ("grip", "task", "done"))
     for c in j["cells"].values():
         assert c["first_pick_successes"] <= c["successes"] and c["repicked"] <= c["trials"]
     rows = [dict(r, success=True, picks=k) for r, k in zip(j["rows"], (1, 2, None, 3))]
