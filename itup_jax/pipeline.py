@@ -80,12 +80,9 @@ STAGES = ("grounding", "plan", "pick", "grip", "task", "done")
 #: Steps between the pick's recorded poses when traces are kept (every 10 ms at the pick's 2 ms step).
 PICK_LOG_EVERY = 5
 #: Picks a run tries at most (`run(max_attempts=)`), and how far (m, tool frame) a grasp must lie from
-#: every grasp already tried to be planned again; and after a pick that did not bring the tool up (it
-#: turned in the pads or stayed down), the share of that pick's lift load (`pickup.lift_torque`) the
-#: next pick may ask of the pads' torsional grip.
+#: every grasp already tried to be planned again.
 MAX_PICK_ATTEMPTS = 3
 RETRY_EXCLUSION = 0.015
-RETRY_LOAD_SHARE = 0.75
 #: m, the band below a tool's far end whose points make the object-level default contact.
 FAR_END_BAND = 0.005
 
@@ -204,11 +201,10 @@ def _join_traces(traces: list[dict]) -> dict:
 
 
 def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: int, grip_force: float,
-          tried: list[np.ndarray], lift_share: float | None = None) -> dict:
+          tried: list[np.ndarray]) -> dict:
     """Stage 4 on table `top`: rounds of `samples` grasps (seeds seed * SAMPLE_ROUNDS + r) until
     MIN_CANDIDATES can be picked within LIFT_TORQUE_SHARE and carried through the task with margin,
-    leaving out grasps within RETRY_EXCLUSION of a `tried` origin; `lift_share` (default
-    LIFT_TORQUE_SHARE) the share of the pads' torsional capacity the lift may load. Returns {"counts", "grasps", "shifts",
+    leaving out grasps within RETRY_EXCLUSION of a `tried` origin. Returns {"counts", "grasps", "shifts",
     "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends, and where
     grasps could be picked but none carried: "turnable": (of the pickable grasps whose turn the arm can
     follow, `pickup.can_turn_over`, the one [1] whose lift loads the pads least, its joint path, its lift
@@ -216,8 +212,6 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
     from itup_jax.pickup import LIFT_TORQUE_SHARE, pick_candidates, reachable_with_margin
-
-    share = LIFT_TORQUE_SHARE if lift_share is None else min(float(lift_share), LIFT_TORQUE_SHARE)
 
     counts: dict = {"sampled": 0, "rounds": 0}
     found = []  # (grasps, shift, q_path, lift_load) of each round's pickable, task-reachable candidates
@@ -247,7 +241,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
             keep = np.nonzero(ok)[0]
             found.append((cands.grasps[keep], cands.shift[keep], cands.q_path[keep], cands.lift_load[keep]))
             counts["lift_within_share"] = counts.get("lift_within_share", 0) + int(
-                (cands.lift_load[keep] <= share).sum())
+                (cands.lift_load[keep] <= LIFT_TORQUE_SHARE).sum())
         if counts.get("lift_within_share", 0) >= MIN_CANDIDATES:
             break
     if not found:
@@ -283,7 +277,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
     # plan within the lift torque share where any grasp allows it (else among the MIN_CANDIDATES that
     # load the lift least)
     if counts.get("lift_within_share"):
-        keep = np.nonzero(lift_load <= share)[0]
+        keep = np.nonzero(lift_load <= LIFT_TORQUE_SHARE)[0]
     else:
         keep = np.sort(np.argsort(lift_load, kind="stable")[:MIN_CANDIDATES])
     counts["scored"] = len(keep)
@@ -313,8 +307,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         that cannot be carried through the task, puts it back down (`pickup.put_back`); where no
         pickable grasp can be carried through the task, a pick turns the tool over (`pickup.turn_over`);
         either way the table is planned again from the tools' new rest poses, without the grasps within
-        RETRY_EXCLUSION of those tried, and after a pick that did not bring the tool up, within
-        RETRY_LOAD_SHARE of its lift load. 1: one pick, as planned first.
+        RETRY_EXCLUSION of those tried. 1: one pick, as planned first.
     """
     import itup_jax as itup
     from itup_jax.pickup import execute_pick, put_back, turn_over
@@ -353,12 +346,11 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     counts: dict = {}
     attempts: list[dict] = []  # the picks that could not go on: what was tried, what happened
     tried: list[np.ndarray] = []  # their planned grasp origins (tool frame)
-    lift_share = None  # after a pick that did not come up: RETRY_LOAD_SHARE of its lift load
     logged: list[dict] = []  # with traces: the earlier picks' and put-backs' recorded poses
     board = top
     for attempt in range(max_attempts):
         planned = _plan(board, g, tool, task, seed=int(seed), samples=int(samples), grip_force=grip_force,
-                        tried=tried, lift_share=lift_share)
+                        tried=tried)
         counts = dict(planned["counts"], picks=len(attempts))
         if "failure" in planned and "turnable" in planned and attempt + 1 < max_attempts:
             # no grasp the task can use is pickable from this rest pose: pick the tool up by the grasp
@@ -422,8 +414,6 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
             return end("pick", why, **kw)
         attempts.append({"choice": choice, "pick": pick.to_json(), "why": why, "action": "put_back"})
         tried.append(np.asarray(grasps_k.p_tool_grasp, float)[best])
-        if not pick.lifted:  # the grip did not hold that lift: ask less of it
-            lift_share = RETRY_LOAD_SHARE * float(planned["lift_load"][best])
         back = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force,
                         record_every=PICK_LOG_EVERY if traces else None)
         if traces:

@@ -554,14 +554,6 @@ def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monk
     assert r.stage == "done" and "did not come up" in r.attempts[0]["why"]
     first, second = (np.asarray(x["p_tool_grasp"]) for x in (r.attempts[0]["choice"], r.choice))
     assert np.linalg.norm(first - second) >= pipeline.RETRY_EXCLUSION
-    # the grip did not bring the tool up: the next plan asks less of its torsion, at most RETRY_LOAD_SHARE
-    # of that pick's lift load (here 0.02 of the capacity: no grasp loads it less, so the plan falls back
-    # to the least-loaded ones, as when none is within the share)
-    c, share = r.counts, pipeline.RETRY_LOAD_SHARE * r.attempts[0]["choice"]["lift_load"]
-    if c["lift_within_share"]:
-        assert r.choice["lift_load"] <= share + 1e-4
-    else:
-        assert c["scored"] == min(c["task_reachable"], pipeline.MIN_CANDIDATES) and r.attempts[0]["choice"]["lift_load"] < 0.05
     assert r.pick_tabletop is not None and r.pick_tabletop is not r.tabletop
     # the log holds both picks and the put-back between them, in turn
     tr = r.pick.trace
