@@ -99,7 +99,8 @@ class RunResult:
       counts: candidates at each filter (sampled, pickable, task-reachable, within the lift torque
         share, scored).
       choice: the chosen candidate's index among the scored ones, its score and its lift load
-        (`pickup.lift_torque`).
+        (`pickup.lift_torque`); for a pick that turned the tool over, index -1, the scorer
+        'turn over: the least lift load' and the lift load as its score.
       pick: `pickup.PickResult` of the last pick (None when no pick ran).
       attempts: the picks before it, each {"choice", "pick" (its JSON), "why", "action"}: 'put_back'
         (it could not go on: the tool put back down, `pickup.put_back`) or 'turn_over' (no grasp the
