@@ -61,9 +61,11 @@ from itup_jax.tabletop import (
     TABLE_FRICTION,
     Tabletop,
     _add_tool_body,
+    _rot,
     _tools_spec,
     rest_loads,
     tool_contacts,
+    tool_poses,
 )
 from itup_jax.tool import Tool
 
@@ -169,10 +171,43 @@ def _corners(width: np.ndarray) -> np.ndarray:
     return np.stack(out, axis=1)
 
 
-def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
-    """[M, 2 PATH_SAMPLES + 1, 4, 4] flange poses: pre-grasp -> grasp -> lift (straight lines)."""
+def _to_flange(T_world_grasp: np.ndarray) -> np.ndarray:
+    """[..., 4, 4] the flange poses (what the IK solves for) of grasp-frame poses [..., 4, 4]: FLANGE_TO_GRASP
+    back along the approach axis."""
     flange = np.eye(4)
     flange[2, 3] = -robot.FLANGE_TO_GRASP
+    return T_world_grasp @ flange
+
+
+def _ik_ok(q: np.ndarray) -> np.ndarray:
+    """[...] bool: joint paths q [..., P, 6] (`ik.track`) reachable at every sample and within the joint limits."""
+    return ~np.isnan(q).any(axis=(-2, -1)) & ~(np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(-2, -1))
+
+
+def _mj_warnings(d: mujoco.MjData) -> int:
+    """How often MuJoCo met a bad acceleration, velocity or position (and reset the state)."""
+    return sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                  mujoco.mjtWarning.mjWARN_BADQPOS))
+
+
+def _jaw_preshape(m: mujoco.MjModel, d: mujoco.MjData, width: float):
+    """(q_open, servo): the finger joints' position at which the pads stand `approach_opening(width)` apart
+    (pad faces INITIAL_SQUEEZE past qpos), and the grip actuator's force that holds them there
+    (PRESHAPE_GAIN, PRESHAPE_DAMPING, within +-OPEN_FORCE) in the state `d`."""
+    from itup_jax.simulate import INITIAL_SQUEEZE
+
+    fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
+    fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
+    q_open = float(approach_opening(np.array([width], float))[0]) / 2 - INITIAL_SQUEEZE
+
+    def servo() -> float:
+        f = PRESHAPE_GAIN * (d.qpos[fq].mean() - q_open) + PRESHAPE_DAMPING * d.qvel[fv].mean()
+        return float(np.clip(f, -OPEN_FORCE, OPEN_FORCE))
+    return q_open, servo
+
+
+def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
+    """[M, 2 PATH_SAMPLES + 1, 4, 4] flange poses: pre-grasp -> grasp -> lift (straight lines)."""
     s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
     approach = T_world_grasp[:, :3, 2]
     offs = np.concatenate([-PICK_APPROACH * (1 - s)[None, :, None] * approach[:, None, :],
@@ -180,7 +215,7 @@ def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
                                            (len(approach), PATH_SAMPLES, 3))], axis=1)  # [M, P, 3]
     T = np.repeat(T_world_grasp[:, None], offs.shape[1], axis=1).copy()
     T[..., :3, 3] += offs
-    return T @ flange
+    return _to_flange(T)
 
 
 @functools.lru_cache(maxsize=8)
@@ -313,7 +348,7 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
     T_wg[:, :3, :3] = R_wg[idx]
     T_wg[:, :3, 3] = p_s[idx] @ T_wt[:3, :3].T + T_wt[:3, 3]
     q = ik.track(_world_paths(T_wg), robot.HOME_Q, min_height=robot.ARM_CLEARANCE) if len(idx) else np.zeros((0, 2 * PATH_SAMPLES + 1, 6))
-    good = ~np.isnan(q).any(axis=(1, 2)) & ~(np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(1, 2))
+    good = _ik_ok(q)
     counts["reachable"] = int(good.sum())
     idx, q = idx[good], q[good]
     out = make_grasps(p_s[idx], R_tg[idx], w[idx]) if len(idx) else None
@@ -436,14 +471,9 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
     tq = m.joint(f"tool_{index}").qposadr[0]
     d.qpos[arm_q] = q_path[0]
-    # the jaw pre-shaped to the opening the clearance checks assumed (pad faces INITIAL_SQUEEZE past qpos)
-    q_open = float(approach_opening(np.asarray(grasp.width, float).reshape(-1)[:1])[0]) / 2 - INITIAL_SQUEEZE
+    # the jaw pre-shaped to the opening the clearance checks assumed
+    q_open, preshape = _jaw_preshape(m, d, float(np.asarray(grasp.width, float).reshape(-1)[0]))
     d.qpos[fq] = q_open
-    fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
-
-    def preshape() -> float:
-        f = PRESHAPE_GAIN * (d.qpos[fq].mean() - q_open) + PRESHAPE_DAMPING * d.qvel[fv].mean()
-        return float(np.clip(f, -OPEN_FORCE, OPEN_FORCE))
     mujoco.mj_forward(m, d)
     body = m.body(f"tool_{index}").id
     z0 = float(d.xipos[body][2])
@@ -483,9 +513,7 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
             rec_p.append(d.xpos[bodies].copy())
             rec_q.append(d.xquat[bodies].copy())
     # MuJoCo resets the state when it meets a bad value (and counts a warning): either means unstable
-    warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
-                                                    mujoco.mjtWarning.mjWARN_BADQPOS))
-    diverged = warned > 0 or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
+    diverged = _mj_warnings(d) > 0 or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
     rise = float(d.xipos[body][2]) - z0
     tool_geoms = {m.geom(g).id for g in geoms}
     pads = {m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id}
@@ -571,16 +599,8 @@ class _Going:
         """Hold the arm at `q` [6] while the jaw opens to `approach_opening(width)` (the pre-shape servo,
         within +-OPEN_FORCE, as the pick approaches): the tool is let go of without the fingers
         sweeping their whole stroke."""
-        from itup_jax.simulate import INITIAL_SQUEEZE
-
         m, d = self.m, self.d
-        fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
-        fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
-        q_open = float(approach_opening(np.array([width]))[0]) / 2 - INITIAL_SQUEEZE
-
-        def servo() -> float:
-            f = PRESHAPE_GAIN * (d.qpos[fq].mean() - q_open) + PRESHAPE_DAMPING * d.qvel[fv].mean()
-            return float(np.clip(f, -OPEN_FORCE, OPEN_FORCE))
+        _, servo = _jaw_preshape(m, d, width)
         self.jaw = servo
         d.ctrl[self.act], d.ctrl[self.act_v] = q, np.zeros(6)
         for _ in range(int(round(duration / m.opt.timestep))):
@@ -618,9 +638,7 @@ class _Going:
         else:
             return self.result(None, f"the tools had not come to rest {PUT_BACK_SETTLE[1]:g} s after {what} "
                                f"(fastest point {speed:.3f} m/s)")
-        warned = sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC,
-                                                        mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS))
-        if warned:
+        if _mj_warnings(d):
             return self.result(None, unstable)
         # a tool still touching the gripper (left in the open jaw) is not at rest on the table
         gripper = {g for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
@@ -630,13 +648,8 @@ class _Going:
             if (g1 in gripper and int(m.geom_bodyid[g2]) in tool_bodies) or (
                     g2 in gripper and int(m.geom_bodyid[g1]) in tool_bodies):
                 return self.result(None, f"a tool stayed in the open jaw after {what}")
-        poses = np.empty((len(top.tools), 4, 4))
-        for i in range(len(top.tools)):
-            b = m.body(f"tool_{i}").id
-            poses[i] = np.eye(4)
-            poses[i][:3, :3] = d.xmat[b].reshape(3, 3)
-            poses[i][:3, 3] = d.xpos[b]
-        return self.result(dataclasses.replace(top, poses=poses, settle_time=float(t), rest_speed=float(speed)))
+        return self.result(dataclasses.replace(top, poses=tool_poses(m, d, len(top.tools)), settle_time=float(t),
+                                               rest_speed=float(speed)))
 
     def result(self, tabletop: Tabletop | None, why: str | None = None) -> PutBack:
         trace = None
@@ -676,9 +689,6 @@ def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: 
     TURN_RELEASE above the table; then (after the jaw opens) back along the turned approach axis by
     PICK_APPROACH."""
     s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    rot = lambda th: np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K  # noqa: E731
     T0 = np.asarray(T_world_grasp, float)
     poses = [T0.copy() for _ in s]
     for T, x in zip(poses, s):
@@ -686,7 +696,7 @@ def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: 
     top = poses[-1]
     for x in s[1:]:
         T = top.copy()
-        T[:3, :3] = rot(angle * x) @ top[:3, :3]
+        T[:3, :3] = _rot(axis, angle * x) @ top[:3, :3]
         poses.append(T)
     turned = poses[-1]
     lowest = float(np.min(np.einsum("j,cj->c", turned[:3, :3][2], _corners(np.array([width]))[0])))
@@ -700,9 +710,7 @@ def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: 
         T = down.copy()
         T[:3, 3] -= x * PICK_APPROACH * down[:3, 2]
         poses.append(T)
-    flange = np.eye(4)
-    flange[2, 3] = -robot.FLANGE_TO_GRASP
-    return np.stack(poses) @ flange
+    return _to_flange(np.stack(poses))
 
 
 def _turn_axis(R_world_tool: np.ndarray) -> np.ndarray | None:
@@ -734,7 +742,7 @@ def can_turn_over(top: Tabletop, index: int, grasps: Grasps, q_paths: np.ndarray
             T[:3, :3], T[:3, 3] = R_wg[k], p_wg[k] + [0.0, 0.0, PICK_LIFT]
             paths.append(turn_path(T, axis, float(width[k]), angle))
         q = ik.track(np.stack(paths), np.asarray(q_paths, float)[:, -1], min_height=robot.ARM_CLEARANCE)
-        ok |= ~(np.isnan(q).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(1, 2)))
+        ok |= _ik_ok(q)
     return ok
 
 
@@ -764,7 +772,7 @@ def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float 
     n = PATH_SAMPLES
     for angle in (TURN_ANGLE, -TURN_ANGLE):
         q = ik.track(turn_path(T_wg, axis, width, angle)[None], q_now, min_height=robot.ARM_CLEARANCE)[0]
-        if not (np.isnan(q).any() or (np.abs(q) > robot.JOINT_LIMITS).any()):
+        if _ik_ok(q):
             break
     else:
         return PutBack(tabletop=None, why="the arm cannot turn the tool over either way (IK)")

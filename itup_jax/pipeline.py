@@ -344,11 +344,15 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         task = itup.make_task(g.task, tool)
     except InputError as exc:
         return end("plan", str(exc), grounding=g, tool=tool)
-    counts: dict = {}
     attempts: list[dict] = []  # the picks that could not go on: what was tried, what happened
     tried: list[np.ndarray] = []  # their planned grasp origins (tool frame)
     logged: list[dict] = []  # with traces: the earlier picks' and put-backs' recorded poses
+    rec = PICK_LOG_EVERY if traces else None
     board = top
+
+    def with_log(pick, *more):
+        """`pick` carrying the whole log: the earlier picks and put-backs, then `more` (with traces)."""
+        return dataclasses.replace(pick, trace=_join_traces(logged + list(more))) if logged else pick
     for attempt in range(max_attempts):
         planned = _plan(board, g, tool, task, seed=int(seed), samples=int(samples), grip_force=grip_force,
                         tried=tried)
@@ -359,26 +363,23 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
             gk, qk, load = planned["turnable"]
             choice = {"index": -1, "scorer": "turn over: the least lift load", "score": load, "shift_m": 0.0,
                       "lift_load": round(load, 4), "p_tool_grasp": np.round(np.asarray(gk.p_tool_grasp)[0], 5).tolist()}
-            pick = execute_pick(board, g.tool_index, gk, qk, grip_force=grip_force,
-                                record_every=PICK_LOG_EVERY if traces else None, keep_state=True)
+            pick = execute_pick(board, g.tool_index, gk, qk, grip_force=grip_force, record_every=rec, keep_state=True)
             counts["picks"] += 1
             kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick, attempts=attempts, board=board)
             if pick.diverged:
                 return end("pick", f"{planned['failure']}; the pick to turn it over went unstable (MuJoCo)", **kw)
             if pick.lifted:
-                why, back = planned["failure"], turn_over(
-                    board, g.tool_index, pick, grip_force=grip_force, record_every=PICK_LOG_EVERY if traces else None)
+                why, back = planned["failure"], turn_over(board, g.tool_index, pick, grip_force=grip_force,
+                                                          record_every=rec)
             else:
                 why, back = f"{planned['failure']}; the pick to turn it over did not lift it", put_back(
-                    board, g.tool_index, pick, qk, grip_force=grip_force, record_every=PICK_LOG_EVERY if traces else None)
+                    board, g.tool_index, pick, qk, grip_force=grip_force, record_every=rec)
             attempts.append({"choice": choice, "pick": pick.to_json(), "why": why,
                              "action": "turn_over" if pick.lifted else "put_back"})
             if traces:
                 logged += [pick.trace] + ([back.trace] if back.trace is not None else [])
             if back.tabletop is None:
-                if logged:
-                    kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged))
-                return end("pick", f"{why}; {back.why}", **kw)
+                return end("pick", f"{why}; {back.why}", **dict(kw, pick=with_log(pick)))
             board = back.tabletop
             continue
         if "failure" in planned:
@@ -397,7 +398,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
                   "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
         last = attempt + 1 == max_attempts
         pick = execute_pick(board, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
-                            record_every=PICK_LOG_EVERY if traces else None, keep_state=not last)
+                            record_every=rec, keep_state=not last)
         counts["picks"] += 1
         kw = dict(grounding=g, tool=tool, counts=counts, choice=choice, pick=pick, attempts=attempts, board=board)
         if pick.diverged:
@@ -410,22 +411,16 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         else:
             break
         if last or pick.diverged:
-            if logged:
-                kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged + [pick.trace]))
-            return end("pick", why, **kw)
+            return end("pick", why, **dict(kw, pick=with_log(pick, pick.trace)))
         attempts.append({"choice": choice, "pick": pick.to_json(), "why": why, "action": "put_back"})
         tried.append(np.asarray(grasps_k.p_tool_grasp, float)[best])
-        back = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force,
-                        record_every=PICK_LOG_EVERY if traces else None)
+        back = put_back(board, g.tool_index, pick, q_paths[best], grip_force=grip_force, record_every=rec)
         if traces:
             logged += [pick.trace, back.trace]
         if back.tabletop is None:
-            if logged:
-                kw["pick"] = dataclasses.replace(pick, trace=_join_traces(logged))
-            return end("pick", f"{why}; {back.why}", **kw)
+            return end("pick", f"{why}; {back.why}", **dict(kw, pick=with_log(pick)))
         board = back.tabletop
-    if logged:
-        kw["pick"] = pick = dataclasses.replace(pick, trace=_join_traces(logged + [pick.trace]))
+    kw["pick"] = pick = with_log(pick, pick.trace)
     sim = simulate(tool, task, pick.achieved, seed=int(seed), randomize=Randomization() if randomize else None,
                    config=SimConfig(grip_force=float(grip_force)), traces=traces)
     L = sim.labels

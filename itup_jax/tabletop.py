@@ -263,13 +263,18 @@ def drop(tools: Sequence[Tool], poses: np.ndarray) -> tuple[np.ndarray, float, f
     else:
         raise InputError(f"make_tabletop: the tools did not come to rest within {DROP_MAX_TIME} s (fastest point "
                          f"{speed:.3f} m/s)")
-    out = np.empty((len(tools), 4, 4))
-    for i in range(len(tools)):
+    return tool_poses(m, d, len(tools)), t, speed
+
+
+def tool_poses(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> np.ndarray:
+    """[n, 4, 4] the world poses of the bodies 'tool_0' .. 'tool_<n-1>' in MuJoCo's current state."""
+    out = np.empty((n, 4, 4))
+    for i in range(n):
         b = m.body(f"tool_{i}").id
         out[i] = np.eye(4)
         out[i][:3, :3] = d.xmat[b].reshape(3, 3)
         out[i][:3, 3] = d.xpos[b]
-    return out, t, speed
+    return out
 
 
 def rest_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray]:
