@@ -16,6 +16,14 @@ the world (property C1) nor under a different choice of the tool's mesh frame:
   contact [9]      primary contact point, primary interaction normal at the step of peak torque, and
                    centre of mass, in the grasp frame.
   physics [4]      log mass, pad friction, restitution, log contact duration.
+  wrist [6]        (only with `FeatureSpec.wrist`) the same rigid-body loads as the wrist's force/torque
+                   site would read them, FLANGE_TO_GRASP behind the grasp along its approach axis: the
+                   peak |component| of that torque per grasp-frame axis, the peak of its norm, the peak
+                   the pads pass on (the closure-axis part capped by their torsional friction at
+                   WRIST_GRIP_FORCE per pad, as `costs` 'passed'), and the peak grip demand of the
+                   loads about the grasp (`grip_demand`, N per pad); each as log1p(x / scale), the
+                   network's own target transform (scales WRIST_TORQUE_SCALE, 1 N), so that the
+                   analytic ranking is one linear read-out away.
 
 Sizes and scales live in `FeatureSpec` (static), stored with a checkpoint so a scorer rebuilds the
 same features.
@@ -32,7 +40,9 @@ import numpy as np
 import trimesh
 
 from itup_jax.grasp import Grasps, rotation_matrix
+from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
+from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
 from itup_jax.shapes import pad_zeros_high, to_device
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads
@@ -47,13 +57,27 @@ class FeatureSpec:
     grid_half_width: float = 0.06  # m
     seed: int = 0
     field_spacing: float = 0.004  # m, voxel pitch of the tabulated density (Gaussian sigma / 7.5)
+    wrist: bool = False  # append the wrist block (module docstring)
 
     @property
     def size(self) -> int:
-        return self.grid**3 + 12 + 9 + 4
+        return self.grid**3 + 12 + 9 + 4 + (WRIST_SIZE if self.wrist else 0)
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The spec as stored in datasets and checkpoints; `wrist` only when set, so a spec without the
+        block reads and compares as the specs written before the block existed."""
+        d = dataclasses.asdict(self)
+        if not self.wrist:
+            d.pop("wrist")
+        return d
+
+
+#: Size of the optional wrist block, its torque scale (N m, SDG-Net's `TrainConfig.torque_scale`) and
+#: the squeeze per pad (N, `simulate.SimConfig.grip_force`) at which the pads' torsional cap is taken.
+WRIST_SIZE = 6
+WRIST_TORQUE_SCALE = 0.02
+WRIST_GRIP_FORCE = 100.0
+_TINY, _SQRT_TINY = 1e-24, 1e-12
 
 
 def surface_sample(tool: Tool, spec: FeatureSpec) -> jax.Array:
@@ -159,7 +183,26 @@ def grasp_features(field: DensityField, loads: Loads, tool: ToolParams, grasp: G
     contact = jnp.concatenate([to_grasp(loads.contact_point_tool - p), to_grasp(loads.normal_tool[k]),
                                to_grasp(tool.com - p)])
     physics = jnp.stack([jnp.log(tool.mass), tool.mu, tool.restitution, jnp.log(tool.contact_duration)])
-    return jnp.concatenate([occ, load_feats, contact, physics])
+    if not spec.wrist:
+        return jnp.concatenate([occ, load_feats, contact, physics])
+    return jnp.concatenate([occ, load_feats, contact, physics, wrist_block(F, tau, tool.mu, grasp.width)])
+
+
+def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -> jax.Array:
+    """[WRIST_SIZE] the wrist block of one grasp from its loads about the grasp origin, force F [3, T] (N)
+    and torque tau [3, T] (N m) in grasp-frame axes (x third, y closure, z approach), pad friction mu []
+    and jaw opening width [] (m). The wrist sits at -FLANGE_TO_GRASP e_z, so its torque is
+    tau + FLANGE_TO_GRASP e_z x F."""
+    d = FLANGE_TO_GRASP
+    tw = jnp.stack([tau[0] - d * F[1], tau[1] + d * F[0], tau[2]])  # [3, T] about the wrist site
+    cap = 2.0 * PAD_TORSION * mu * WRIST_GRIP_FORCE
+    full_sq = tw[0] ** 2 + tw[1] ** 2 + tw[2] ** 2
+    passed_sq = tw[0] ** 2 + tw[2] ** 2 + jnp.minimum(jnp.abs(tw[1]), cap) ** 2
+    grip_sq = grip_demand_sq(F.T, tau.T, mu, width, xp=jnp)
+    peaks = jnp.stack([full_sq.max(), passed_sq.max(), grip_sq.max()])
+    peaks = jnp.sqrt(peaks + _TINY) - _SQRT_TINY  # a finite gradient where a load is zero
+    s = WRIST_TORQUE_SCALE
+    return jnp.concatenate([jnp.log1p(jnp.abs(tw).max(1) / s), jnp.log1p(peaks[:2] / s), jnp.log1p(peaks[2:])])
 
 
 def _batched(field, loads, tool, grasps, spec):

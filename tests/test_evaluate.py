@@ -454,6 +454,22 @@ def test_analytic_vs_measured_quick(tmp_path, monkeypatch):
     assert (tmp_path / "analytic_vs_measured.png").stat().st_size > 10_000
 
 
+def test_wrist_features_quick(tmp_path, monkeypatch):
+    """Both inputs trained on the same rows (the datasets' features made again, checked against the stored
+    ones inside), each judged on a family it never saw."""
+    from itup_jax.sdgnet import load_model
+
+    _run_experiment("wrist_features.py", ["--quick", "--seeds", "0", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "wrist_features.json").read_text())
+    jsonschema.validate(doc, load_schema("wrist_features"))
+    assert doc["arms"]["wrist"]["features"] == doc["arms"]["base"]["features"] + 6
+    assert load_model(str(tmp_path / "sdgnet_wrist_seed0.npz")).feature_spec.wrist
+    assert not load_model(str(tmp_path / "sdgnet_base_seed0.npz")).feature_spec.wrist
+    row = doc["results"]["spanner"]["hammer"]
+    assert row["tools"] == 1 and {"base@0_induced", "wrist@0_induced", "wrist_no_shape@0_induced"} <= set(row)
+    assert -1 <= row["passed_induced"] <= 1 and "held-out families (median of rows)" in doc["table"]
+
+
 def test_experiments_refuse_a_missing_dataset(tmp_path, monkeypatch, capsys):
     for script in ("torque_failure.py", "analytic_vs_measured.py"):
         with pytest.raises(SystemExit) as e:

@@ -118,3 +118,45 @@ def test_load_features_are_the_textbook_form_bit_for_bit(tasks):
         want = np.asarray(jax.jit(jax.vmap(textbook))(grasps))
         got = _features(tool.params, surface_sample(tool, SPEC), task, grasps)[:, g:g + 12]
         assert got.tobytes() == want.tobytes()
+
+
+WRIST = FeatureSpec(num_points=256, wrist=True)
+
+
+def test_wrist_block_is_the_costs_at_the_wrist(hammer_case):
+    """The optional wrist block holds, as log1p(x / scale), the peaks `costs` computes on its own path:
+    the full torque about the wrist site, the part the pads pass on at 100 N per pad, and the grip
+    demand about the grasp (C_tau 'grip' = 2 c_t N_grip)."""
+    from itup_jax.costs import CostParams, wrench_costs
+    from itup_jax.features import WRIST_GRIP_FORCE, WRIST_SIZE, WRIST_TORQUE_SCALE
+    from itup_jax.robot import PAD_TORSION
+
+    tool, task, g, pts = hammer_case
+    loads, field = task_loads(tool.params, task), density_field(pts, WRIST)
+    f = np.asarray(jax.jit(jax.vmap(lambda x: grasp_features(field, loads, tool.params, x, WRIST)))(g))
+    assert f.shape == (16, SPEC.size + WRIST_SIZE)
+    np.testing.assert_array_equal(f[:, :SPEC.size], _features(tool.params, pts, task, g))  # the rest unchanged
+    w = f[:, SPEC.size:]
+
+    def cost(**kw):
+        return np.asarray(wrench_costs(tool, task, g, CostParams(**kw)).tau, float)
+
+    full = cost(lever_arm="wrist", torque_projection="full")
+    passed = cost(lever_arm="wrist", torque_projection="passed", grip_force=WRIST_GRIP_FORCE)
+    grip = cost(torque_projection="grip") / (2 * PAD_TORSION)
+    np.testing.assert_allclose(WRIST_TORQUE_SCALE * np.expm1(w[:, 3]), full, rtol=1e-9)
+    np.testing.assert_allclose(WRIST_TORQUE_SCALE * np.expm1(w[:, 4]), passed, rtol=1e-9)
+    np.testing.assert_allclose(np.expm1(w[:, 5]), grip, rtol=1e-9)
+    # the per-axis peaks bound the norm's peak: max_t |v| <= sqrt(sum_i max_t v_i^2) <= sum_i max_t |v_i|
+    axes = WRIST_TORQUE_SCALE * np.expm1(w[:, :3])
+    assert np.all(full <= np.sqrt((axes**2).sum(1)) * (1 + 1e-12)) and np.all(full >= axes.max(1) * (1 - 1e-12))
+    assert np.all(passed <= full * (1 + 1e-12)) and np.any(passed < 0.99 * full)  # the cap binds on some grasps
+
+
+def test_a_spec_without_the_wrist_block_reads_as_before():
+    """Datasets and checkpoints store `to_dict()`; one written before the block existed has no 'wrist'
+    key and must compare equal to, and load as, the default spec."""
+    old = {"num_points": 512, "grid": 4, "grid_half_width": 0.06, "seed": 0, "field_spacing": 0.004}
+    assert FeatureSpec().to_dict() == old and FeatureSpec(**old) == FeatureSpec()
+    assert FeatureSpec(wrist=True).to_dict() == old | {"wrist": True}
+    assert FeatureSpec(**FeatureSpec(wrist=True).to_dict()).size == FeatureSpec().size + 6

@@ -1,0 +1,256 @@
+"""Does SDG-Net rank new tool families better when it is given the wrist's rigid-body torque as input?
+
+The analytic torque at the wrist, with the closure-axis part capped by the pads' torsional friction
+('wrist/passed', docs/results.md "Why the ranking does not carry to new families"), ranks the measured
+full induced peak torque at 0.30-0.64 on held-out families where the network, which never saw them, ranks
+at 0.10-0.31; mixing the two rankings after the fact does not help. Here the physics becomes the
+network's input instead: `features.FeatureSpec(wrist=True)` appends six features (the wrist torque's
+peak per grasp-frame axis, its peak norm, the peak the pads pass on, the peak grip demand about the
+grasp; each log1p(x / scale), the targets' own transform), and two networks are trained with the shipped
+checkpoint's recipe on the same rows, one with the block and one without, so that the block is the only
+difference. The datasets' features are made again from their tools, tasks and grasps (no rollout is
+repeated; the base features so made are checked against the stored ones).
+
+    python experiments/wrist_features.py --train /tmp/d11/tr_a /tmp/d11/tr_b /tmp/d11/tr_c /tmp/d11/tr_d \\
+        --eval builtin=/tmp/d10/eval_s1 screwdriver=/tmp/fam11/screwdriver spanner=/tmp/fam11/spanner \\
+               pry_bar=/tmp/fam11/pry_bar hatchet=/tmp/fam11/hatchet squeegee=/tmp/fam11/squeegee \\
+        --out results/wrist_features
+    python experiments/wrist_features.py --quick --out /tmp/wf       # tiny datasets made in --out (tests)
+
+Per evaluation dataset and task, the median over its tools of the Spearman rho between each network's
+predicted full induced peak torque (the norm of its three torque outputs) and the measured one, the same
+for grip demand, and the analytic 'wrist/passed' torque's rho beside them (the block's own feature, no
+training). No evaluation tool is in the training data (the family datasets hold families the training
+rows do not; `eval_s1` holds unseen stretched tools of the built-in families and the built-in tools,
+which the training rows hold too: its `builtin` row reads variants >= 1 only). Writes wrist_features.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from itup_jax.atomic import atomic_write_json
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: The networks compared: (name, the wrist block in the input, the occupancy grid in the input). The third
+#: keeps everything but the tool's shape near the grasp: the loads, contact, physics and wrist blocks.
+ARMS = (("base", False, True), ("wrist", True, True), ("wrist_no_shape", True, False))
+
+
+def _tool_index(manifests: list[dict]) -> dict:
+    """(task, tool name) -> (GenerateConfig, variant) for every shard of the datasets."""
+    from itup_jax.dataset import GenerateConfig, unit_tool
+
+    index = {}
+    for m in manifests:
+        config = GenerateConfig.from_json(m["config"])
+        for entry in m["shards"]:
+            tool, _ = unit_tool(config, entry["task"], entry["variant"])
+            index.setdefault((entry["task"], tool.name), (config, entry["variant"]))
+    return index
+
+
+def refeature(data: dict, manifests: list[dict], spec) -> tuple[np.ndarray, np.ndarray]:
+    """[N, spec.size] features of every row of `data` (`dataset.load_datasets`) under `spec`, made again
+    from the rows' tools, tasks and grasps, and [N] the variant of each row's tool."""
+    from itup_jax.dataset import unit_tool
+    from itup_jax.features import batched_features, tool_field
+    from itup_jax.grasp import Grasps
+    from itup_jax.wrench import task_loads
+
+    index = _tool_index(manifests)
+    out = np.zeros((len(data["task"]), spec.size), np.float32)
+    variant = np.zeros(len(data["task"]), int)
+    for key in dict.fromkeys(zip(data["task"].tolist(), data["tool"].tolist())):
+        rows = np.flatnonzero((data["task"] == key[0]) & (data["tool"] == key[1]))
+        config, v = index[key]
+        tool, task = unit_tool(config, key[0], v)
+        g = Grasps(data["grasp_p"][rows], data["grasp_q"][rows], data["grasp_width"][rows])
+        out[rows] = np.asarray(batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params,
+                                                g, spec=spec), np.float32)
+        variant[rows] = v
+    return out, variant
+
+
+def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
+    """The datasets' rows with their features made again under `spec` and under the base spec, and
+    each row's variant; refuses a base remake that differs from the stored features (a wrong tool)."""
+    from itup_jax.dataset import load_datasets
+    from itup_jax.features import FeatureSpec
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data, manifests = load_datasets(paths)
+    base = FeatureSpec(**manifests[0]["config"]["feature_spec"])
+    made, variant = refeature(data, manifests, base)
+    err = float(np.abs(made - data["features"]).max())
+    if err > 1e-4:
+        raise RuntimeError(f"datasets {paths}: features made again differ from the stored ones by {err:g}")
+    wrist, _ = refeature(data, manifests, spec)
+    return {**data, "features": made}, {**data, "features": wrist}, variant
+
+
+def arm_features(arm: tuple, base: np.ndarray, wrist: np.ndarray) -> np.ndarray:
+    """The rows' features as the arm sees them (its occupancy columns zero when it does without them: a
+    constant column is normalised to zero and carries nothing)."""
+    from itup_jax.features import FeatureSpec
+
+    _, with_wrist, with_shape = arm
+    x = (wrist if with_wrist else base).copy()
+    if not with_shape:
+        x[:, :FeatureSpec().grid ** 3] = 0.0
+    return x
+
+
+def evaluate(models: dict, data: dict, variant: np.ndarray, specs: dict, only_new: bool) -> dict:
+    """Per task: the median over tools of each model's Spearman (full induced torque, grip demand) and
+    the analytic wrist/passed torque's (the wrist block's feature 4). `models` and `specs` (the rows'
+    features per model) share their keys."""
+    from itup_jax.features import WRIST_SIZE, WRIST_TORQUE_SCALE
+    from itup_jax.sdgnet import predict_costs
+    from itup_jax.stats import spearman
+
+    out = {}
+    for kind in sorted(set(data["task"].tolist())):
+        per = {f"{a}_{q}": [] for a in models for q in ("induced", "grip")} | {"passed_induced": []}
+        for tool in dict.fromkeys(data["tool"][data["task"] == kind].tolist()):
+            rows = (data["task"] == kind) & (data["tool"] == tool)
+            if only_new and variant[rows][0] == 0:
+                continue
+            if rows.sum() < 3:
+                continue
+            y = data["label_peak_torque_induced"][rows]
+            for a, model in models.items():
+                p = predict_costs(model, specs[a][rows], kind)
+                per[f"{a}_induced"].append(spearman(np.asarray(p["tau"], float), y))
+                per[f"{a}_grip"].append(spearman(np.asarray(p["grip"], float), data["label_grip_demand"][rows]))
+            passed = WRIST_TORQUE_SCALE * np.expm1(data["wrist_features"][rows][:, -WRIST_SIZE + 4])
+            per["passed_induced"].append(spearman(passed, y))
+        out[kind] = {k: float(np.nanmedian(v)) if v else None for k, v in per.items()}
+        out[kind]["tools"] = len(per["passed_induced"])
+    return out
+
+
+def _quick_data(out: str) -> tuple[list[str], list[str]]:
+    """Two tiny datasets (training: the built-in hammer and one variant; evaluation: one spanner)."""
+    from itup_jax.dataset import GenerateConfig, generate
+
+    train_dir, eval_dir = os.path.join(out, "data", "train"), os.path.join(out, "data", "spanner")
+    if not os.path.exists(os.path.join(train_dir, "manifest.json")):
+        generate(train_dir, GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=24, seed=3), progress=False)
+    if not os.path.exists(os.path.join(eval_dir, "manifest.json")):
+        generate(eval_dir, GenerateConfig(tasks=("hammer",), tools_per_task=1, grasps=24, seed=4, family="spanner"),
+                 progress=False)
+    return [train_dir], [f"spanner={eval_dir}"]
+
+
+def main(argv=None) -> dict:
+    from itup_jax.bench import machine_info
+    from itup_jax.features import FeatureSpec
+    from itup_jax.sdgnet import DEFAULT_MODEL, TrainConfig, load_model, save_model, train
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--train", nargs="+", default=[], metavar="DIR", help="training datasets (itup generate)")
+    ap.add_argument("--eval", nargs="+", default=[], metavar="NAME=DIR", help="evaluation datasets")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2],
+                    help="training seeds; every arm is trained once per seed (default %(default)s)")
+    ap.add_argument("--epochs", type=int, default=None, help="training epochs (default: the shipped recipe's)")
+    ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, 5 epochs (for the tests)")
+    ap.add_argument("--out", default="results/wrist_features")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.train, args.eval = _quick_data(args.out)
+        args.epochs = 5
+    if not args.train or not args.eval:
+        ap.error("give --train DIR ... and --eval NAME=DIR ... (or --quick)")
+    evals = []
+    for e in args.eval:
+        name, sep, d = e.partition("=")
+        if not sep or not os.path.exists(os.path.join(d, "manifest.json")):
+            ap.error(f"--eval {e!r}: give NAME=DIR with DIR an itup generate folder")
+        evals.append((name, d))
+    for d in args.train:
+        if not os.path.exists(os.path.join(d, "manifest.json")):
+            ap.error(f"--train {d!r}: not an itup generate folder (no manifest.json)")
+
+    t0 = time.perf_counter()
+    wspec = FeatureSpec(wrist=True)
+    base_rows, wrist_rows, _ = load(args.train, wspec)
+    recipe = load_model(DEFAULT_MODEL).train_config
+    os.makedirs(args.out, exist_ok=True)
+    models, seconds = {}, {}
+    for seed in args.seeds:
+        config = TrainConfig(**{**recipe.__dict__, "seed": seed,
+                                **({} if args.epochs is None else {"epochs": args.epochs, "finetune_epochs": 0})})
+        for arm in ARMS:
+            key = f"{arm[0]}@{seed}"
+            rows = {**base_rows, "features": arm_features(arm, base_rows["features"], wrist_rows["features"])}
+            fs = (wspec if arm[1] else FeatureSpec()).to_dict()
+            t = time.perf_counter()
+            models[key] = train(rows, config, feature_spec=fs, progress=False)
+            seconds[key] = time.perf_counter() - t
+            save_model(os.path.join(args.out, f"sdgnet_{arm[0]}_seed{seed}.npz"), models[key])
+    results = {}
+    for name, d in evals:
+        b, w, variant = load([d], wspec)
+        b["wrist_features"] = w["features"]
+        feats = {k: arm_features(next(a for a in ARMS if a[0] == k.split("@")[0]), b["features"], w["features"])
+                 for k in models}
+        results[name] = evaluate(models, b, variant, feats, only_new=name == "builtin")
+    table = summarise(results, args.seeds)
+    summary = {"schema": "itup.wrist_features/1", "machine": machine_info(), "seconds": time.perf_counter() - t0,
+               "train_seconds": seconds, "train": args.train, "eval": dict(evals), "recipe": recipe.__dict__,
+               "seeds": args.seeds, "arms": {a: {"wrist": w, "shape": sh, "features": (wspec if w else FeatureSpec()).size}
+                                             for a, w, sh in ARMS},
+               "results": results, "table": table}
+    atomic_write_json(os.path.join(args.out, "wrist_features.json"), summary, indent=2)
+    print_table(table)
+    return summary
+
+
+def summarise(results: dict, seeds: list[int]) -> dict:
+    """Per evaluation set and task, and for the held-out families together: each arm's Spearman (full
+    induced torque) as the mean over seeds of the median over tools, its range over seeds, and the
+    analytic wrist/passed torque's."""
+    rows = {}
+    for name, per in results.items():
+        for kind, r in per.items():
+            row = {"tools": r["tools"], "passed": r["passed_induced"]}
+            for arm, *_ in ARMS:
+                v = [r[f"{arm}@{s}_induced"] for s in seeds if r[f"{arm}@{s}_induced"] is not None]
+                g = [r[f"{arm}@{s}_grip"] for s in seeds if r[f"{arm}@{s}_grip"] is not None]
+                row[arm] = {"mean": float(np.mean(v)) if v else None, "min": min(v, default=None),
+                            "max": max(v, default=None), "grip": float(np.mean(g)) if g else None}
+            rows[f"{name}, {kind}"] = row
+    held = [r for k, r in rows.items() if not k.startswith("builtin")]
+    if held:
+        rows["held-out families (median of rows)"] = {
+            "tools": sum(r["tools"] for r in held),
+            "passed": float(np.median([r["passed"] for r in held])),
+            **{arm: {"mean": float(np.median([r[arm]["mean"] for r in held])),
+                     "grip": float(np.median([r[arm]["grip"] for r in held]))} for arm, *_ in ARMS}}
+    return rows
+
+
+def print_table(table: dict) -> None:
+    def f(x):
+        return "n/a" if x is None else f"{x:.2f}"
+
+    head = " | ".join(f"{a}: induced [seeds] / grip" for a, *_ in ARMS)
+    print(f"| set, task | tools | {head} | wrist/passed alone |")
+    print("|---|---|" + "---|" * len(ARMS) + "---|")
+    for k, r in table.items():
+        cells = " | ".join(f"{f(r[a]['mean'])}" + (f" [{f(r[a]['min'])}, {f(r[a]['max'])}]" if "min" in r[a] else "")
+                           + f" / {f(r[a]['grip'])}" for a, *_ in ARMS)
+        print(f"| {k} | {r['tools']} | {cells} | {f(r['passed'])} |")
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, ROOT)
+    main()
