@@ -654,7 +654,7 @@ def cmd_demo(args) -> int:
 def cmd_run(args) -> int:
     """The whole chain from an instruction: grounding, pick from the table, the task (`pipeline.run`)."""
     import itup_jax as itup
-    from itup_jax import pickup, tabletop
+    from itup_jax import pickup, pipeline, tabletop
     from itup_jax.grounding import GroundingError
 
     _check_out_dir("--out", args.out)
@@ -702,7 +702,8 @@ def cmd_run(args) -> int:
               f"of those the pads' torsional grip holds through the lift (its load at most "
               f"{pickup.LIFT_TORQUE_SHARE:.0%} of the grip's capacity)")
         if c.get("scored") and not c.get("lift_within_share"):
-            print(f"  none does: scored the {c['scored']} that load it least (the tool may turn in the pads)")
+            print(f"  none does: scored the {c['scored']} least-loaded lifts (within {pipeline.LIFT_FALLBACK_SPREAD:.0%} "
+                  f"of the grip's capacity of the least; the tool may turn in the pads)")
     for k, a in enumerate(r.attempts):
         print(f"pick {k + 1}: {a['why']}; " + ("turned the tool over" if a["action"] == "turn_over" else
                                                "put the tool back down") + ", planned again")

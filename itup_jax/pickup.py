@@ -23,7 +23,7 @@ pose (`tabletop.Tabletop.poses`):
     (`lift_torque`; a broom held at the top of its handle turned ~20 degrees in the pads during the
     lift, and a stick under a heavy tool turned 16 degrees and dragged three tools with it; chosen with
     `experiments/lift_torque.py`), and the weight alone never past LIFT_TORQUE_LIMIT. When no grasp
-    stays within the share the pipeline plans with the ones that load it least;
+    stays within the share the pipeline plans with the ones that load it least (`pipeline.LIFT_FALLBACK_SPREAD`);
   * closed-form IK must reach the pre-grasp (PICK_APPROACH back along the approach axis), the grasp and
     the lift (PICK_LIFT straight up), with the elbow and wrist above the table.
 The shifted grasps are what the pipeline then scores and plans with (`pipeline`).

@@ -533,10 +533,37 @@ def test_run_does_the_hammer_task_from_the_table(tables):
 
 def test_run_scores_the_least_loaded_grasps_when_none_is_within_the_share(tables, monkeypatch):
     monkeypatch.setattr(pickup, "LIFT_TORQUE_SHARE", 1e-9)
+    monkeypatch.setattr(pipeline, "LIFT_FALLBACK_SPREAD", math.inf)  # all MIN_CANDIDATES kept
     r = itup.run("drive the nail with the hammer", tabletop=tables[0], seed=0, samples=512)
     c = r.counts
     assert c["lift_within_share"] == 0 and c["rounds"] == 4 and c["scored"] == min(c["task_reachable"], 16) > 0
     assert r.choice["lift_load"] > 0 and r.pick is not None
+
+
+def test_the_fallback_scores_only_lifts_about_as_good_as_the_best(tables, monkeypatch):
+    """With no lift within the share, of the MIN_CANDIDATES least-loaded grasps only those within
+    LIFT_FALLBACK_SPREAD of the least load are scored (past the pads' capacity the load decides whether
+    the tool comes up at all)."""
+    monkeypatch.setattr(pickup, "LIFT_TORQUE_SHARE", 1e-9)
+    top = tables[0]
+    g, tool = pipeline.ground_for("itup", "drive the nail with the hammer", top, "rule", np.random.default_rng(0))
+    task = itup.make_task(g.task, tool)
+
+    def plan():
+        return pipeline._plan(top, g, tool, task, seed=0, samples=512, grip_force=100.0, tried=[])
+
+    spread = 0.05  # the hammer's lifts load the pads 0-0.2 of their capacity: a spread that leaves some out
+    monkeypatch.setattr(pipeline, "LIFT_FALLBACK_SPREAD", spread)
+    kept = plan()
+    monkeypatch.setattr(pipeline, "LIFT_FALLBACK_SPREAD", math.inf)
+    every = plan()
+    least = every["lift_load"].min()
+    assert len(every["lift_load"]) == pipeline.MIN_CANDIDATES and kept["lift_load"].min() == least
+    assert np.all(kept["lift_load"] <= least + spread)
+    assert 0 < len(kept["lift_load"]) < pipeline.MIN_CANDIDATES and kept["counts"]["scored"] == len(kept["lift_load"])
+    # the same grasps as the full fallback's, those within the spread
+    both = np.isin(np.asarray(every["grasps"].p_tool_grasp)[:, 0], np.asarray(kept["grasps"].p_tool_grasp)[:, 0])
+    np.testing.assert_array_equal(both, every["lift_load"] <= least + spread)
 
 
 def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monkeypatch):
