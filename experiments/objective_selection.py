@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import os
 import shutil
 import sys
@@ -76,18 +77,21 @@ def quick_dataset(prefix: str = "objective_quick_"):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def settings_of(models: dict) -> dict:
-    """{method name: (scorer, ScoreWeights or CostParams)} for the models given and the fixed methods."""
+def settings_of(models: dict, base: dict | None = None) -> dict:
+    """{method name: (scorer, ScoreWeights or CostParams)} for the models given and the fixed methods;
+    `base`: ScoreWeights fields every network's setting holds (`--set`), else the shipped ones."""
+    base = base or {}
     out = {b: (b, None) for b in BASELINES}
     out["analytic/paper"] = ("analytic", PAPER.analytic)
     out["analytic/wrench"] = ("analytic", WRENCH.analytic)
     for name, path in models.items():
         m = load_model(path)
         if m.objective == "paper":
-            out[f"sdgnet/{name}"] = (m, ScoreWeights())
+            out[f"sdgnet/{name}"] = (m, ScoreWeights(**base))
         else:
             for w_tau, w_grip in GRID:
-                out[f"sdgnet/{name}/tau{w_tau:g}_grip{w_grip:g}"] = (m, ScoreWeights(w_tau=w_tau, w_grip=w_grip))
+                out[f"sdgnet/{name}/tau{w_tau:g}_grip{w_grip:g}"] = (
+                    m, ScoreWeights(**{**base, "w_tau": w_tau, "w_grip": w_grip}))
     return out
 
 
@@ -214,6 +218,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--model", action="append", default=[], metavar="NAME=PATH",
                     help="an SDG-Net checkpoint to compare (repeatable)")
     ap.add_argument("--only", default=None, help="score only these methods (comma-separated; the baselines always)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="a ScoreWeights field every network's setting holds (repeatable; e.g. w_align=300), "
+                    "instead of the shipped value")
     ap.add_argument("--out", required=True, help="output folder (objective.json)")
     ap.add_argument("--quick", action="store_true", help="a tiny dataset made here, the shipped model (tests)")
     a = ap.parse_args(argv)
@@ -224,6 +231,18 @@ def main(argv=None) -> dict:
             raise SystemExit(2)
         k, v = spec.split("=", 1)
         models[k] = v
+    a.base = {}
+    fields = {f.name for f in dataclasses.fields(ScoreWeights)} - {"w_tau", "w_grip"}
+    for spec in a.set:
+        k, sep, v = spec.partition("=")
+        try:
+            if not sep or k not in fields:
+                raise ValueError
+            a.base[k] = float(v)
+        except ValueError:
+            print(f"objective_selection: --set must be NAME=NUMBER with NAME among {sorted(fields)}, got {spec!r}",
+                  file=sys.stderr)
+            raise SystemExit(2) from None
     if os.path.exists(a.out) and not os.path.isdir(a.out):
         print(f"objective_selection: --out {a.out!r} is a file, not a folder", file=sys.stderr)
         raise SystemExit(2)
@@ -243,7 +262,7 @@ def run(a, models: dict, path: str, t0: float) -> dict:
     a.data = path
     data = load_dataset(a.data)
     config = GenerateConfig.from_json(read_manifest(a.data)["config"])
-    methods = settings_of(models)
+    methods = settings_of(models, getattr(a, "base", None))
     if a.only:
         keep = set(a.only.split(",")) | set(BASELINES)
         methods = {k: v for k, v in methods.items() if k in keep}
@@ -263,7 +282,8 @@ def run(a, models: dict, path: str, t0: float) -> dict:
     out = {"schema": "itup.objective/1", "data": os.path.abspath(a.data), "models": models,
            "methods": list(methods), "level": LEVEL, "rule": {"min_success": MIN_SUCCESS, "measures":
            ["peak_torque_induced", "grip_demand"], "against": "better_baseline"},
-           "per_tool": per_tool, "summary": summary, "fidelity": fidelity, "verdict": verdict, "chosen": chosen,
+           "set": getattr(a, "base", {}), "per_tool": per_tool, "summary": summary, "fidelity": fidelity,
+           "verdict": verdict, "chosen": chosen,
            "seconds": time.time() - t0, "version": itup.__version__}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "objective.json"), out)

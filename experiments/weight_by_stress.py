@@ -38,6 +38,13 @@ Where two weights pass the same S1 and S2 checks and differ only in T, the torqu
 them is `objective_selection.py`'s (torque and grip demand on more tools): the weight with the better
 objective score under it is kept (docs/results.md, "The turn's weight again").
 
+The two weights jointly (`--model sdgnet@w_align=V` holds w_align at V while the grid runs over
+--weight w_weak; one run per w_align of 30, 100, 300): the rule, written before those runs, takes the
+settings (w_align, w_weak) that pass the most S1 and S2 checks over the tasks (the grip stress these
+weights exist for), and among them the one with the best `objective_selection.py` score on the
+validation tools (`--set w_align=V --set w_weak=W`); a tie goes to the shipped setting, then to the
+smaller weights. The test tools are measured again only if the choice differs from the shipped one.
+
 A candidate network (--model) against the shipped one (--reference sdgnet, its picks stressed on the
 same candidates and draws): the candidate at its chosen weight replaces the reference only if it
 passes more (task, criterion) checks; as many or fewer, the reference stays (the smaller change).
@@ -70,9 +77,9 @@ STRESS_FORCES = (10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 100.0)
 
 
 def method_name(w: float, weight: str = "w_align", model: str = "sdgnet") -> str:
-    """The grip_stress method of the network `model` (a scorer name or a checkpoint path) under the
-    shipped weights but `weight` = w."""
-    return f"{model}@{weight}={w:g}"
+    """The grip_stress method of the network `model` (a scorer name or a checkpoint path, optionally with
+    weights of its own: 'sdgnet@w_align=300') under the shipped weights but `weight` = w."""
+    return f"{model},{weight}={w:g}" if "@" in model else f"{model}@{weight}={w:g}"
 
 
 def checks(rows: list, tasks, weights, weight: str = "w_align", model: str = "sdgnet", *,
@@ -136,7 +143,8 @@ def main() -> None:
                     help="the ScoreWeights field to choose")
     ap.add_argument("--grid", default=None, help="comma-separated values, ascending (default: "
                     + "; ".join(f"{k} {','.join(f'{v:g}' for v in g)}" for k, g in GRIDS.items()) + ")")
-    ap.add_argument("--model", default="sdgnet", help="the network: sdgnet, sdgnet_paper or a checkpoint (.npz)")
+    ap.add_argument("--model", default="sdgnet", help="the network: sdgnet, sdgnet_paper or a checkpoint (.npz), "
+                    "optionally with other weights held fixed: sdgnet@w_align=300")
     ap.add_argument("--reference", default=None, metavar="METHOD",
                     help="also stress this method's picks (e.g. sdgnet, the shipped network under the shipped weights) "
                     "and report its checks beside the grid's, to compare a candidate --model with it")
@@ -171,8 +179,8 @@ def main() -> None:
     try:  # a bad model, weight or dataset fails here, before any rollout
         for m in methods:
             grip_stress.method_scorer(m)
-        if a.model not in ("sdgnet", "sdgnet_paper"):
-            load_model(a.model)
+        if a.model.split("@")[0] not in ("sdgnet", "sdgnet_paper"):
+            load_model(a.model.split("@")[0])
         if data is not None:
             grip_stress.data_config(data, tasks, tools)
     except InputError as e:

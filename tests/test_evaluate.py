@@ -218,6 +218,25 @@ def test_objective_selection_quick(tmp_path, monkeypatch):
     assert "p_failed_weak_auc" in fid and all(v is None or 0 <= v <= 1 for v in fid["p_failed_weak_auc"].values())
 
 
+def test_objective_selection_holds_the_weights_it_is_set(tmp_path, monkeypatch, capsys):
+    """`--set` fixes other ScoreWeights for every network setting of the grid (the joint choice of
+    w_align and w_weak, weight_by_stress.py); an unknown or non-numeric one is refused before any work."""
+    from itup_jax.scoring import ScoreWeights
+    from itup_jax.sdgnet import DEFAULT_MODEL
+
+    mod = runpy.run_path(os.path.join(ROOT, "experiments", "objective_selection.py"))
+    settings = mod["settings_of"]({"w": DEFAULT_MODEL}, {"w_align": 300.0, "w_weak": 3.0})
+    nets = {k: w for k, (scorer, w) in settings.items() if k.startswith("sdgnet/")}
+    assert len(nets) == len(mod["GRID"]) and all(w.w_align == 300.0 and w.w_weak == 3.0 for w in nets.values())
+    assert {(w.w_tau, w.w_grip) for w in nets.values()} == set(mod["GRID"])
+    assert all(w.w_slip == ScoreWeights().w_slip for w in nets.values())  # the rest shipped
+    for bad in ("w_align", "w_tau=2", "w_align=x", "nope=1"):
+        with pytest.raises(SystemExit) as e:
+            _run_experiment("objective_selection.py", ["--quick", "--set", bad, "--out", str(tmp_path / "o")], monkeypatch)
+        assert e.value.code == 2 and "--set must be NAME=NUMBER" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     _run_experiment("sdgnet_fidelity.py", ["--quick", "--verify-draws", "2", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "fidelity.json").read_text())

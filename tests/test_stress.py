@@ -122,7 +122,7 @@ def test_weight_by_stress_rule_and_methods(tmp_path):
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments"))
     from grip_stress import method_scorer
-    from weight_by_stress import choose
+    from weight_by_stress import choose, method_name
 
     ok = {"S1": True, "S2": True, "T": True}
     bad = {"S1": False, "S2": True, "T": True}
@@ -135,6 +135,10 @@ def test_weight_by_stress_rule_and_methods(tmp_path):
     assert model == "sdgnet" and weights.w_align == 30.0 and weights.w_grip == 0.0 and weights.w_tau == 1.0
     assert method_scorer("geometric") == ("geometric", itup.ScoreWeights())
     assert method_scorer("m.npz@w_weak=3") == ("m.npz", itup.ScoreWeights(w_weak=3.0))  # another network
+    # the joint grid: another weight held fixed while --weight runs over its grid
+    assert method_scorer(method_name(10.0, "w_weak", "sdgnet@w_align=300")) == (
+        "sdgnet", itup.ScoreWeights(w_align=300.0, w_weak=10.0))
+    assert method_name(10.0, "w_weak", "sdgnet") == "sdgnet@w_weak=10"
     for bad_method, msg in (("sdgnet@w_nope=1", "w_nope"), ("sdgnet@w_align=x", "must be a number"),
                             ("geometric@w_align=1", "weights apply to")):
         with pytest.raises(itup.InputError, match=msg):
