@@ -262,7 +262,7 @@ def run(a, models: dict, path: str, t0: float) -> dict:
     a.data = path
     data = load_dataset(a.data)
     config = GenerateConfig.from_json(read_manifest(a.data)["config"])
-    methods = settings_of(models, getattr(a, "base", None))
+    methods = settings_of(models, a.base)
     if a.only:
         keep = set(a.only.split(",")) | set(BASELINES)
         methods = {k: v for k, v in methods.items() if k in keep}
@@ -282,7 +282,7 @@ def run(a, models: dict, path: str, t0: float) -> dict:
     out = {"schema": "itup.objective/1", "data": os.path.abspath(a.data), "models": models,
            "methods": list(methods), "level": LEVEL, "rule": {"min_success": MIN_SUCCESS, "measures":
            ["peak_torque_induced", "grip_demand"], "against": "better_baseline"},
-           "set": getattr(a, "base", {}), "per_tool": per_tool, "summary": summary, "fidelity": fidelity,
+           "set": a.base, "per_tool": per_tool, "summary": summary, "fidelity": fidelity,
            "verdict": verdict, "chosen": chosen,
            "seconds": time.time() - t0, "version": itup.__version__}
     os.makedirs(a.out, exist_ok=True)

@@ -179,8 +179,9 @@ def main() -> None:
     try:  # a bad model, weight or dataset fails here, before any rollout
         for m in methods:
             grip_stress.method_scorer(m)
-        if a.model.split("@")[0] not in ("sdgnet", "sdgnet_paper"):
-            load_model(a.model.split("@")[0])
+        network = a.model.split("@")[0]  # without the weights it holds
+        if network not in ("sdgnet", "sdgnet_paper"):
+            load_model(network)
         if data is not None:
             grip_stress.data_config(data, tasks, tools)
     except InputError as e:

@@ -43,43 +43,42 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ARMS = (("base", False, True), ("wrist", True, True), ("wrist_no_shape", True, False))
 
 
-def _tool_index(manifests: list[dict]) -> dict:
-    """(task, tool name) -> (GenerateConfig, variant) for every shard of the datasets."""
+def _tools(manifests: list[dict]) -> dict:
+    """(task, tool name) -> (Tool, Task) of every shard of the datasets, each built once."""
     from itup_jax.dataset import GenerateConfig, unit_tool
 
-    index = {}
+    out = {}
     for m in manifests:
         config = GenerateConfig.from_json(m["config"])
         for entry in m["shards"]:
-            tool, _ = unit_tool(config, entry["task"], entry["variant"])
-            index.setdefault((entry["task"], tool.name), (config, entry["variant"]))
-    return index
+            tool, task = unit_tool(config, entry["task"], entry["variant"])
+            out.setdefault((entry["task"], tool.name), (tool, task, entry["variant"]))
+    return out
 
 
-def refeature(data: dict, manifests: list[dict], spec) -> tuple[np.ndarray, np.ndarray]:
-    """[N, spec.size] features of every row of `data` (`dataset.load_datasets`) under `spec`, made again
-    from the rows' tools, tasks and grasps, and [N] the variant of each row's tool."""
-    from itup_jax.dataset import unit_tool
+def refeature(data: dict, manifests: list[dict], specs: list) -> tuple[list[np.ndarray], np.ndarray]:
+    """[N, spec.size] features of every row of `data` (`dataset.load_datasets`) under each of `specs`,
+    made again from the rows' tools, tasks and grasps (each tool built and its loads computed once), and
+    [N] the variant of each row's tool."""
     from itup_jax.features import batched_features, tool_field
     from itup_jax.grasp import Grasps
     from itup_jax.wrench import task_loads
 
-    index = _tool_index(manifests)
-    out = np.zeros((len(data["task"]), spec.size), np.float32)
+    tools = _tools(manifests)
+    out = [np.zeros((len(data["task"]), spec.size), np.float32) for spec in specs]
     variant = np.zeros(len(data["task"]), int)
     for key in dict.fromkeys(zip(data["task"].tolist(), data["tool"].tolist())):
         rows = np.flatnonzero((data["task"] == key[0]) & (data["tool"] == key[1]))
-        config, v = index[key]
-        tool, task = unit_tool(config, key[0], v)
+        tool, task, variant[rows] = tools[key]
         g = Grasps(data["grasp_p"][rows], data["grasp_q"][rows], data["grasp_width"][rows])
-        out[rows] = np.asarray(batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params,
-                                                g, spec=spec), np.float32)
-        variant[rows] = v
+        loads = task_loads(tool.params, task)
+        for x, spec in zip(out, specs):
+            x[rows] = np.asarray(batched_features(tool_field(tool, spec), loads, tool.params, g, spec=spec), np.float32)
     return out, variant
 
 
 def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
-    """The datasets' rows with their features made again under `spec` and under the base spec, and
+    """The datasets' rows with their features made again under the base spec and under `spec`, and
     each row's variant; refuses a base remake that differs from the stored features (a wrong tool)."""
     from itup_jax.dataset import load_datasets
     from itup_jax.features import FeatureSpec
@@ -87,12 +86,10 @@ def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         data, manifests = load_datasets(paths)
-    base = FeatureSpec(**manifests[0]["config"]["feature_spec"])
-    made, variant = refeature(data, manifests, base)
+    (made, wrist), variant = refeature(data, manifests, [FeatureSpec(**manifests[0]["config"]["feature_spec"]), spec])
     err = float(np.abs(made - data["features"]).max())
     if err > 1e-4:
         raise RuntimeError(f"datasets {paths}: features made again differ from the stored ones by {err:g}")
-    wrist, _ = refeature(data, manifests, spec)
     return {**data, "features": made}, {**data, "features": wrist}, variant
 
 
@@ -108,10 +105,10 @@ def arm_features(arm: tuple, base: np.ndarray, wrist: np.ndarray) -> np.ndarray:
     return x
 
 
-def evaluate(models: dict, data: dict, variant: np.ndarray, specs: dict, only_new: bool) -> dict:
+def evaluate(models: dict, data: dict, variant: np.ndarray, feats: dict, only_new: bool) -> dict:
     """Per task: the median over tools of each model's Spearman (full induced torque, grip demand) and
-    the analytic wrist/passed torque's (the wrist block's feature 4). `models` and `specs` (the rows'
-    features per model) share their keys."""
+    the analytic wrist/passed torque's (the wrist block's feature 4). `models` and `feats` (the rows'
+    features as each model sees them) share their keys."""
     from itup_jax.features import WRIST_SIZE, WRIST_TORQUE_SCALE
     from itup_jax.sdgnet import predict_costs
     from itup_jax.stats import spearman
@@ -127,7 +124,7 @@ def evaluate(models: dict, data: dict, variant: np.ndarray, specs: dict, only_ne
                 continue
             y = data["label_peak_torque_induced"][rows]
             for a, model in models.items():
-                p = predict_costs(model, specs[a][rows], kind)
+                p = predict_costs(model, feats[a][rows], kind)
                 per[f"{a}_induced"].append(spearman(np.asarray(p["tau"], float), y))
                 per[f"{a}_grip"].append(spearman(np.asarray(p["grip"], float), data["label_grip_demand"][rows]))
             passed = WRIST_TORQUE_SCALE * np.expm1(data["wrist_features"][rows][:, -WRIST_SIZE + 4])
@@ -184,12 +181,13 @@ def main(argv=None) -> dict:
     base_rows, wrist_rows, _ = load(args.train, wspec)
     recipe = load_model(DEFAULT_MODEL).train_config
     os.makedirs(args.out, exist_ok=True)
-    models, seconds = {}, {}
+    models, seconds, arm_of = {}, {}, {}
     for seed in args.seeds:
         config = TrainConfig(**{**recipe.__dict__, "seed": seed,
                                 **({} if args.epochs is None else {"epochs": args.epochs, "finetune_epochs": 0})})
         for arm in ARMS:
             key = f"{arm[0]}@{seed}"
+            arm_of[key] = arm
             rows = {**base_rows, "features": arm_features(arm, base_rows["features"], wrist_rows["features"])}
             fs = (wspec if arm[1] else FeatureSpec()).to_dict()
             t = time.perf_counter()
@@ -200,8 +198,7 @@ def main(argv=None) -> dict:
     for name, d in evals:
         b, w, variant = load([d], wspec)
         b["wrist_features"] = w["features"]
-        feats = {k: arm_features(next(a for a in ARMS if a[0] == k.split("@")[0]), b["features"], w["features"])
-                 for k in models}
+        feats = {k: arm_features(arm_of[k], b["features"], w["features"]) for k in models}
         results[name] = evaluate(models, b, variant, feats, only_new=name == "builtin")
     table = summarise(results, args.seeds)
     summary = {"schema": "itup.wrist_features/1", "machine": machine_info(), "seconds": time.perf_counter() - t0,

@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 import trimesh
 
+from itup_jax.costs import _SQRT_TINY, _TINY
 from itup_jax.grasp import Grasps, rotation_matrix
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
@@ -77,7 +78,6 @@ class FeatureSpec:
 WRIST_SIZE = 6
 WRIST_TORQUE_SCALE = 0.02
 WRIST_GRIP_FORCE = 100.0
-_TINY, _SQRT_TINY = 1e-24, 1e-12
 
 
 def surface_sample(tool: Tool, spec: FeatureSpec) -> jax.Array:
@@ -197,10 +197,12 @@ def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -
     tw = jnp.stack([tau[0] - d * F[1], tau[1] + d * F[0], tau[2]])  # [3, T] about the wrist site
     cap = 2.0 * PAD_TORSION * mu * WRIST_GRIP_FORCE
     full_sq = tw[0] ** 2 + tw[1] ** 2 + tw[2] ** 2
+    # `costs`' 'passed' form, with the part off the closure axis (y) summed rather than taken as the full
+    # square minus the closure part: no cancellation in float32 where the closure torque dominates
     passed_sq = tw[0] ** 2 + tw[2] ** 2 + jnp.minimum(jnp.abs(tw[1]), cap) ** 2
     grip_sq = grip_demand_sq(F.T, tau.T, mu, width, xp=jnp)
     peaks = jnp.stack([full_sq.max(), passed_sq.max(), grip_sq.max()])
-    peaks = jnp.sqrt(peaks + _TINY) - _SQRT_TINY  # a finite gradient where a load is zero
+    peaks = jnp.sqrt(peaks + _TINY) - _SQRT_TINY  # a finite gradient where a load is zero (as `costs`)
     s = WRIST_TORQUE_SCALE
     return jnp.concatenate([jnp.log1p(jnp.abs(tw).max(1) / s), jnp.log1p(peaks[:2] / s), jnp.log1p(peaks[2:])])
 
