@@ -13,12 +13,14 @@ candidates in ~14 ms), so a planner can score many more. Per held-out tool of th
     best-scored reachable candidates rolled out under nominal physics, the lowest measured total kept,
     as `itup plan --verify K` picks);
   * each pick rolled out --draws times under randomised physics, the same draws for every pick: mean
-    projected peak wrist torque (N m), task success and grip-failure rates, slip (m) and drift (rad);
+    full induced peak wrist torque (N m; the headline, `torque`), beside it the raw peak, the projected
+    part and the part about the closure axis, the grip demand (N per pad), task success and grip-failure
+    rates, slip (m) and drift (rad) (`MEASURES`);
   * the reference: the test shard's own candidates (256 per tool in the shipped test set), each
     measured over the same number of draws (draw 0 and the `sdgnet_fidelity.py` redraws, cached in
     --out): the lowest mean torque among them (`best_shard`), and SDG-Net's picks among them (`shard_tau`,
     `shard_total`, `shard_verified`).
-Writes candidates.json (schema `itup.candidates/1`). Summary: per pick, the geometric mean of the
+Writes candidates.json (schema `itup.candidates/2`). Summary: per pick, the geometric mean of the
 torque over tools, and in how many tools it is within 5 % of (or below) `best_shard`; for each larger N,
 the torque per tool against the smallest N's (`paired_vs_<N>`: `stats.paired_ratio`, with a bootstrap
 interval).
@@ -47,22 +49,31 @@ from itup_jax.simulate import Randomization, reachable, simulate
 from itup_jax.stats import paired_ratio
 from itup_jax.verify import best_grasp_verified
 
+#: Means over tools reported beside each pick rule's headline torque.
+BESIDE = ("torque_raw", "torque_projected", "torque_closure", "grip_demand", "success", "failed", "slip", "drift")
 GOAL = 0.05  # the top-1 regret goal (5 %)
 SAMPLE_SEED = 1000  # + the tool's variant: fresh candidates, never the shard's own (seeded by the run)
 ROLLOUT_SEED = 777
 
 
+#: What `_measure` reports of a pick, mean over the draws: the headline torque (the full induced peak wrist
+#: torque, the paper's measure, no projection) and beside it the raw peak, the projected part (the paper
+#: objective's C_tau) and the part about the jaw's closure axis (N m), the grip demand (N per pad), then
+#: task success and grip failure (rates), slip (m) and alignment drift (rad).
+MEASURES = {"torque": "peak_torque_induced", "torque_raw": "peak_torque", "torque_projected": "peak_torque_projected",
+            "torque_closure": "peak_torque_closure", "grip_demand": "grip_demand", "success": "success",
+            "failed": "failed", "slip": "slip_translation", "drift": "alignment_drift"}
+
+
 def _measure(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:
-    """Mean projected peak torque (N m), success and failure rates, slip (m) and alignment drift (rad) of
-    grasps[i] over `draws` rollouts. The draws are the same for every pick (one seed), so the picks are
-    compared under the same physics."""
+    """`MEASURES` of grasps[i], each the mean over `draws` rollouts (NaN where none is valid). The draws are
+    the same for every pick (one seed), so the picks are compared under the same physics."""
     L = simulate(tool, task, grasps[np.full(draws, i)], seed=ROLLOUT_SEED, scene=scene,
                  randomize=Randomization()).labels
-    f = lambda x: float(np.nanmean(np.where(L.valid, x, np.nan)))  # noqa: E731
+    f = lambda x: float(np.nanmean(np.where(L.valid, np.asarray(x, float), np.nan)))  # noqa: E731
     with warnings.catch_warnings():  # a pick with no valid rollout gives NaN
         warnings.simplefilter("ignore", RuntimeWarning)
-        return {"torque": f(L.peak_torque_projected), "success": f(L.success.astype(float)),
-                "failed": f(L.failed.astype(float)), "slip": f(L.slip_translation), "drift": f(L.alignment_drift)}
+        return {k: f(getattr(L, label)) for k, label in MEASURES.items()}
 
 
 def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) -> dict:
@@ -72,7 +83,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
     tool, task = unit_tool(config, entry["task"], entry["variant"])
     scene = build_scene(tool, task, timestep=timestep)
     ok = a["label_valid"].astype(bool)
-    measured = np.vstack([np.where(ok, a["label_peak_torque_projected"], np.nan)[None], redraw["torque"][:draws - 1]])
+    measured = np.vstack([np.where(ok, a["label_peak_torque_induced"], np.nan)[None], redraw["torque"][:draws - 1]])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         mean = np.nanmean(measured, axis=0)[ok]
@@ -90,7 +101,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         g = g[np.nonzero(reachable(task, g))[0]]
         row["fresh"][str(n)] = {"reachable": int(len(g.width))}
         if not len(g.width):  # nothing the arm can carry: no pick (NaN, null in the JSON)
-            none = {k: float("nan") for k in ("torque", "success", "failed", "slip", "drift")} | {"index": None}
+            none = {k: float("nan") for k in MEASURES} | {"index": None}
             row["fresh"][str(n)].update({"sample_score_s": time.perf_counter() - t0, "tau": none, "total": none,
                                          **({"verified": none} if verify else {})})
             continue
@@ -122,7 +133,7 @@ def summarise(rows: list[dict], ns: list[int], rules: tuple[str, ...]) -> dict:
             out[f"{rule}_{n}"] = {"geo_mean_torque": geo(v), "mean_torque": float(np.nanmean(v)),
                                   "within_goal_of_best_shard": within(v),
                                   **{f: float(np.nanmean([x.get(f, np.nan) for x in c]))
-                                     for f in ("success", "failed", "slip", "drift")}}
+                                     for f in BESIDE}}
             if n != ns[0]:  # per tool against the smallest N: a geometric mean of ratios, with a bootstrap interval
                 v0 = np.array([r["fresh"][str(ns[0])][rule]["torque"] for r in rows])
                 out[f"{rule}_{n}"][f"paired_vs_{ns[0]}"] = paired_ratio(v, v0)
@@ -200,12 +211,12 @@ def main(argv=None) -> dict:
     summary = summarise(rows, ns, rules)
     from itup_jax.bench import machine_info
 
-    out = {"schema": "itup.candidates/1", "test": os.path.abspath(args.test), "n": ns, "draws": args.draws,
+    out = {"schema": "itup.candidates/2", "test": os.path.abspath(args.test), "n": ns, "draws": args.draws,
            "verify": args.verify,
            "model": args.model or "shipped", "goal": GOAL, "wall_s": time.perf_counter() - t0, "summary": summary,
            "per_tool": rows, "machine": machine_info()}
     atomic_write_json(os.path.join(args.out, "candidates.json"), out, indent=2)
-    print(f"{summary['tools']} held-out tools, {args.draws} draws per pick; geometric mean torque (N m) / share of tools "
+    print(f"{summary['tools']} held-out tools, {args.draws} draws per pick; geometric mean full induced peak torque (N m) / share of tools "
           f"within {100 * GOAL:.0f}% of the best shard candidate (best: {summary['best_shard']['geo_mean_torque']:.3f}):")
     for rule in rules:
         s = summary[f"shard_{rule}"]

@@ -10,8 +10,12 @@ procedural variants (variant >= 1) are tools no training shard contains (the var
 from the run seed); variant 0 is the built-in tool, seen in training, reported apart.
 
 Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts only):
-  * Spearman rho between predicted C_tau and the measured peak torque (the training target, the
-    projected induced torque, and the raw peak torque), and the same for the analytic C_tau;
+  * Spearman rho between predicted C_tau and the measured peak torque: the headline, the full induced
+    peak wrist torque (`induced`, the paper's measure, no projection), beside the raw peak and the
+    projected induced torque (the paper objective's target, `projected`); the same for the analytic C_tau
+    (the paper's, stored in the dataset);
+  * and over the held-out tools together (`rho_pooled_held_out`: per task, and `all` over every task),
+    the headline's Spearman rho over every valid candidate, which also counts how the tools differ;
   * top-1 regret = measured torque of the scorer's pick / the lowest measured torque among the
     candidates - 1; for SDG-Net, the analytic cost, and a random pick (its expectation); and two
     robust companions: the pick's percentile among the candidates' measured torques (0 = best)
@@ -76,13 +80,17 @@ from itup_jax.simulate import Randomization, simulate
 from itup_jax.stats import roc_auc, spearman
 from itup_jax.verify import best_grasp_verified, measured_total
 
-MEASURED = {"projected": "label_peak_torque_projected", "raw": "label_peak_torque"}
+#: The measured torques each scorer is judged against; the first is the headline (the paper's "peak induced
+#: wrist torque", the full vector with the static holding torque removed, no projection).
+MEASURED = {"induced": "label_peak_torque_induced", "raw": "label_peak_torque",
+            "projected": "label_peak_torque_projected"}
+HEADLINE = "label_peak_torque_induced"
 GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
 REDRAWN = ("torque", "success", "failed")  # the labels `redraw_labels` keeps
 
 
 def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int, timestep: float) -> dict[str, np.ndarray]:
-    """{torque, success, failed}: each [k, N], the measured projected peak torque (N m), task success (1/0)
+    """{torque, success, failed}: each [k, N], the measured full induced peak torque (N m), task success (1/0)
     and grasp failure (1/0: slip or rotation over the thresholds, or the tool lost) of a shard's N
     grasps under k further physics draws (NaN where a rollout is not valid): the same grasps, tool and
     task, one simulate call, a new seed, at `timestep` s (the dataset's step for the task,
@@ -93,7 +101,7 @@ def redraw_labels(config: GenerateConfig, entry: dict, a: dict, k: int, timestep
     seed = json.loads(bytes(a["meta_json"]))["seed"] + 1
     L = simulate(tool, task, reps, seed=seed, backend=config.backend,
                  scene=build_scene(tool, task, timestep=timestep)).labels
-    return {"torque": np.where(L.valid, L.peak_torque_projected, np.nan).reshape(k, n),
+    return {"torque": np.where(L.valid, L.peak_torque_induced, np.nan).reshape(k, n),
             "success": np.where(L.valid, L.success.astype(float), np.nan).reshape(k, n),
             "failed": np.where(L.valid, L.failed.astype(float), np.nan).reshape(k, n)}
 
@@ -175,7 +183,7 @@ def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray,
                    weights: ScoreWeights, draws: int = 1) -> dict[str, int | float]:
     """SDG-Net's shortlist of the k best of a shard's valid grasps, each rolled out `draws` more times and
     the best measured (mean over the draws) taken (`best_grasp_verified`): by predicted C_tau then
-    measured projected torque (`tau`), and by the scorer's total then the measured total (`total`,
+    measured full induced torque (`tau`), and by the scorer's total then the measured total (`total`,
     `weights`). The check rollouts run under nominal physics (`physics` = 'nominal') or fresh draws
     (`random`: from the shard's seed + 2; the redraws use + 1), never under draw 0, which judges the
     pick. Returns {pick_tau, pick_total (indices into the valid rows), verify_s (wall time of both
@@ -207,16 +215,16 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     scorer predicts). If a draw's label is the expected torque plus independent noise, r is the share of
     the labels' variance that the grasp explains, and a perfect prior-blind scorer correlates with one
     draw's label at sqrt(r) (`retest_ceiling_rho`, for ranks an approximation): the ceiling against
-    single-draw labels is sqrt(r), not r. Likewise `regret_retest_projected`: the regret on draw 0 of
+    single-draw labels is sqrt(r), not r. Likewise `regret_retest_induced`: the regret on draw 0 of
     the candidate with the lowest mean over draws 1..k, i.e. of a scorer that simulated every candidate
     k more times (a perfect scorer of the expected torque is its limit as k grows), with
-    `regret_sdgnet_same_rows_projected` SDG-Net's on the same rows (valid in every draw). The task
+    `regret_sdgnet_same_rows_induced` SDG-Net's on the same rows (valid in every draw). The task
     fields (`task_pick_stats`) judge the pick by `tau` and by `total` (weighted by `weights`) on draw 0;
     with redraws, `success_draws_*` is the pick's success rate over all k + 1 draws. With `verify` K >= 1,
     the same for the verified picks (`verified_picks`: SDG-Net's K best rolled out `verify_draws` more
-    times under `verify_physics`): `regret_verified_projected`, `percentile_verified_projected` and `*_verified_tau` (the
+    times under `verify_physics`): `regret_verified_induced`, `percentile_verified_induced` and `*_verified_tau` (the
     pick by torque alone, and whether it did the task), `*_verified_total` and
-    `regret_verified_total_projected` (the pick by the total, against the best candidate whatever it did).
+    `regret_verified_total_induced` (the pick by the total, against the best candidate whatever it did).
     `total_regret_total` / `total_regret_verified_total`: the regret of the pick by the total (unverified /
     verified) in the objective the total predicts, the measured total (`verify.measured_total`, draw 0),
     over the lowest measured total among the candidates."""
@@ -225,7 +233,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
     config = GenerateConfig.from_json(manifest["config"])
     steps = dataset_timesteps(manifest)
-    rows, pooled = [], {}
+    rows, pooled, pooled_tau = [], {}, {}
     for entry in manifest["shards"]:
         a = load_shard(test_dir, entry)
         ok = a["label_valid"].astype(bool)
@@ -241,11 +249,12 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                                             np.asarray(weights.costs()), np.asarray(weights.heads(net.class_heads))))
         targets = {name: (ok, a[key]) for name, key in MEASURED.items()}
         row = {"task": entry["task"], "variant": entry["variant"], "held_out": entry["variant"] > 0, "n": int(ok.sum())}
-        y_ok, s_ok = a["label_peak_torque_projected"][ok], a["label_success"][ok].astype(bool)
+        y_ok, s_ok = a[HEADLINE][ok], a["label_success"][ok].astype(bool)
         # the measured total (`verify.measured_total`, the objective the scorer's total predicts: torque,
         # slip, drift, and the task and grip penalties) of every valid row, draw 0
         m_ok = measured_total(types.SimpleNamespace(valid=ok[ok], **{f: a[f"label_{f}"][ok] for f in (
-            "peak_torque_projected", "slip_translation", "alignment_drift", "success", "failed")}), weights)
+            "peak_torque_projected", "peak_torque_induced", "grip_demand", "slip_translation", "alignment_drift",
+            "success", "failed")}), weights, objective=model.objective)
         row["success_rate_candidates"] = float(s_ok.mean())
         for name, sc in (("tau", pred_all[ok]), ("total", total_all[ok])):
             for stat, v in task_pick_stats(y_ok, s_ok, sc).items():
@@ -263,14 +272,14 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         if vp is not None:
             row["verify_s"] = vp["verify_s"]
             for stat, v in pick_stats(y_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
-                row[f"{stat}_verified_projected"] = v
+                row[f"{stat}_verified_induced"] = v
             for stat, v in task_pick_stats(y_ok, s_ok, _one_hot(len(y_ok), vp["pick_tau"])).items():
                 row[f"{stat}_verified_tau"] = v  # does the verified pick by torque alone do the task?
             pick_total = _one_hot(len(y_ok), vp["pick_total"])
             for stat, v in task_pick_stats(y_ok, s_ok, pick_total).items():
                 row[f"{stat}_verified_total"] = v
             # the verified pick by the total against the best candidate, whether or not that did the task
-            row["regret_verified_total_projected"] = pick_stats(y_ok, pick_total)["regret"]
+            row["regret_verified_total_induced"] = pick_stats(y_ok, pick_total)["regret"]
             row["task_within_goal_verified_total"] = float(row["task_regret_verified_total"] <= GOALS["regret"])
             row["pick_slip_mm_verified_total"] = 1e3 * float(slip_ok[vp["pick_total"]])
             row["pick_drift_verified_total"] = float(drift_ok[vp["pick_total"]])
@@ -285,7 +294,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             extra = extra_all[_shard_key(entry)]
             succ = _draws(ok, a["label_success"], extra["success"])
             failed = _draws(ok, a["label_failed"], extra["failed"])
-            draws = _draws(ok, a["label_peak_torque_projected"], extra["torque"])
+            draws = _draws(ok, a[HEADLINE], extra["torque"])
             picks = {name: int(np.argmin(np.where(ok, sc, np.inf))) for name, sc in (("tau", pred_all), ("total", total_all))}
             if vp is not None:
                 picks["verified_total"] = int(np.nonzero(ok)[0][vp["pick_total"]])
@@ -302,9 +311,9 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                 # what the regret goal asks of a scorer that has *simulated* every candidate k more times:
                 # pick by the mean of draws 1..k, measured on draw 0 like SDG-Net's pick (same rows)
                 retest = pick_stats(draws[0][both], draws[1:, both].mean(axis=0))
-                row["regret_retest_projected"] = retest["regret"]
-                row["percentile_retest_projected"] = retest["percentile"]
-                row["regret_sdgnet_same_rows_projected"] = pick_stats(draws[0][both], pred_all[both])["regret"]
+                row["regret_retest_induced"] = retest["regret"]
+                row["percentile_retest_induced"] = retest["percentile"]
+                row["regret_sdgnet_same_rows_induced"] = pick_stats(draws[0][both], pred_all[both])["regret"]
                 # the same simulating scorer under the task: lowest mean torque among the candidates that did
                 # the task in every one of draws 1..k, judged on draw 0 by `task_pick_stats`
                 always = (succ[1:, both] == 1).all(axis=0)
@@ -312,6 +321,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
                     oracle = np.where(always, draws[1:, both].mean(axis=0), np.inf)
                     ts = task_pick_stats(draws[0][both], succ[0][both] == 1, oracle)
                     row["task_regret_retest"], row["success_retest"] = ts["task_regret"], ts["success"]
+        if row["held_out"]:  # the headline ranking pooled over the held-out tools of a task
+            pt = pooled_tau.setdefault(entry["task"], ([], []))
+            pt[0].append(pred_all[ok])
+            pt[1].append(a[HEADLINE][ok])
         for name, (mask, y_all) in targets.items():
             y, pred, ana = y_all[mask], pred_all[mask], a["analytic_tau"][mask]
             row[f"rho_sdgnet_{name}"] = spearman(pred, y)
@@ -325,7 +338,11 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         rows.append(row)
     auc = {name: {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(by_task.items())}
            for name, by_task in pooled.items()}
-    return {"rows": rows, "test_config": manifest["config"], "success_auc_held_out": auc.get("p_success", {}),
+    rho_pooled = {t: spearman(np.concatenate(p), np.concatenate(y)) for t, (p, y) in sorted(pooled_tau.items())}
+    if pooled_tau:
+        rho_pooled["all"] = spearman(*(np.concatenate([np.concatenate(v[i]) for v in pooled_tau.values()]) for i in (0, 1)))
+    return {"rows": rows, "test_config": manifest["config"], "rho_pooled_held_out": rho_pooled,
+            "success_auc_held_out": auc.get("p_success", {}),
             "failure_auc_held_out": auc.get("p_failed", {}), "weak_failure_auc_held_out": auc.get("p_failed_weak", {})}
 
 
@@ -351,26 +368,26 @@ def summarise(rows: list[dict]) -> dict:
         for t in sorted({r["task"] for r in sel}):
             tr = [r for r in sel if r["task"] == t]
             by_task[t] = {k: _nan_stat(np.nanmean, np.array([r.get(k, np.nan) for r in tr], float)) for k in
-                          ("rho_sdgnet_projected", "rho_analytic_projected", "regret_sdgnet_projected",
-                           "regret_analytic_projected", "regret_random_projected", "percentile_sdgnet_projected",
-                           "percentile_analytic_projected", "retest_rho", "retest_ceiling_rho", "rho_sdgnet_mean", "rho_analytic_mean",
-                           "regret_sdgnet_mean", "percentile_sdgnet_mean", "regret_retest_projected",
-                           "percentile_retest_projected", "regret_sdgnet_same_rows_projected", "success_rate_candidates",
+                          ("rho_sdgnet_induced", "rho_analytic_induced", "regret_sdgnet_induced",
+                           "regret_analytic_induced", "regret_random_induced", "percentile_sdgnet_induced",
+                           "percentile_analytic_induced", "retest_rho", "retest_ceiling_rho", "rho_sdgnet_mean", "rho_analytic_mean",
+                           "regret_sdgnet_mean", "percentile_sdgnet_mean", "regret_retest_induced",
+                           "percentile_retest_induced", "regret_sdgnet_same_rows_induced", "success_rate_candidates",
                            "success_tau", "success_total", "success_draws_tau", "success_draws_total",
                            "failed_draws_tau", "failed_draws_total", "torque_draws_tau", "torque_draws_total",
                            "task_regret_retest", "success_retest",
-                           "task_regret_tau", "task_regret_total", "success_auc", "regret_verified_projected",
-                           "percentile_verified_projected", "success_verified_total", "task_regret_verified_total",
-                           "success_verified_tau", "task_regret_verified_tau", "regret_verified_total_projected",
+                           "task_regret_tau", "task_regret_total", "success_auc", "regret_verified_induced",
+                           "percentile_verified_induced", "success_verified_total", "task_regret_verified_total",
+                           "success_verified_tau", "task_regret_verified_tau", "regret_verified_total_induced",
                            "total_regret_total", "total_regret_verified_total", "rho_total_measured",
                            "success_draws_verified_total", "failed_draws_verified_total", "torque_draws_verified_total",
-                           "verify_s", "best_gap_projected", "within_goal_projected", "best_gap_mean",
+                           "verify_s", "best_gap_induced", "within_goal_induced", "best_gap_mean",
                            "within_goal_mean", "task_within_goal_total", "task_within_goal_verified_total",
                            "pick_slip_mm_total", "pick_drift_total", "pick_slip_mm_verified_total",
                            "pick_drift_verified_total") if any(k in r for r in tr)}
-            for k in ("regret_sdgnet_projected", "regret_analytic_projected", "regret_random_projected",
-                      "task_regret_total", "task_regret_retest", "regret_verified_projected", "task_regret_verified_total",
-                      "regret_verified_total_projected", "total_regret_total", "total_regret_verified_total"):
+            for k in ("regret_sdgnet_induced", "regret_analytic_induced", "regret_random_induced",
+                      "task_regret_total", "task_regret_retest", "regret_verified_induced", "task_regret_verified_total",
+                      "regret_verified_total_induced", "total_regret_total", "total_regret_verified_total"):
                 by_task[t][f"{k}_median"] = _nan_stat(np.nanmedian, np.array([r.get(k, np.nan) for r in tr], float))
         s["by_task"] = by_task
         out[subset] = s
@@ -390,7 +407,7 @@ def plot(rows: list[dict], path: str) -> None:
     fig, ax = plt.subplots(1, 3, figsize=(15, 3.8))
     x = np.arange(len(tasks))
     for j, (scorer, c) in enumerate((("sdgnet", "C0"), ("analytic", "C1"))):
-        v = [np.nanmean([r[f"rho_{scorer}_projected"] for r in held if r["task"] == t]) for t in tasks]
+        v = [np.nanmean([r[f"rho_{scorer}_induced"] for r in held if r["task"] == t]) for t in tasks]
         ax[0].bar(x + 0.38 * (j - 0.5), v, 0.38, label=scorer, color=c)
     ax[0].axhline(GOALS["spearman"], color="k", ls="--", lw=0.8, label="goal")
     ax[0].set_xticks(x, tasks)
@@ -398,14 +415,14 @@ def plot(rows: list[dict], path: str) -> None:
     ax[0].set_title("predicted C_tau vs measured torque")
     ax[0].legend(fontsize=8)
     scorers = [("sdgnet", "C0", "sdgnet")]
-    if any("regret_verified_projected" in r for r in held):
+    if any("regret_verified_induced" in r for r in held):
         scorers.append(("verified", "C2", "sdgnet C_tau + verify"))
-    if any("regret_verified_total_projected" in r for r in held):
+    if any("regret_verified_total_induced" in r for r in held):
         scorers.append(("verified_total", "C3", "sdgnet total + verify"))
     scorers += [("analytic", "C1", "analytic"), ("random", "C7", "random")]
     wd = 0.8 / len(scorers)
     for j, (scorer, c, label) in enumerate(scorers):
-        v = [100 * np.nanmean([r[f"regret_{scorer}_projected"] for r in held if r["task"] == t]) for t in tasks]
+        v = [100 * np.nanmean([r[f"regret_{scorer}_induced"] for r in held if r["task"] == t]) for t in tasks]
         ax[1].bar(x + wd * (j - (len(scorers) - 1) / 2), v, wd, label=label, color=c)
     ax[1].axhline(100 * GOALS["regret"], color="k", ls="--", lw=0.8, label="goal")
     ax[1].set_xticks(x, tasks)
@@ -504,13 +521,15 @@ def main(argv=None) -> dict:
     res = evaluate(model, args.test, redraws=args.redraws, cache=os.path.join(args.out, "redraws.npz"), weights=weights,
                    verify=args.verify, verify_physics=args.verify_physics, verify_draws=args.verify_draws)
     summary = summarise(res["rows"])
-    out = {"schema": "itup.fidelity/1", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
+    out = {"schema": "itup.fidelity/2", "experiment": "sdgnet_fidelity", "quick": args.quick, "model": args.model or "shipped default",
            "retrained": bool(args.train_model), "train_wall_s": train_s, "redraws": args.redraws,
            "verify": args.verify, "verify_physics": args.verify_physics if args.verify else None,
            "verify_draws": args.verify_draws if args.verify else None, "goals": GOALS,
-           "success_head": model.has_success_head, "class_heads": model.class_heads, "weights": dataclasses.asdict(weights), "summary": summary,
+           "success_head": model.has_success_head, "class_heads": model.class_heads, "objective": model.objective,
+           "weights": dataclasses.asdict(weights), "summary": summary,
            "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
            "weak_failure_auc_held_out": res["weak_failure_auc_held_out"],
+           "rho_pooled_held_out": res["rho_pooled_held_out"],
            "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
@@ -518,18 +537,22 @@ def main(argv=None) -> dict:
     atomic_write_json(os.path.join(args.out, "fidelity.json"), out, indent=2)
     plot(res["rows"], os.path.join(args.out, "fidelity.png"))
     h = summary.get("held_out") or summary.get("seen")
-    print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, projected torque) median "
-          f"{h['rho_sdgnet_projected']['median']:.2f}, raw {h['rho_sdgnet_raw']['median']:.2f}; analytic "
-          f"{h['rho_analytic_projected']['median']:.2f}; top-1 regret, median / mean over tools: "
-          + " ".join(f"{name} {100 * h[f'regret_{key}_projected']['median']:.0f}% / {100 * h[f'regret_{key}_projected']['mean']:.0f}%"
+    pooled = res["rho_pooled_held_out"]
+    if pooled:
+        print("Spearman (SDG-Net, full induced torque) pooled over the held-out tools: "
+              + ", ".join(f"{t} {v:.2f}" for t, v in pooled.items()))
+    print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, full induced torque) median "
+          f"{h['rho_sdgnet_induced']['median']:.2f}, raw {h['rho_sdgnet_raw']['median']:.2f}; analytic "
+          f"{h['rho_analytic_induced']['median']:.2f}; top-1 regret, median / mean over tools: "
+          + " ".join(f"{name} {100 * h[f'regret_{key}_induced']['median']:.0f}% / {100 * h[f'regret_{key}_induced']['mean']:.0f}%"
                      for name, key in (("SDG-Net", "sdgnet"), ("analytic", "analytic"), ("random", "random")))
           + (f"; training {train_s:.1f} s" if train_s is not None else ""))
     print("  per task, means over its tools (the regret: median / mean):")
     for t, v in h["by_task"].items():
-        reg = lambda key: f"{100 * v[f'regret_{key}_projected_median']:.0f}% / {100 * v[f'regret_{key}_projected']:.0f}%"  # noqa: E731
-        print(f"  {t:7s} rho sdgnet {v['rho_sdgnet_projected']:+.2f} analytic {v['rho_analytic_projected']:+.2f} | regret "
+        reg = lambda key: f"{100 * v[f'regret_{key}_induced_median']:.0f}% / {100 * v[f'regret_{key}_induced']:.0f}%"  # noqa: E731
+        print(f"  {t:7s} rho sdgnet {v['rho_sdgnet_induced']:+.2f} analytic {v['rho_analytic_induced']:+.2f} | regret "
               f"sdgnet {reg('sdgnet')} analytic {reg('analytic')} random {reg('random')} | pick percentile sdgnet "
-              f"{100 * v['percentile_sdgnet_projected']:.0f} analytic {100 * v['percentile_analytic_projected']:.0f}")
+              f"{100 * v['percentile_sdgnet_induced']:.0f} analytic {100 * v['percentile_analytic_induced']:.0f}")
     draws = "success_draws_total" in h
     print(f"the task ({'draws 0-' + str(args.redraws) if draws else 'draw 0'}): the pick achieves it by predicted C_tau "
           f"{100 * h['success_draws_tau' if draws else 'success_tau']['mean']:.0f}% / by the total "
@@ -562,15 +585,15 @@ def main(argv=None) -> dict:
               f"{100 * h['regret_sdgnet_mean']['mean']:.0f}% (median {100 * h['regret_sdgnet_mean']['median']:.0f}%), "
               f"pick percentile {100 * h['percentile_sdgnet_mean']['mean']:.0f}")
         print(f"regret goal, on one draw: picking by the mean of {args.redraws} further simulated draws of every candidate "
-              f"gives median {100 * h['regret_retest_projected']['median']:.0f}% (pick percentile "
-              f"{100 * h['percentile_retest_projected']['median']:.0f}), SDG-Net on the same rows "
-              f"{100 * h['regret_sdgnet_same_rows_projected']['median']:.0f}%")
+              f"gives median {100 * h['regret_retest_induced']['median']:.0f}% (pick percentile "
+              f"{100 * h['percentile_retest_induced']['median']:.0f}), SDG-Net on the same rows "
+              f"{100 * h['regret_sdgnet_same_rows_induced']['median']:.0f}%")
         print(f"how hard the regret goal is: a tool's best candidate lies a median "
-              f"{100 * h['best_gap_projected']['median']:.0f}% below its second on draw 0 "
+              f"{100 * h['best_gap_induced']['median']:.0f}% below its second on draw 0 "
               f"({100 * h['best_gap_mean']['median']:.0f}% on the mean of {args.redraws + 1} draws), and a median of "
-              f"{h['within_goal_projected']['median']:.0f} candidate(s) per tool lie within {100 * GOALS['regret']:.0f}% "
+              f"{h['within_goal_induced']['median']:.0f} candidate(s) per tool lie within {100 * GOALS['regret']:.0f}% "
               f"of the best ({h['within_goal_mean']['median']:.0f} on the mean): SDG-Net's pick meets the goal in "
-              f"{100 * np.mean([r['regret_sdgnet_projected'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
+              f"{100 * np.mean([r['regret_sdgnet_induced'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
               f"of tools on draw 0")
         for t, v in h["by_task"].items():
             print(f"  {t:7s} retest {v['retest_rho']:+.2f} (ceiling {v['retest_ceiling_rho']:+.2f}) | vs mean: rho sdgnet {v['rho_sdgnet_mean']:+.2f} analytic "
@@ -580,12 +603,12 @@ def main(argv=None) -> dict:
         times = "once more" if args.verify_draws == 1 else f"{args.verify_draws} times each, the mean taken"
         print(f"verified pick (SDG-Net's {args.verify} best per tool rolled out {times}, {args.verify_physics} physics, "
               f"{h['verify_s']['mean']:.2f} s per tool for both checks): top-1 regret median "
-              f"{100 * h['regret_verified_projected']['median']:.0f}% (SDG-Net alone "
-              f"{100 * h['regret_sdgnet_projected']['median']:.0f}%), mean {100 * h['regret_verified_projected']['mean']:.0f}%, "
-              f"within the goal in {100 * np.mean([r['regret_verified_projected'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
+              f"{100 * h['regret_verified_induced']['median']:.0f}% (SDG-Net alone "
+              f"{100 * h['regret_sdgnet_induced']['median']:.0f}%), mean {100 * h['regret_verified_induced']['mean']:.0f}%, "
+              f"within the goal in {100 * np.mean([r['regret_verified_induced'] <= GOALS['regret'] for r in res['rows'] if r['held_out']]):.0f}% "
               f"of tools, the task done by it in {100 * h['success_verified_tau']['mean']:.0f}% (draw 0); by the total: task achieved "
               f"{100 * h['success_verified_total']['mean']:.0f}% (draw 0), top-1 regret median "
-              f"{100 * h['regret_verified_total_projected']['median']:.0f}%, task regret median "
+              f"{100 * h['regret_verified_total_induced']['median']:.0f}%, task regret median "
               f"{100 * h['task_regret_verified_total']['median']:.0f}% (within 5% in "
               f"{100 * h['task_within_goal_verified_total']['mean']:.0f}% "
               f"of tools; the pick slips {h['pick_slip_mm_verified_total']['median']:.1f} mm and drifts "
@@ -597,9 +620,9 @@ def main(argv=None) -> dict:
                  f"{h['torque_draws_verified_total']['mean']:.3f} N m (unverified {h['torque_draws_total']['mean']:.3f})"
                  if draws else ""))
         for t, v in h["by_task"].items():
-            print(f"  {t:7s} regret verified {100 * v['regret_verified_projected_median']:.0f}% (median; mean "
-                  f"{100 * v['regret_verified_projected']:.0f}%), does the task {100 * v['success_verified_tau']:.0f}% | by the "
-                  f"total: regret median {100 * v['regret_verified_total_projected_median']:.0f}%, task regret median "
+            print(f"  {t:7s} regret verified {100 * v['regret_verified_induced_median']:.0f}% (median; mean "
+                  f"{100 * v['regret_verified_induced']:.0f}%), does the task {100 * v['success_verified_tau']:.0f}% | by the "
+                  f"total: regret median {100 * v['regret_verified_total_induced_median']:.0f}%, task regret median "
                   f"{100 * v['task_regret_verified_total_median']:.0f}%, measured-total regret median "
                   f"{100 * v['total_regret_verified_total_median']:.0f}%, success {100 * v['success_verified_total']:.0f}%")
     return out

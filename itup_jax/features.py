@@ -39,11 +39,11 @@ import jax.numpy as jnp
 import numpy as np
 import trimesh
 
-from itup_jax.costs import _SQRT_TINY, _TINY
+from itup_jax.costs import _SQRT_TINY, _TINY, _passed_torque_sq
 from itup_jax.grasp import Grasps, rotation_matrix
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
-from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
+from itup_jax.robot import FLANGE_TO_GRASP
 from itup_jax.shapes import pad_zeros_high, to_device
 from itup_jax.tool import Tool, ToolParams
 from itup_jax.wrench import Loads
@@ -195,11 +195,10 @@ def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -
     tau + FLANGE_TO_GRASP e_z x F."""
     d = FLANGE_TO_GRASP
     tw = jnp.stack([tau[0] - d * F[1], tau[1] + d * F[0], tau[2]])  # [3, T] about the wrist site
-    cap = 2.0 * PAD_TORSION * mu * WRIST_GRIP_FORCE
     full_sq = tw[0] ** 2 + tw[1] ** 2 + tw[2] ** 2
-    # `costs`' 'passed' form, with the part off the closure axis (y) summed rather than taken as the full
-    # square minus the closure part: no cancellation in float32 where the closure torque dominates
-    passed_sq = tw[0] ** 2 + tw[2] ** 2 + jnp.minimum(jnp.abs(tw[1]), cap) ** 2
+    # `costs`' 'passed' form: the part off the closure axis (y) from its two components, the part about it
+    # capped by the pads' torsional friction at WRIST_GRIP_FORCE
+    passed_sq = _passed_torque_sq(tw[0] ** 2 + tw[2] ** 2, tw[1], mu, WRIST_GRIP_FORCE)
     grip_sq = grip_demand_sq(F.T, tau.T, mu, width, xp=jnp)
     peaks = jnp.stack([full_sq.max(), passed_sq.max(), grip_sq.max()])
     peaks = jnp.sqrt(peaks + _TINY) - _SQRT_TINY  # a finite gradient where a load is zero (as `costs`)

@@ -252,10 +252,13 @@ def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
     tool, task = tasks["hammer"]
     R = np.eye(3)[None].repeat(3, 0)
     g = make_grasps([[0, 0, 0.02], [0, 0, 0.1], [0, 0, 0.2]], R, [0.03] * 3)
-    com = itup.wrench_costs(tool, task, g, CostParams(lever_arm="com"))
-    assert np.ptp(np.asarray(com.tau)) < 1e-9
-    grasp = itup.wrench_costs(tool, task, g)
-    assert np.all(np.diff(np.asarray(grasp.tau)) < 0)  # nearer the head, shorter lever, less torque
+    # the full torque: the hammer's swing torque lies about the tool's y axis, these grasps' closure axis,
+    # so the part off it ('perp') is zero at every grasp position (to rounding)
+    com = itup.wrench_costs(tool, task, g, CostParams(lever_arm="com", torque_projection="full"))
+    assert np.ptp(np.asarray(com.tau)) < 1e-9 * np.max(np.asarray(com.tau))
+    grasp = itup.wrench_costs(tool, task, g, CostParams(torque_projection="full"))
+    assert np.all(np.diff(np.asarray(grasp.tau)) < -1e-3)  # nearer the head, shorter lever, less torque
+    assert np.max(np.asarray(itup.wrench_costs(tool, task, g).tau)) < 1e-9 * np.max(np.asarray(grasp.tau))
 
 
 def test_regimes_of_the_four_tasks(tasks):
@@ -284,3 +287,25 @@ def test_costs_are_differentiable_through_the_public_batched_function(tasks, gra
     grad = jax.jit(jax.grad(lambda tp: batched_wrench_costs(tp, task, g, CostParams()).total.sum()))(tool.params)
     assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree_util.tree_leaves(grad))
     assert isinstance(g, Grasps)
+
+
+@pytest.mark.parametrize("projection", ["perp", "passed"])
+def test_off_axis_torque_keeps_float32_precision_where_the_torque_lies_on_the_closure_axis(projection):
+    # a flat spanner's impact torque lies along the closure axis of many grasps, so the exact part off that
+    # axis is ~0: taken as ||tau||^2 - (tau . n_f)^2 it cancels in float32 (errors ~1e-3 of the torque);
+    # from its two grasp-frame components it keeps float32's relative precision of the torque itself
+    tool = itup.load_tool("spanner")
+    task = itup.make_task("hammer", tool)
+    g = itup.sample_grasps(tool, 400, seed=3)
+    p = CostParams(lever_arm="wrist", torque_projection=projection, grip_force=100.0)
+    as64 = lambda d: {k: np.asarray(v, np.float64) for k, v in d.items()}  # noqa: E731
+    exact = numpy_wrench_costs(*(as64(d) for d in to_numpy_inputs(tool.params, task, g)), lever_arm="wrist",
+                               torque_projection=projection, grip_force=100.0)["tau"]
+    ref = {q: numpy_wrench_costs(*(as64(d) for d in to_numpy_inputs(tool.params, task, g)), lever_arm="wrist",
+                                 torque_projection=q)["tau"] for q in ("perp", "full")}
+    full = ref["full"]
+    with jax.enable_x64(False):
+        tau = itup.wrench_costs(tool, task, g, p).tau
+    assert tau.dtype == jnp.float32 and np.min(ref["perp"]) < 1e-3 * np.max(full)  # some grasp nearly on the axis
+    c32 = np.asarray(tau, np.float64)
+    assert np.max(np.abs(c32 - exact)) <= 1e-6 * np.max(full), np.max(np.abs(c32 - exact)) / np.max(full)

@@ -242,8 +242,24 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     doc = json.loads((tmp_path / "fidelity.json").read_text())
     jsonschema.validate(doc, load_schema("fidelity"))
     rows = doc["per_tool"]
-    assert rows and all(r["rho_sdgnet_projected"] is None or -1 <= r["rho_sdgnet_projected"] <= 1 for r in rows)
-    assert all(r["regret_sdgnet_projected"] >= 0 and 0 <= r["percentile_sdgnet_projected"] <= 1 for r in rows)
+    assert doc["objective"] == "wrench"
+    # the pooled ranking over the held-out tools, rebuilt here from the shards and the trained model
+    from itup_jax.dataset import load_shard
+    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.stats import spearman
+
+    net, pred, meas = load_model(str(tmp_path / "model.npz")), [], []
+    for e in json.loads((tmp_path / "test" / "manifest.json").read_text())["shards"]:
+        a = load_shard(str(tmp_path / "test"), e)
+        ok = a["label_valid"].astype(bool)
+        if e["variant"] > 0 and ok.sum() >= 3:
+            pred.append(np.asarray(predict_costs(net, a["features"], e["task"])["tau"], float)[ok])
+            meas.append(a["label_peak_torque_induced"][ok])
+    pooled = spearman(np.concatenate(pred), np.concatenate(meas))
+    assert doc["rho_pooled_held_out"]["hammer"] == pytest.approx(pooled, abs=1e-9)
+    assert doc["rho_pooled_held_out"]["all"] == pytest.approx(pooled, abs=1e-9)  # one task here
+    assert rows and all(r["rho_sdgnet_induced"] is None or -1 <= r["rho_sdgnet_induced"] <= 1 for r in rows)
+    assert all(r["regret_sdgnet_induced"] >= 0 and 0 <= r["percentile_sdgnet_induced"] <= 1 for r in rows)
     assert doc["train_wall_s"] > 0 and (tmp_path / "fidelity.png").exists()
     # the ceiling against single-draw labels is sqrt(retest rho) (additive-noise model), not the retest rho
     for r in rows:
@@ -252,36 +268,40 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
         else:
             assert r.get("retest_ceiling_rho") is None
     # a scorer that simulated every candidate once more: a pick among the same rows, scored on draw 0
-    retest = [r for r in rows if "regret_retest_projected" in r]
-    assert retest and all(r["regret_retest_projected"] >= 0 and 0 <= r["percentile_retest_projected"] <= 1
-                          and r["regret_sdgnet_same_rows_projected"] >= 0 for r in retest)
+    retest = [r for r in rows if "regret_retest_induced" in r]
+    assert retest and all(r["regret_retest_induced"] >= 0 and 0 <= r["percentile_retest_induced"] <= 1
+                          and r["regret_sdgnet_same_rows_induced"] >= 0 for r in retest)
     # the task: the quick model has a success head; every row judges both picks against the task
     assert doc["success_head"] and doc["weights"]["w_task"] > 0
     assert doc["class_heads"] == ["label_success", "label_failed", "label_weak_failed"]  # the data has weak rollouts
     assert all(0 <= v <= 1 for v in doc["weak_failure_auc_held_out"].values() if v is not None)
     assert all(r["success_total"] in (0.0, 1.0) and 0 <= r["success_draws_total"] <= 1 for r in rows)
     # --verify 2: the verified picks are judged on draw 0 like SDG-Net's own
-    assert doc["verify"] == 2 and all(r["regret_verified_projected"] >= 0 and r["verify_s"] > 0 for r in rows)
+    assert doc["verify"] == 2 and all(r["regret_verified_induced"] >= 0 and r["verify_s"] > 0 for r in rows)
     # --verify-draws 2: each verified grasp rolled out under two draws of the priors
     assert doc["verify_draws"] == 2 and doc["verify_physics"] == "random"
     assert all(r["pick_slip_mm_verified_total"] >= 0 and r["task_within_goal_verified_total"] in (0.0, 1.0) for r in rows)
     assert all(r["success_verified_total"] in (0.0, 1.0) and 0 <= r["success_draws_verified_total"] <= 1 for r in rows)
     # both verified picks are judged against the task and against the best candidate
-    assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_projected"] >= 0 for r in rows)
+    assert all(r["success_verified_tau"] in (0.0, 1.0) and r["regret_verified_total_induced"] >= 0 for r in rows)
     # the regret in the total's own measured terms: (1 + regret) x the shard's lowest measured total (the
     # ScoreWeights formula on its labels) is the measured total of one of its candidates, the pick's
-    from itup_jax.dataset import load_shard
-
     w = doc["weights"]
     manifest = json.loads((tmp_path / "test" / "manifest.json").read_text())
     for r in rows:
         entry = next(e for e in manifest["shards"] if (e["task"], e["variant"]) == (r["task"], r["variant"]))
         a = load_shard(str(tmp_path / "test"), entry)
         ok = a["label_valid"].astype(bool)
-        m = (w["w_tau"] * a["label_peak_torque_projected"] + w["w_slip"] * a["label_slip_translation"]
+        # the model's objective: the wrench one counts the full induced torque and the grip demand
+        tau, grip = (("label_peak_torque_induced", w["w_grip"] * a["label_grip_demand"]) if doc["objective"] == "wrench"
+                     else ("label_peak_torque_projected", 0.0))
+        m = (w["w_tau"] * a[tau] + grip + w["w_slip"] * a["label_slip_translation"]
              + w["w_align"] * a["label_alignment_drift"] + w["w_task"] * (1 - a["label_success"])
              + w["w_fail"] * a["label_failed"])[ok]
         assert r["rho_total_measured"] is None or -1 <= r["rho_total_measured"] <= 1
+        # the headline measure is the full induced peak torque label (a random pick's expected regret on it)
+        y = a["label_peak_torque_induced"][ok]
+        assert r["regret_random_induced"] == pytest.approx(y.mean() / y.min() - 1, rel=1e-9)
         for key in ("total_regret_total", "total_regret_verified_total"):
             assert r[key] >= 0 and np.isclose((1 + r[key]) * m.min(), m, rtol=1e-9).any(), key
     for r in rows:  # a task regret exactly where the pick did the task
@@ -335,6 +355,16 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
     for rule in ("tau", "total"):
         again = cc["_measure"](tool, task, scene, g, fresh[rule]["index"], doc["draws"])
         assert again["torque"] == pytest.approx(fresh[rule]["torque"], rel=1e-9)
+    # the headline torque is the full induced peak label, the raw and projected ones beside it
+    from itup_jax.simulate import Randomization, simulate
+
+    i = fresh["total"]["index"]
+    L = simulate(tool, task, g[np.full(doc["draws"], i)], seed=cc["ROLLOUT_SEED"], scene=scene,
+                 randomize=Randomization()).labels
+    v = np.asarray(L.valid, bool)
+    for key, label in (("torque", L.peak_torque_induced), ("torque_raw", L.peak_torque),
+                       ("torque_projected", L.peak_torque_projected), ("grip_demand", L.grip_demand)):
+        assert fresh["total"][key] == pytest.approx(float(np.mean(np.asarray(label)[v])), rel=1e-9), key
 
 
 def test_mjx_vs_native_quick(tmp_path, monkeypatch):
@@ -456,6 +486,15 @@ def test_torque_failure_quick(tmp_path, monkeypatch):
     assert doc["thresholds"]["peak_torque"]["all"]["n"] == doc["rollouts"]
     assert sum(doc["binned_all"]["n"]) == doc["rollouts"]
     assert {r["baseline"] for r in doc["suppression"]} == {"force_closure"}
+    # the headline reduction is of the full induced peak torque (the raw peak and projected part beside it)
+    tf = runpy.run_path(os.path.join(ROOT, "experiments", "torque_failure.py"))
+    table = {"table": {"hammer": {m: {k: {"mean": v} for k, v in c.items()} for m, c in {
+        "sdgnet": {"peak_torque_induced": 1.0, "peak_torque": 3.0, "peak_torque_projected": 4.0, "failed": 0.1},
+        "force_closure": {"peak_torque_induced": 2.0, "peak_torque": 3.0, "peak_torque_projected": 1.0,
+                          "failed": 0.2}}.items()}}}
+    (row,) = tf["suppression"](table)
+    assert (row["torque_reduction_pct"], row["raw_torque_reduction_pct"], row["projected_torque_reduction_pct"],
+            row["failure_reduction_pct"]) == pytest.approx((50.0, 0.0, -300.0, 50.0))
     assert (tmp_path / "torque_failure.png").stat().st_size > 10_000
 
 
