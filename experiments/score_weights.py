@@ -26,9 +26,9 @@ drift, and the torque per tool against the shipped weights' picks (`stats.paired
 The rule, fixed before any run: a setting qualifies when its picks did the task in every rollout and never
 failed in the grip, and their mean slip and mean drift exceed the shipped weights' by at most 10 % (torque
 is not to be bought with slip); the choice is the qualifying setting with the lowest geometric-mean
-full induced torque (until schema `itup.weights/1` the projected one, which a network can lower by
-turning the jaw, see docs/results.md). Choose on the validation set (seed 6); then run the test set
-(seed 1) with the choice fixed.
+full induced torque (not the projected part, which a network can lower by turning the jaw onto the
+torque; docs/results.md). Choose on the validation set (seed 6); then run the test set (seed 1) with
+the choice fixed.
 Writes weights.json (schema `itup.weights/2`).
 """
 

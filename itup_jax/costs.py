@@ -140,9 +140,10 @@ def line_angle(u: jax.Array, v: jax.Array) -> jax.Array:
 
 def _off_axis_sq(tau: jax.Array, R: jax.Array) -> jax.Array:
     """[T]: ||(I - n_f n_f^T) tau||^2 of a vector tau [T, 3] (a torque, N^2 m^2, or a force, N^2) off the
-    closure axis n_f = R[:, 1], as the sum of its two grasp-frame components. Not ||tau||^2 - (tau . n_f)^2: where the torque lies
-    nearly on the closure axis that difference cancels, and in float32 leaves an error of ~1e-7 ||tau||^2
-    (on a flat spanner, up to 1e-2 N m where the exact part is 0); the components' is ~1e-7 ||tau||."""
+    closure axis n_f = R[:, 1], as the sum of its two grasp-frame components. Not ||tau||^2 - (tau . n_f)^2:
+    where the vector lies nearly on the closure axis that difference cancels, and in float32 leaves an
+    error of ~1e-7 ||tau||^2 (on a flat spanner, up to 1e-2 N m where the exact part is 0); the sum of
+    the components' squares errs by ~1e-7 ||tau|| in the norm."""
     return (tau @ R[:, 0]) ** 2 + (tau @ R[:, 2]) ** 2
 
 
@@ -186,7 +187,7 @@ def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: Cost
     else:
         c_tau = _safe_norm(tau)
     F_n = F @ n_f
-    F_t = _safe_norm(F - F_n[:, None] * n_f)
+    F_t = _safe_sqrt(_off_axis_sq(F, R))
     c_slip = jnp.maximum(F_t - tool.mu * (jnp.abs(F_n) + 2.0 * params.grip_force), 0.0)
     c_align = jnp.where(loads.active > 0, line_angle(n_f[None, :], loads.normal_tool), 0.0)
     total = params.w_tau * c_tau + params.w_slip * c_slip + params.w_align * c_align
