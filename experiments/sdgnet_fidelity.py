@@ -15,7 +15,8 @@ Per test tool (a shard: one tool, one task, its sampled grasps; valid rollouts o
     projected induced torque (the paper objective's target, `projected`); the same for the analytic C_tau
     (the paper's, stored in the dataset);
   * and over the held-out tools together (`rho_pooled_held_out`: per task, and `all` over every task),
-    the headline's Spearman rho over every valid candidate, which also counts how the tools differ;
+    the headline's Spearman rho over every valid candidate, which also counts how the tools differ; for
+    a wrench-objective network the same for its grip demand (`rho_pooled_grip_held_out`);
   * top-1 regret = measured torque of the scorer's pick / the lowest measured torque among the
     candidates - 1; for SDG-Net, the analytic cost, and a random pick (its expectation); and two
     robust companions: the pick's percentile among the candidates' measured torques (0 = best)
@@ -205,6 +206,15 @@ def verified_picks(config: GenerateConfig, entry: dict, a: dict, ok: np.ndarray,
     return out
 
 
+def _pooled_rho(pairs: dict[str, tuple[list, list]]) -> dict[str, float]:
+    """{task: Spearman rho over every (prediction, measurement) pair of its tools together, and 'all' over
+    every task's}; `pairs`: {task: ([predictions per tool], [measurements per tool])}."""
+    out = {t: spearman(np.concatenate(p), np.concatenate(y)) for t, (p, y) in sorted(pairs.items())}
+    if pairs:
+        out["all"] = spearman(*(np.concatenate([np.concatenate(v[i]) for v in pairs.values()]) for i in (0, 1)))
+    return out
+
+
 def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None,
              weights: ScoreWeights = ScoreWeights(), verify: int = 0, verify_physics: str = "nominal",
              verify_draws: int = 1) -> dict:
@@ -233,7 +243,7 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
     extra_all = cached_redraws(test_dir, redraws, cache) if redraws else {}
     config = GenerateConfig.from_json(manifest["config"])
     steps = dataset_timesteps(manifest)
-    rows, pooled, pooled_tau = [], {}, {}
+    rows, pooled, pooled_tau, pooled_grip = [], {}, {}, {}
     for entry in manifest["shards"]:
         a = load_shard(test_dir, entry)
         ok = a["label_valid"].astype(bool)
@@ -325,6 +335,10 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
             pt = pooled_tau.setdefault(entry["task"], ([], []))
             pt[0].append(pred_all[ok])
             pt[1].append(a[HEADLINE][ok])
+            if "grip" in predicted and "label_grip_demand" in a:  # a wrench-objective network's grip demand
+                pg = pooled_grip.setdefault(entry["task"], ([], []))
+                pg[0].append(predicted["grip"][ok])
+                pg[1].append(a["label_grip_demand"][ok])
         for name, (mask, y_all) in targets.items():
             y, pred, ana = y_all[mask], pred_all[mask], a["analytic_tau"][mask]
             row[f"rho_sdgnet_{name}"] = spearman(pred, y)
@@ -338,10 +352,8 @@ def evaluate(model, test_dir: str, redraws: int = 0, *, cache: str | None = None
         rows.append(row)
     auc = {name: {t: roc_auc(np.concatenate(p), np.concatenate(sv)) for t, (p, sv) in sorted(by_task.items())}
            for name, by_task in pooled.items()}
-    rho_pooled = {t: spearman(np.concatenate(p), np.concatenate(y)) for t, (p, y) in sorted(pooled_tau.items())}
-    if pooled_tau:
-        rho_pooled["all"] = spearman(*(np.concatenate([np.concatenate(v[i]) for v in pooled_tau.values()]) for i in (0, 1)))
-    return {"rows": rows, "test_config": manifest["config"], "rho_pooled_held_out": rho_pooled,
+    return {"rows": rows, "test_config": manifest["config"], "rho_pooled_held_out": _pooled_rho(pooled_tau),
+            "rho_pooled_grip_held_out": _pooled_rho(pooled_grip),
             "success_auc_held_out": auc.get("p_success", {}),
             "failure_auc_held_out": auc.get("p_failed", {}), "weak_failure_auc_held_out": auc.get("p_failed_weak", {})}
 
@@ -530,6 +542,7 @@ def main(argv=None) -> dict:
            "success_auc_held_out": res["success_auc_held_out"], "failure_auc_held_out": res["failure_auc_held_out"],
            "weak_failure_auc_held_out": res["weak_failure_auc_held_out"],
            "rho_pooled_held_out": res["rho_pooled_held_out"],
+           "rho_pooled_grip_held_out": res["rho_pooled_grip_held_out"],
            "per_tool": res["rows"], "test_config": res["test_config"]}
     from itup_jax.bench import machine_info
 
@@ -541,6 +554,9 @@ def main(argv=None) -> dict:
     if pooled:
         print("Spearman (SDG-Net, full induced torque) pooled over the held-out tools: "
               + ", ".join(f"{t} {v:.2f}" for t, v in pooled.items()))
+    if res["rho_pooled_grip_held_out"]:
+        print("Spearman (SDG-Net, grip demand) pooled over the held-out tools: "
+              + ", ".join(f"{t} {v:.2f}" for t, v in res["rho_pooled_grip_held_out"].items()))
     print(f"held-out tools: {h['tools']}; Spearman (SDG-Net, full induced torque) median "
           f"{h['rho_sdgnet_induced']['median']:.2f}, raw {h['rho_sdgnet_raw']['median']:.2f}; analytic "
           f"{h['rho_analytic_induced']['median']:.2f}; top-1 regret, median / mean over tools: "

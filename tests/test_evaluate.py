@@ -248,16 +248,21 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     from itup_jax.sdgnet import load_model, predict_costs
     from itup_jax.stats import spearman
 
-    net, pred, meas = load_model(str(tmp_path / "model.npz")), [], []
+    net, pred, meas, grip, demand = load_model(str(tmp_path / "model.npz")), [], [], [], []
     for e in json.loads((tmp_path / "test" / "manifest.json").read_text())["shards"]:
         a = load_shard(str(tmp_path / "test"), e)
         ok = a["label_valid"].astype(bool)
         if e["variant"] > 0 and ok.sum() >= 3:
-            pred.append(np.asarray(predict_costs(net, a["features"], e["task"])["tau"], float)[ok])
+            out = predict_costs(net, a["features"], e["task"])
+            pred.append(np.asarray(out["tau"], float)[ok])
             meas.append(a["label_peak_torque_induced"][ok])
+            grip.append(np.asarray(out["grip"], float)[ok])
+            demand.append(a["label_grip_demand"][ok])
     pooled = spearman(np.concatenate(pred), np.concatenate(meas))
     assert doc["rho_pooled_held_out"]["hammer"] == pytest.approx(pooled, abs=1e-9)
     assert doc["rho_pooled_held_out"]["all"] == pytest.approx(pooled, abs=1e-9)  # one task here
+    assert doc["rho_pooled_grip_held_out"]["hammer"] == pytest.approx(
+        spearman(np.concatenate(grip), np.concatenate(demand)), abs=1e-9)
     assert rows and all(r["rho_sdgnet_induced"] is None or -1 <= r["rho_sdgnet_induced"] <= 1 for r in rows)
     assert all(r["regret_sdgnet_induced"] >= 0 and 0 <= r["percentile_sdgnet_induced"] <= 1 for r in rows)
     assert doc["train_wall_s"] > 0 and (tmp_path / "fidelity.png").exists()
