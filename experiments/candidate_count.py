@@ -49,8 +49,6 @@ from itup_jax.simulate import Randomization, reachable, simulate
 from itup_jax.stats import paired_ratio
 from itup_jax.verify import best_grasp_verified
 
-#: Means over tools reported beside each pick rule's headline torque.
-BESIDE = ("torque_raw", "torque_projected", "torque_closure", "grip_demand", "success", "failed", "slip", "drift")
 GOAL = 0.05  # the top-1 regret goal (5 %)
 SAMPLE_SEED = 1000  # + the tool's variant: fresh candidates, never the shard's own (seeded by the run)
 ROLLOUT_SEED = 777
@@ -63,6 +61,8 @@ ROLLOUT_SEED = 777
 MEASURES = {"torque": "peak_torque_induced", "torque_raw": "peak_torque", "torque_projected": "peak_torque_projected",
             "torque_closure": "peak_torque_closure", "grip_demand": "grip_demand", "success": "success",
             "failed": "failed", "slip": "slip_translation", "drift": "alignment_drift"}
+#: Means over tools reported beside each pick rule's headline torque (score_weights.py reads it too).
+BESIDE = tuple(k for k in MEASURES if k != "torque")
 
 
 def _measure(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:

@@ -54,8 +54,6 @@ from itup_jax.simulate import reachable
 from itup_jax.stats import paired_ratio
 
 SHIPPED = ScoreWeights()
-#: Means over tools reported beside each setting's headline torque (`candidate_count.MEASURES`).
-BESIDE = ("torque_raw", "torque_projected", "torque_closure", "grip_demand", "success", "failed", "slip", "drift")
 FIELDS = ("w_slip", "w_align", "w_task", "w_fail")  # w_tau stays 1: the others are relative to it
 SLACK = 0.10  # how much more slip and drift than the shipped weights' picks a qualifying setting may show
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -105,9 +103,10 @@ def evaluate_tool(config, entry, n, draws, model, timestep, settings, cc) -> dic
     return row
 
 
-def summarise(rows: list[dict], keys: list[str]) -> dict:
+def summarise(rows: list[dict], keys: list[str], beside: tuple[str, ...]) -> dict:
     """Per setting (and `tau`): geometric-mean torque over tools, success and failure rates, mean slip and
-    drift over tools with a pick; and the paired ratio of torque against the shipped weights' picks."""
+    drift over tools with a pick, the means of `beside` (`candidate_count.BESIDE`); and the paired ratio of
+    torque against the shipped weights' picks."""
     rows = [r for r in rows if r["picks"]]
     ref = np.array([r["picks"][setting_key(SHIPPED)]["torque"] for r in rows])
     out = {}
@@ -115,7 +114,7 @@ def summarise(rows: list[dict], keys: list[str]) -> dict:
         c = [r["picks"][k] for r in rows]
         v = np.array([x["torque"] for x in c])
         out[k] = {"geo_mean_torque": float(np.exp(np.nanmean(np.log(v)))), "mean_torque": float(np.nanmean(v)),
-                  **{f: float(np.nanmean([x[f] for x in c])) for f in BESIDE},
+                  **{f: float(np.nanmean([x[f] for x in c])) for f in beside},
                   "paired_vs_shipped": paired_ratio(v, ref)}
     return out
 
@@ -186,7 +185,7 @@ def main(argv=None) -> dict:
         print(f"{r['task']:7s} {r['variant']:3d} {r['reachable']} reachable, {r.get('distinct_picks', 0)} distinct picks",
               flush=True)
     keys = ["tau"] + [setting_key(w) for w in settings]
-    summary = summarise(rows_out, keys)
+    summary = summarise(rows_out, keys, cc["BESIDE"])
     chosen, qualifying = choose(summary, settings)
     from itup_jax.bench import machine_info
 

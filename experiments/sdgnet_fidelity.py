@@ -85,7 +85,7 @@ from itup_jax.verify import best_grasp_verified, measured_total
 #: wrist torque", the full vector with the static holding torque removed, no projection).
 MEASURED = {"induced": "label_peak_torque_induced", "raw": "label_peak_torque",
             "projected": "label_peak_torque_projected"}
-HEADLINE = "label_peak_torque_induced"
+HEADLINE = MEASURED["induced"]
 GOALS = {"spearman": 0.9, "regret": 0.05, "train_minutes": 5.0}
 REDRAWN = ("torque", "success", "failed")  # the labels `redraw_labels` keeps
 

@@ -298,12 +298,10 @@ def test_off_axis_torque_keeps_float32_precision_where_the_torque_lies_on_the_cl
     task = itup.make_task("hammer", tool)
     g = itup.sample_grasps(tool, 400, seed=3)
     p = CostParams(lever_arm="wrist", torque_projection=projection, grip_force=100.0)
-    as64 = lambda d: {k: np.asarray(v, np.float64) for k, v in d.items()}  # noqa: E731
-    exact = numpy_wrench_costs(*(as64(d) for d in to_numpy_inputs(tool.params, task, g)), lever_arm="wrist",
-                               torque_projection=projection, grip_force=100.0)["tau"]
-    ref = {q: numpy_wrench_costs(*(as64(d) for d in to_numpy_inputs(tool.params, task, g)), lever_arm="wrist",
-                                 torque_projection=q)["tau"] for q in ("perp", "full")}
-    full = ref["full"]
+    inputs = [{k: np.asarray(v, np.float64) for k, v in d.items()} for d in to_numpy_inputs(tool.params, task, g)]
+    ref = {q: numpy_wrench_costs(*inputs, lever_arm="wrist", torque_projection=q, grip_force=100.0)["tau"]
+           for q in ("perp", "full", projection)}
+    exact, full = ref[projection], ref["full"]
     with jax.enable_x64(False):
         tau = itup.wrench_costs(tool, task, g, p).tau
     assert tau.dtype == jnp.float32 and np.min(ref["perp"]) < 1e-3 * np.max(full)  # some grasp nearly on the axis
