@@ -1,21 +1,25 @@
 """Is data what limits SDG-Net? Held-out fidelity against the number of training tools per task.
 
-    python experiments/sdgnet_scaling.py --train /tmp/sdg_train32 /tmp/sdg_train64s2 /tmp/sdg_train128s3 \\
-        --test /tmp/sdg_test8 --tools 8,16,32,64,128,all --seeds 3 --out results/scaling
+    python experiments/sdgnet_scaling.py --train /tmp/d12/tr_a /tmp/d12/tr_b /tmp/d12/tr_c /tmp/d12/tr_d \\
+        --test /tmp/d11/eval_s6 --tools 12,24,all --seeds 2 --ensemble --out results/scaling
     python experiments/sdgnet_scaling.py --quick --out /tmp/scaling     # tiny datasets made here (tests)
 
 For each size k (tools per task) and seed, SDG-Net is trained with the shipped checkpoint's recipe
 (`--hidden`, `--weight-decay`, `--torque-scale`, `--epochs` override it) on the first k tools of every
 task (tool ids in dataset order: the first dataset's built-in tool and variants first), and scored on
-the held-out tools of --test as `sdgnet_fidelity.py` does (per-tool Spearman between predicted C_tau
-and the measured projected peak torque; median over tools, and per task). A straight line of the
-median rho (mean over seeds) against log2(k) gives the gain per doubling of the data and, where it
-rises, the size at which the line would reach a Spearman of 0.9. That is an extrapolation, and the
-curve bends: the script also fits the three largest sizes alone (the local rate) and names any
-measured size past the line's crossing that is still below the goal; what bounds any prior-blind
-scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of the retest
-correlation). With `--tools all --epochs E` it measures fidelity against training time instead.
-Writes scaling.json (`itup.scaling/1`) and scaling.png.
+the held-out tools of --test as `sdgnet_fidelity.py` does: Spearman between the predicted torque and
+the measured full induced peak wrist torque (the paper's measure, no projection; the headline), per
+tool (median over tools, and per task) and pooled over every candidate of the held-out tools
+(`rho_pooled`, which also counts how the tools differ); the raw peak and the projected part beside
+it. With `--ensemble` the seeds of a size are also averaged into one model (`sdgnet.ensemble`) and
+scored the same way: what ensembling buys at that size. A straight line of the median rho (mean over
+seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
+the line would reach a Spearman of 0.9; `fit_pooled` the same for the pooled rho. That is an
+extrapolation, and the curve bends: the script also fits the three largest sizes alone (the local
+rate) and names any measured size past the line's crossing that is still below the goal; what bounds
+any prior-blind scorer is the labels' noise (`sdgnet_fidelity.py --redraws`: about the square root of
+the retest correlation). With `--tools all --epochs E` it measures fidelity against training time
+instead. Writes scaling.json (`itup.scaling/2`) and scaling.png.
 """
 
 from __future__ import annotations
@@ -31,11 +35,11 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from sdgnet_fidelity import GOALS, evaluate  # noqa: E402  (the same per-tool scoring as the fidelity experiment)
+from sdgnet_fidelity import GOALS, HEADLINE, evaluate  # noqa: E402  (the same per-tool scoring as the fidelity experiment)
 
 from itup_jax.atomic import atomic_write_json  # noqa: E402
 from itup_jax.dataset import GenerateConfig, generate, load_datasets  # noqa: E402
-from itup_jax.sdgnet import load_model, train  # noqa: E402
+from itup_jax.sdgnet import ensemble, load_model, train  # noqa: E402
 
 
 def first_tools(data: dict, k: int | None) -> np.ndarray:
@@ -70,6 +74,29 @@ def parse_sizes(tools: str, counts: Sequence[int]) -> list[tuple[int, bool]]:
             raise ValueError(f"--tools {s!r}: need 1..{available} (tools per task in --train) or 'all'")
         sizes.add((k, all_ or k >= max(counts)))
     return sorted(sizes)
+
+
+def fidelity(model, test_dir: str) -> dict:
+    """The model's ranking of the held-out tools of `test_dir` (`sdgnet_fidelity.evaluate`): median over
+    tools of the per-tool Spearman against the measured full induced peak torque (`median_rho`, the
+    headline), the raw peak and the projected part beside it, the mean per task, and the rho pooled over
+    every candidate of the held-out tools (`rho_pooled`, and per task `pooled_by_task`)."""
+    ev = evaluate(model, test_dir)
+    rows = [r for r in ev["rows"] if r["held_out"]]
+    rho = {m: np.array([r[f"rho_sdgnet_{m}"] for r in rows], float) for m in ("induced", "raw", "projected")}
+    pooled = ev["rho_pooled_held_out"]
+    return {"median_rho": float(np.nanmedian(rho["induced"])), "median_rho_raw": float(np.nanmedian(rho["raw"])),
+            "median_rho_projected": float(np.nanmedian(rho["projected"])),
+            "by_task": {t: float(np.nanmean([r["rho_sdgnet_induced"] for r in rows if r["task"] == t]))
+                        for t in sorted({r["task"] for r in rows})},
+            "rho_pooled": float(pooled["all"]), "pooled_by_task": {t: float(v) for t, v in pooled.items() if t != "all"}}
+
+
+def describe(f: dict) -> str:
+    """One line of `fidelity`'s figures."""
+    return (f"held-out Spearman median {f['median_rho']:.3f} (raw {f['median_rho_raw']:.3f}, projected "
+            f"{f['median_rho_projected']:.3f}), pooled {f['rho_pooled']:.3f}  "
+            + " ".join(f"{t} {v:.2f}" for t, v in f["by_task"].items()))
 
 
 def fit_log2(k: np.ndarray, rho: np.ndarray, goal: float) -> dict:
@@ -109,6 +136,10 @@ def plot(out: dict, path: str) -> None:
     med = [s["median_rho"]["mean"] for s in sizes]
     err = [s["median_rho"]["std"] for s in sizes]
     ax.errorbar(k, med, yerr=err, fmt="ks-", lw=2, ms=5, capsize=3, label="median over tools")
+    ax.plot(k, [s["rho_pooled"]["mean"] for s in sizes], "kD--", lw=1.5, ms=4, label="pooled over tools")
+    ens = [(ki, s["ensemble"]["rho_pooled"]) for ki, s in zip(k, sizes) if "ensemble" in s]
+    if ens:
+        ax.plot(*zip(*ens), "r^", ms=6, label="ensemble of the seeds, pooled")
     f = out["fit"]
     if f["per_doubling"] is not None:
         xs = np.geomspace(min(k), max(k), 50)
@@ -116,7 +147,7 @@ def plot(out: dict, path: str) -> None:
     ax.axhline(GOALS["spearman"], color="r", ls="--", lw=0.8, label="goal")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("training tools per task")
-    ax.set_ylabel("held-out Spearman (pred C_tau vs measured)")
+    ax.set_ylabel("held-out Spearman (full induced peak torque)")
     ax.set_title("SDG-Net fidelity against training data")
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -134,6 +165,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--torque-scale", type=float, default=None, help="N m, log1p(tau / scale) target (default: the shipped recipe)")
     ap.add_argument("--epochs", type=int, default=None, help="training epochs (default: the shipped recipe); with "
                     "--tools all, fidelity against training time")
+    ap.add_argument("--ensemble", action="store_true", help="also score the average of each size's seeds (sdgnet.ensemble)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out (for the tests)")
     ap.add_argument("--out", default="results/scaling")
     args = ap.parse_args(argv)
@@ -144,7 +176,7 @@ def main(argv=None) -> dict:
         args.test = os.path.join(args.out, "test")
         generate(args.train[0], GenerateConfig(tasks=("reach",), tools_per_task=4, grasps=24, seed=0), progress=False)
         generate(args.test, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=1), progress=False)
-        args.tools, args.seeds = "2,all", 1
+        args.tools, args.seeds, args.ensemble = "2,all", 2, True
         base = dataclasses.replace(base, hidden=(16,), epochs=30, patience=10)
     try:
         hidden = tuple(int(h) for h in args.hidden.split(",") if h.strip()) if args.hidden else None
@@ -170,31 +202,29 @@ def main(argv=None) -> dict:
     for k, every in sizes:
         keep = first_tools(data, None if every else k)  # 'all' keeps a task's tools beyond the fewest too
         sub = {key: v[keep] for key, v in data.items()}
-        runs = []
+        runs, models = [], []
+        label = "all" if every else str(k)
         for seed in range(args.seeds):
             t0 = time.perf_counter()
             model = train(sub, dataclasses.replace(base, seed=seed), feature_spec=feature_spec, progress=False,
                           log=lambda *_: None)
             wall = time.perf_counter() - t0
-            rows = [r for r in evaluate(model, args.test)["rows"] if r["held_out"]]
-            rho = np.array([r["rho_sdgnet_projected"] for r in rows], float)
+            models.append(model)
             runs.append({"seed": seed, "train_wall_s": wall, "best_val_loss": model.spec["best_val_loss"],
-                         "median_rho": float(np.nanmedian(rho)),
-                         "by_task": {t: float(np.nanmean([r["rho_sdgnet_projected"] for r in rows if r["task"] == t]))
-                                     for t in sorted({r["task"] for r in rows})}})
-            print(f"{'all' if every else k:>4} tools/task seed {seed}: {int(keep.sum())} rows, {wall:.1f} s, val loss "
-                  f"{model.spec['best_val_loss']:.3f}, held-out Spearman median {runs[-1]['median_rho']:.3f}  "
-                  + " ".join(f"{t} {v:.2f}" for t, v in runs[-1]["by_task"].items()), flush=True)
-        med = np.array([r["median_rho"] for r in runs])
+                         **fidelity(model, args.test)})
+            print(f"{label:>4} tools/task seed {seed}: {int(keep.sum())} rows, {wall:.1f} s, val loss "
+                  f"{model.spec['best_val_loss']:.3f}, " + describe(runs[-1]), flush=True)
         tasks = list(runs[0]["by_task"])
-        results.append({
-            "tools_per_task": k, "all_tools": every, "rows": int(keep.sum()), "runs": runs,
-            "tools_by_task": tools_by_task(sub),
-            "median_rho": {"mean": float(med.mean()), "std": float(med.std()), "min": float(med.min()),
-                           "max": float(med.max())},
-            "by_task": {t: {"mean": float(np.mean([r["by_task"][t] for r in runs]))} for t in tasks},
-            "train_wall_s": {"mean": float(np.mean([r["train_wall_s"] for r in runs]))},
-        })
+        size = {"tools_per_task": k, "all_tools": every, "rows": int(keep.sum()), "runs": runs,
+                "tools_by_task": tools_by_task(sub), "train_wall_s": {"mean": float(np.mean([r["train_wall_s"] for r in runs]))},
+                "by_task": {t: {"mean": float(np.mean([r["by_task"][t] for r in runs]))} for t in tasks}}
+        for key in ("median_rho", "median_rho_raw", "median_rho_projected", "rho_pooled"):
+            v = np.array([r[key] for r in runs], float)
+            size[key] = {"mean": float(v.mean()), "std": float(v.std()), "min": float(v.min()), "max": float(v.max())}
+        if args.ensemble and len(models) >= 2:
+            size["ensemble"] = {"members": len(models), **fidelity(ensemble(models), args.test)}
+            print(f"{label:>4} tools/task ensemble of {len(models)}: " + describe(size["ensemble"]), flush=True)
+        results.append(size)
     fit = fit_log2([r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results],
                    GOALS["spearman"])
     grasps = manifests[0]["config"]["grasps"]
@@ -205,6 +235,11 @@ def main(argv=None) -> dict:
     # is below it; the line through the three largest sizes is the local rate
     ks, meds = [r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results]
     fit["contradicted_by"] = measured_past_goal(ks, meds, fit["tools_per_task_at_goal"], GOALS["spearman"])
+    pooled = [r["rho_pooled"]["mean"] for r in results]
+    fit_pooled = fit_log2(ks, pooled, GOALS["spearman"])
+    fit_pooled["contradicted_by"] = measured_past_goal(ks, pooled, fit_pooled["tools_per_task_at_goal"], GOALS["spearman"])
+    if fit_pooled["tools_per_task_at_goal"] is not None:
+        fit_pooled["rollouts_at_goal"] = fit_pooled["tools_per_task_at_goal"] * grasps * n_tasks
     if len(results) >= 3:
         fit["tail"] = fit_log2(ks[-3:], meds[-3:], GOALS["spearman"])
         fit["tail"]["sizes"] = ks[-3:]
@@ -212,10 +247,10 @@ def main(argv=None) -> dict:
             fit["tail"]["rollouts_at_goal"] = fit["tail"]["tools_per_task_at_goal"] * grasps * n_tasks
     from itup_jax.bench import machine_info
 
-    out = {"schema": "itup.scaling/1", "experiment": "sdgnet_scaling", "quick": args.quick,
+    out = {"schema": "itup.scaling/2", "experiment": "sdgnet_scaling", "quick": args.quick,
            "train": [os.path.abspath(d) for d in args.train], "test": os.path.abspath(args.test),
            "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)},
-           "tasks": list(results[0]["by_task"]), "goals": GOALS, "sizes": results, "fit": fit,
+           "tasks": list(results[0]["by_task"]), "goals": GOALS, "measured": HEADLINE, "sizes": results, "fit": fit, "fit_pooled": fit_pooled,
            "machine": machine_info()}
     os.makedirs(args.out, exist_ok=True)
     atomic_write_json(os.path.join(args.out, "scaling.json"), out, indent=2)
@@ -236,6 +271,10 @@ def main(argv=None) -> dict:
             print(f"  the three largest sizes {tail['sizes']}: {tail['per_doubling']:+.3f} per doubling"
                   + (f"; at that rate {GOALS['spearman']} at ~{at:.0f} tools per task (~{tail['rollouts_at_goal']:.0f} rollouts)"
                      if at is not None else "; not rising"))
+        if fit_pooled["per_doubling"] is not None:
+            at = fit_pooled["tools_per_task_at_goal"]
+            print(f"  pooled rho = {fit_pooled['intercept']:.3f} + {fit_pooled['per_doubling']:.3f} log2(tools per task)"
+                  + (f"; {GOALS['spearman']} at ~{at:.0f} tools per task" if at is not None else "; it does not rise"))
     return out
 
 

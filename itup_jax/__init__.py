@@ -46,7 +46,7 @@ from itup_jax.trajectory import Trajectory
 from itup_jax.verify import Verified, best_grasp_verified
 from itup_jax.wrench import Loads, task_loads
 
-__version__ = "0.18.0"
+__version__ = "0.19.0"
 
 
 def __getattr__(name: str):

@@ -940,7 +940,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--timestep", type=float, default=None,
                      help="s, the simulator's integration step for every task (default: each task's, "
                      + ", ".join(f"{k} {v * 1e3:g} ms" for k, v in TASK_TIMESTEP.items())
-                     + ": the coarsest whose labels converge, experiments/timestep_convergence.py)")
+                     + ": the coarsest whose labels rank like 0.25 ms's, experiments/timestep_convergence.py)")
     gen.add_argument("--variants", default=gen_defaults.variants, choices=["stretch", "parts"],
                      help="procedural tools: 'stretch' scales the whole built-in tool, 'parts' varies the handle and "
                      "the head independently (dataset.part_variant)")

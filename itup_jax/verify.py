@@ -1,26 +1,29 @@
 """Verified picks: SDG-Net screens every candidate, MuJoCo rolls out the k best, the best measured wins.
 
     v = itup.best_grasp_verified(tool, task, grasps, k=5)   # SDG-Net, then 5 nominal rollouts
-    v.index, v.grasp, v.labels.peak_torque_projected, v.chosen_by
+    v.index, v.grasp, v.labels.peak_torque_induced, v.chosen_by
     v = itup.best_grasp_verified(tool, task, grasps, k=10, weights=itup.ScoreWeights.torque_first())
     v = itup.best_grasp_verified(tool, task, grasps, k=10, draws=3, randomize=itup.Randomization())
 
-SDG-Net ranks a tool's candidates well (Spearman ~0.9 on unseen tools) but its single pick is often not
-the best, which is frequently a lone grasp well below the rest and usually among its first few
-. Rolling the k best reachable ones out once each
-(k = 5: 0.1-0.33 s per tool on the 2-core CPU, `itup bench verify`) and taking the lowest *measured*
-total finds it: on the unseen test tools the pick's measured total is a median 0 % above the lowest
-among all candidates (16 % for the scorer's own pick, docs/results.md). With a torque-only
-`weights` the pick is the lowest measured torque, which on most tools is a grasp that fails the task.
+SDG-Net ranks a tool's candidates fairly well (median Spearman 0.81 per unseen tool against the measured
+full induced peak wrist torque) but its single pick is often not the best. Rolling the k best reachable
+ones out once each (k = 5: 0.16-0.35 s per task on a 2-core CPU, `itup bench verify`) and taking the
+lowest *measured* total catches picks the network got wrong: on the unseen test tools the verified
+pick carries 2.65 N m of full induced torque against 2.96 N m for the scorer's own (mean over three
+physics draws), and verifying the best of 1,024 or 4,096 candidates instead of 256 lowers it by
+10-12 % (docs/results.md,
+"Fidelity and training time", "Scoring more candidates"). With a torque-only `weights` the pick is the
+lowest measured torque, which on most tools is a grasp that fails the task.
 
 With `draws` r > 1 each shortlisted grasp is rolled out r times under r draws of the physical priors
 (`randomize`), and its measured total is the mean over them: a grasp that misses the task or slips out
 in one draw of three carries a third of that penalty. One nominal rollout cannot tell a grasp that does
 the task from one that does it only at the priors' nominal values (docs/results.md).
 The measured total is the SDG-Net total (`ScoreWeights`)
-with each prediction replaced by what the rollout measured: projected peak torque (N m), slip (m),
-alignment drift (rad), whether the task was achieved (1/0) and whether the grasp failed in the grip
-(1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
+with each prediction replaced by what the rollout measured (`measured_total`): the full induced peak
+torque (N m) and the grip demand (N per pad) for the wrench objective, the projected peak torque for the
+paper's, slip (m), alignment drift (rad), whether the task was achieved (1/0) and whether the grasp
+failed in the grip (1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
 rollout; a grasp with a rollout that diverges cannot win and is replaced by the next reachable grasp; if
 no grasp has valid rollouts, the scorer's own pick stands (`chosen_by` = "score").
 
