@@ -21,7 +21,9 @@ checkpoint, its fidelity: the Spearman rho over each tool's candidates between i
 the measured counterpart (the full induced peak for the wrench objective, the projected one for the
 paper's) and between its predicted and measured grip demand, median per task and over every tool;
 with a weak-grip head and a dataset of labels 0.11.0, that head's AUC against the grasps that failed in
-the grip at 25 N per pad (`p_failed_weak_auc`; NaN on a tool where none or all did).
+the grip at 25 N per pad (`p_failed_weak_auc`; NaN on a tool where none or all did). Per tool, what
+any scorer could pick (`corner`): the candidates that did the task and held, and of them those within
+`CORNER` (0.824x the full induced torque, 0.75x the grip demand) of the better baseline pick's labels.
 
 The selection rule, fixed before the test tools are opened: a setting qualifies when its picks do the
 task in at least 95 % of the tools of every task and fail in the grip no more often than the worse
@@ -63,6 +65,10 @@ MIN_SUCCESS = 0.95
 PAD = 64
 #: the wrench objective's weight grid: (w_tau 1/(N m), w_grip N m per N)
 GRID = ((1.0, 0.0), (1.0, 0.005), (1.0, 0.01), (1.0, 0.02), (1.0, 0.05), (0.0, 0.01))
+#: The acceptance's corner on the hammer: a pick whose full induced peak torque is at most 1 - 0.176 (the
+#: paper's reduction) and whose grip demand is at most 0.75 of the better baseline's pick's (the least
+#: holding grip's target, on the label the network learns). `corner` counts the candidates in it.
+CORNER = {"peak_torque_induced": 0.824, "grip_demand": 0.75}
 
 
 @contextlib.contextmanager
@@ -145,6 +151,28 @@ def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, meth
         r = rows[i]
         out["picks"][name] = {"row": int(r), **{m: float(data[f"label_{m}"][r]) for m in MEASURES},
                               "success": bool(data["label_success"][r]), "failed": bool(data["label_failed"][r])}
+    if all(b in out["picks"] for b in BASELINES):
+        out["corner"] = corner_counts(data, rows, out["picks"])
+    return out
+
+
+def corner_counts(data: dict, rows: np.ndarray, picks: dict) -> dict:
+    """How many of one tool's candidates (`rows`) did the task and held in their rollout (`held`), and of
+    those how many lie within `CORNER` of the better baseline pick's label, per measure and in both at
+    once: what any scorer of these candidates could pick (one draw each)."""
+    held = data["label_success"][rows].astype(bool) & ~data["label_failed"][rows].astype(bool)
+    below = {m: held & (data[f"label_{m}"][rows] <= f * min(picks[b][m] for b in BASELINES)) for m, f in CORNER.items()}
+    return {"held": int(held.sum()), **{m: int(v.sum()) for m, v in below.items()},
+            "both": int(np.logical_and.reduce(list(below.values())).sum())}
+
+
+def corner_summary(per_tool: list) -> dict:
+    """Per task: the tools, how many have a candidate in the corner, and the per-tool counts."""
+    out = {}
+    for task in sorted({t["task"] for t in per_tool if "corner" in t}):
+        c = [t["corner"] for t in per_tool if t["task"] == task and "corner" in t]
+        out[task] = {"tools": len(c), "tools_with_both": sum(x["both"] > 0 for x in c),
+                     **{k: [x[k] for x in c] for k in ("held", *CORNER, "both")}}
     return out
 
 
@@ -276,6 +304,12 @@ def run(a, models: dict, path: str, t0: float) -> dict:
         for k, v in by.items():
             print(f"fidelity {model} {k}: median over tools {v['all']:.3f} (" + ", ".join(
                 f"{t} {x:.2f}" for t, x in v.items() if t != "all") + ")")
+    corner = corner_summary(per_tool)
+    print("\ncandidates that did the task and held, and of them those within " + " and ".join(
+        f"{f}x the better baseline pick's {m}" for m, f in CORNER.items()) + ", per tool:")
+    for task, c in corner.items():
+        print(f"  {task:7s} held {c['held']}  torque {c['peak_torque_induced']}  grip {c['grip_demand']}  both "
+              f"{c['both']}: {c['tools_with_both']} of {c['tools']} tools have one")
     print(f"\nchosen by the rule: {chosen}")
     for k, v in verdict.items():
         print(f"  {k:38s} {v if isinstance(v, str) else f'score {v:+.3f}'}")
@@ -283,7 +317,7 @@ def run(a, models: dict, path: str, t0: float) -> dict:
            "methods": list(methods), "level": LEVEL, "rule": {"min_success": MIN_SUCCESS, "measures":
            ["peak_torque_induced", "grip_demand"], "against": "better_baseline"},
            "set": a.base, "per_tool": per_tool, "summary": summary, "fidelity": fidelity,
-           "verdict": verdict, "chosen": chosen,
+           "verdict": verdict, "chosen": chosen, "corner": {"bounds": CORNER, "by_task": corner},
            "seconds": time.time() - t0, "version": itup.__version__}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "objective.json"), out)

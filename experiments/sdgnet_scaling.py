@@ -1,7 +1,7 @@
 """Is data what limits SDG-Net? Held-out fidelity against the number of training tools per task.
 
     python experiments/sdgnet_scaling.py --train /tmp/d12/tr_a /tmp/d12/tr_b /tmp/d12/tr_c /tmp/d12/tr_d \\
-        --test /tmp/d11/eval_s6 --tools 12,24,all --seeds 2 --ensemble --out results/scaling
+        --test /tmp/d11/eval_s6 --tools 6,12,24,all --seeds 3 --ensemble --out results/scaling_val
     python experiments/sdgnet_scaling.py --quick --out /tmp/scaling     # tiny datasets made here (tests)
 
 For each size k (tools per task) and seed, SDG-Net is trained with the shipped checkpoint's recipe

@@ -216,6 +216,26 @@ def test_objective_selection_quick(tmp_path, monkeypatch):
     # the shipped network has the weak-grip head and the quick dataset the weak rollouts: its AUC per tool
     # (null where every candidate or none failed at 25 N)
     assert "p_failed_weak_auc" in fid and all(v is None or 0 <= v <= 1 for v in fid["p_failed_weak_auc"].values())
+    for task, c in doc["corner"]["by_task"].items():  # counts nest: both <= each bound <= held
+        for i in range(c["tools"]):
+            assert c["both"][i] <= min(c["peak_torque_induced"][i], c["grip_demand"][i]) <= c["held"][i]
+
+
+def test_objective_selection_corner_counts():
+    """A candidate counts in the corner when it did the task, held, and lies within both bounds of the
+    better baseline pick's labels (each measure's better baseline taken on its own)."""
+    mod = runpy.run_path(os.path.join(ROOT, "experiments", "objective_selection.py"))
+    data = {"label_success": np.array([1, 1, 1, 1, 0, 1]), "label_failed": np.array([0, 0, 0, 1, 0, 0]),
+            "label_peak_torque_induced": np.array([0.8, 0.9, 0.5, 0.1, 0.1, 0.82]),
+            "label_grip_demand": np.array([70.0, 10.0, 80.0, 10.0, 10.0, 75.0])}
+    picks = {"force_closure": {"peak_torque_induced": 1.0, "grip_demand": 200.0},
+             "geometric": {"peak_torque_induced": 2.0, "grip_demand": 100.0}}
+    c = mod["corner_counts"](data, np.arange(6), picks)
+    # bounds 0.824 N m and 75 N; rows 3 (failed) and 4 (missed) do not count
+    assert c == {"held": 4, "peak_torque_induced": 3, "grip_demand": 3, "both": 2}
+    per_tool = [{"task": "hammer", "corner": c}, {"task": "hammer", "corner": {**c, "both": 0}}, {"task": "reach"}]
+    s = mod["corner_summary"](per_tool)
+    assert list(s) == ["hammer"] and s["hammer"]["tools"] == 2 and s["hammer"]["tools_with_both"] == 1
 
 
 def test_objective_selection_holds_the_weights_it_is_set(tmp_path, monkeypatch, capsys):
