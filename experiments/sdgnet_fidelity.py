@@ -113,10 +113,11 @@ def _shard_key(entry: dict) -> str:
 
 def cached_redraws(test_dir: str, k: int, cache: str | None) -> dict[str, dict[str, np.ndarray]]:
     """{shard key: redraw_labels(...)} for every shard of the test set, read from `cache` (an npz) when
-    it was made from this very manifest with this k, else simulated and written there atomically."""
+    it was made from this very manifest with this k and the same redrawn labels (`REDRAWN`, the torque
+    being `HEADLINE`), else simulated and written there atomically."""
     with open(os.path.join(test_dir, MANIFEST), "rb") as fh:
         raw = fh.read()
-    key = f"{hashlib.sha256(raw).hexdigest()}:{k}:{','.join(REDRAWN)}"
+    key = f"{hashlib.sha256(raw).hexdigest()}:{k}:{','.join(REDRAWN)}:{HEADLINE}"
     if cache and os.path.exists(cache):
         try:
             with np.load(cache, allow_pickle=False) as z:

@@ -346,6 +346,24 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
 
 
+def test_redraw_cache_names_the_torque_it_holds(tmp_path):
+    """A redraw cache made for another torque label (a key without the headline's name, as the cache of
+    the projected torque was written) is not read back; one with this run's key is."""
+    import hashlib
+
+    from itup_jax.dataset import GenerateConfig
+
+    fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))
+    (tmp_path / "manifest.json").write_text(json.dumps({"config": GenerateConfig().to_json(), "shards": []}))
+    digest = hashlib.sha256((tmp_path / "manifest.json").read_bytes()).hexdigest()
+    cached = {f"hammer_1/{f}": np.zeros((1, 3)) for f in fid["REDRAWN"]}
+    for key, read in ((f"{digest}:1:{','.join(fid['REDRAWN'])}", False),
+                      (f"{digest}:1:{','.join(fid['REDRAWN'])}:{fid['HEADLINE']}", True)):
+        np.savez(tmp_path / "redraws.npz", key=np.array(key), **cached)
+        got = fid["cached_redraws"](str(tmp_path), 1, str(tmp_path / "redraws.npz"))
+        assert (list(got) == ["hammer_1"]) is read, key
+
+
 def test_candidate_count_quick(tmp_path, monkeypatch):
     _run_experiment("candidate_count.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "candidates.json").read_text())
