@@ -50,6 +50,11 @@ def thresholds(d: dict, *, bootstrap: int) -> dict:
     return out
 
 
+#: The torques whose reduction `suppression` reports: the headline (the full induced peak torque) first.
+SUPPRESSION_TORQUES = {"torque": "peak_torque_induced", "projected_torque": "peak_torque_projected",
+                       "raw_torque": "peak_torque"}
+
+
 def suppression(table1: dict) -> list[dict]:
     """Per task and baseline: SDG-Net's torque reduction (%: the full induced peak torque, the headline,
     with the raw peak and the projected part beside it) and failure-rate reduction (%, None where the
@@ -65,11 +70,8 @@ def suppression(table1: dict) -> list[dict]:
             fo, fb = ours["failed"]["mean"], c["failed"]["mean"]
             rows.append({
                 "task": task, "baseline": m,
-                "torque_reduction_pct": reduction(ours["peak_torque_induced"]["mean"] or np.nan,
-                                                  c["peak_torque_induced"]["mean"] or np.nan),
-                "projected_torque_reduction_pct": reduction(ours["peak_torque_projected"]["mean"] or np.nan,
-                                                            c["peak_torque_projected"]["mean"] or np.nan),
-                "raw_torque_reduction_pct": reduction(ours["peak_torque"]["mean"] or np.nan, c["peak_torque"]["mean"] or np.nan),
+                **{f"{name}_reduction_pct": reduction(ours[label]["mean"] or np.nan, c[label]["mean"] or np.nan)
+                   for name, label in SUPPRESSION_TORQUES.items()},
                 "failure_sdgnet": fo, "failure_baseline": fb,
                 "failure_reduction_pct": None if not fb or fo is None else 100.0 * (1.0 - fo / fb),
             })
