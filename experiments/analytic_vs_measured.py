@@ -2,8 +2,8 @@
 measured wrist torque, and does the slip cost predict measured slip?
 
     python experiments/analytic_vs_measured.py --out results/analytic_vs_measured        # generates its data
-    python experiments/analytic_vs_measured.py --data /tmp/sdg_test --out results/avm_rand  # an `itup generate` set
-    python experiments/analytic_vs_measured.py --quick --out /tmp/avm                     # tests
+    python experiments/analytic_vs_measured.py --data data/test --out results/avm_rand  # an `itup generate` set
+    python experiments/analytic_vs_measured.py --quick --out results/avm_quick                     # tests
 
 Variants of C_tau (`costs.CostParams`): lever arm about the grasp (`grasp`, the default: r = c_contact -
 p_grasp), about the tool's centre of mass (`com`, the seed's formula) or about the wrist's force/torque
@@ -47,9 +47,10 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write_json
 from itup_jax.costs import CostParams, wrench_costs
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool
+from itup_jax.dataset import GenerateConfig, generate, unit_tool
+from itup_jax.dataset_load import MANIFEST, load_shard
 from itup_jax.grasp import Grasps
-from itup_jax.simulate import SimConfig
+from itup_jax.sim.config import SimConfig
 from itup_jax.stats import spearman
 from itup_jax.task import TASK_KINDS
 
@@ -110,9 +111,9 @@ def per_tool(data_dir: str, model: str | None = None) -> tuple[list[dict], dict]
 
 def grasp_descriptors(tool, task, a: dict) -> dict[str, np.ndarray]:
     """`GEOMETRY` descriptors [N] of a shard's grasps (tool frame; see the module docstring)."""
-    from itup_jax.grasp import rotation_matrix
+    from itup_jax.rotations import quat_to_matrix
 
-    R = np.asarray(rotation_matrix(np.asarray(a["grasp_q"], float)), float)  # [N, 3, 3] tool <- grasp
+    R = np.asarray(quat_to_matrix(np.asarray(a["grasp_q"], float)), float)  # [N, 3, 3] tool <- grasp
     p = np.asarray(a["grasp_p"], float)
     R_wt = np.asarray(task.traj.R_world_tool, float)
     w_body = np.einsum("tji,tj->ti", R_wt, np.asarray(task.traj.w_world, float))  # [T, 3] tool frame

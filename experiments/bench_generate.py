@@ -34,12 +34,13 @@ def rss_mb() -> float:
 
 def run_mode(buckets: bool, task: str, warmup: int, tools: int, grasps: int) -> dict:
     """One mode in this process: the warm-up shards, then `tools` new tools' shards, measured."""
-    from itup_jax import features, grasp_sampler
+    from itup_jax import grasp_sampler
     from itup_jax.dataset import GenerateConfig, make_shard
+    from itup_jax.sdgnet import features
 
     if not buckets:
         features.FIELD_BUCKET_BITS = grasp_sampler.POINT_BUCKET_BITS = 64
-    kernels = (features.batched_features, grasp_sampler._pad_span_batch, grasp_sampler._gripper_hits_batch)
+    kernels = (features.batched_features, grasp_sampler.pad_span_batch, grasp_sampler.gripper_hits_batch)
     cfg = GenerateConfig(tools_per_task=warmup + tools + 1, grasps=grasps, seed=3, tasks=(task,))
     for v in range(1, warmup + 1):
         make_shard(cfg, task, v, nthread=1)

@@ -1,7 +1,7 @@
 """How much torque does scoring more candidates save? SDG-Net's pick among N fresh candidates, measured.
 
-    python experiments/candidate_count.py --test /tmp/sdg_v4_test8 --n 256,1024,4096 --out results/candidates
-    python experiments/candidate_count.py --quick --out /tmp/cand      # a tiny test set made here (tests)
+    python experiments/candidate_count.py --test data/test --n 256,1024,4096 --out results/candidates
+    python experiments/candidate_count.py --quick --out results/cand_quick      # a tiny test set made here (tests)
 
 The top-1 regret goal compares SDG-Net's pick with the best of the *same* candidates, and a tool's
 best candidate is usually a lone one (`sdgnet_fidelity.py`, `best_gap`). Scoring is cheap (10,000
@@ -29,9 +29,7 @@ interval).
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import runpy
 import sys
 import time
 import warnings
@@ -40,40 +38,18 @@ import numpy as np
 
 import itup_jax as itup
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, load_shard, unit_tool
+from itup_jax.dataset import unit_tool
+from itup_jax.dataset_load import load_shard
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import build_scene
-from itup_jax.sdgnet import load_model
-from itup_jax.simulate import Randomization, reachable, simulate
+from itup_jax.heldout import BESIDE, MEASURES, SAMPLE_SEED, cached_redraws, held_out_dataset, measure_pick, shard_key
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sim.arm import reachable
+from itup_jax.sim.scene import build_scene
 from itup_jax.stats import paired_ratio
 from itup_jax.verify import best_grasp_verified
 
 GOAL = 0.05  # the top-1 regret goal (5 %)
-SAMPLE_SEED = 1000  # + the tool's variant: fresh candidates, never the shard's own (seeded by the run)
-ROLLOUT_SEED = 777
-
-
-#: What `_measure` reports of a pick, mean over the draws: the headline torque (the full induced peak wrist
-#: torque, the paper's measure, no projection) and beside it the raw peak, the projected part (the paper
-#: objective's C_tau) and the part about the jaw's closure axis (N m), the grip demand (N per pad), then
-#: task success and grip failure (rates), slip (m) and alignment drift (rad).
-MEASURES = {"torque": "peak_torque_induced", "torque_raw": "peak_torque", "torque_projected": "peak_torque_projected",
-            "torque_closure": "peak_torque_closure", "grip_demand": "grip_demand", "success": "success",
-            "failed": "failed", "slip": "slip_translation", "drift": "alignment_drift"}
-#: Means over tools reported beside each pick rule's headline torque (score_weights.py reads it too).
-BESIDE = tuple(k for k in MEASURES if k != "torque")
-
-
-def _measure(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:
-    """`MEASURES` of grasps[i], each the mean over `draws` rollouts (NaN where none is valid). The draws are
-    the same for every pick (one seed), so the picks are compared under the same physics."""
-    L = simulate(tool, task, grasps[np.full(draws, i)], seed=ROLLOUT_SEED, scene=scene,
-                 randomize=Randomization()).labels
-    f = lambda x: float(np.nanmean(np.where(L.valid, np.asarray(x, float), np.nan)))  # noqa: E731
-    with warnings.catch_warnings():  # a pick with no valid rollout gives NaN
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return {k: f(getattr(L, label)) for k, label in MEASURES.items()}
 
 
 def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) -> dict:
@@ -112,7 +88,7 @@ def evaluate_tool(config, entry, a, redraw, ns, draws, model, timestep, verify) 
         if verify:
             picks.append((str(n), "verified", g, best_grasp_verified(tool, task, g, scores=s, k=verify, scene=scene).index))
     for n, rule, g, i in picks:
-        row["fresh"][n][rule] = {**_measure(tool, task, scene, g, i, draws), "index": i}
+        row["fresh"][n][rule] = {**measure_pick(tool, task, scene, g, i, draws), "index": i}
     return row
 
 
@@ -138,24 +114,6 @@ def summarise(rows: list[dict], ns: list[int], rules: tuple[str, ...]) -> dict:
                 v0 = np.array([r["fresh"][str(ns[0])][rule]["torque"] for r in rows])
                 out[f"{rule}_{n}"][f"paired_vs_{ns[0]}"] = paired_ratio(v, v0)
     return out
-
-
-QUICK_DATA = GenerateConfig(tasks=("hammer",), tools_per_task=2, grasps=12, seed=1)  # --quick's tiny dataset
-
-
-def held_out_dataset(folder: str | None, quick_dir: str | None, flag: str, who: str):
-    """(folder, manifest, GenerateConfig, {task: step}) of the held-out dataset an experiment reads; with
-    `quick_dir`, `QUICK_DATA` is made there first and read instead. Exits with status 2, naming `who`
-    and `flag`, when the folder holds no manifest."""
-    if quick_dir is not None:
-        folder = quick_dir
-        generate(folder, QUICK_DATA, progress=False)
-    if not folder or not os.path.exists(os.path.join(folder, MANIFEST)):
-        print(f"{who}: {flag} {folder!r} holds no dataset manifest", file=sys.stderr)
-        raise SystemExit(2)
-    with open(os.path.join(folder, MANIFEST)) as fh:
-        manifest = json.load(fh)
-    return folder, manifest, GenerateConfig.from_json(manifest["config"]), dataset_timesteps(manifest)
 
 
 def _paired_text(p: dict | None, n0: int) -> str:
@@ -191,11 +149,10 @@ def main(argv=None) -> dict:
             raise SystemExit(2)
     rules = ("tau", "total", "verified") if args.verify else ("tau", "total")
     os.makedirs(args.out, exist_ok=True)
-    args.test, manifest, config, steps = held_out_dataset(
-        args.test, os.path.join(args.out, "test") if args.quick else None, "--test", "candidate_count")
-    # the shard candidates' further draws: the fidelity experiment's cached redraws (shared with it, not copied)
-    fidelity = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "sdgnet_fidelity.py"))
-    redraws = (fidelity["cached_redraws"](args.test, args.draws - 1, os.path.join(args.out, "redraws.npz"))
+    quick_dir = os.path.join(args.out, "test") if args.quick else None
+    args.test, manifest, config, steps = held_out_dataset(args.test, quick_dir, "--test", error=ap.error)
+    # the shard candidates' further draws (cached as the fidelity experiment caches them)
+    redraws = (cached_redraws(args.test, args.draws - 1, os.path.join(args.out, "redraws.npz"))
                if args.draws > 1 else {})
     model = load_model(args.model)
     rows, t0 = [], time.perf_counter()
@@ -203,7 +160,7 @@ def main(argv=None) -> dict:
         if e["variant"] == 0:
             continue
         a = load_shard(args.test, e)
-        rd = redraws.get(fidelity["_shard_key"](e), {"torque": np.zeros((0, len(a["label_valid"])))})
+        rd = redraws.get(shard_key(e), {"torque": np.zeros((0, len(a["label_valid"])))})
         rows.append(evaluate_tool(config, e, a, rd, ns, args.draws, model, steps[e["task"]], args.verify))
         r = rows[-1]
         print(f"{r['task']:7s} {r['variant']:3d} best of the shard {r['best_shard']:.3f} N m; SDG-Net's pick by C_tau: shard "

@@ -2,10 +2,10 @@
 holding grip, per task and method, on the same candidates and physics draws.
 
     python experiments/grip_stress.py --out results/grip_stress            # 4 tasks x 3 tools
-    python experiments/grip_stress.py --quick --out /tmp/gs                # the tests' smoke run
-    python experiments/grip_stress.py --data /tmp/d10/eval_s6 --methods force_closure,sdgnet@w_align=30 ...
+    python experiments/grip_stress.py --quick --out results/gs_quick                # the tests' smoke run
+    python experiments/grip_stress.py --data data/val --methods force_closure,sdgnet@w_align=30 ...
 
-Per task, the built-in tool and `--tools-per-task - 1` unseen stretched variants (`dataset.vary_tool`,
+Per task, the built-in tool and `--tools-per-task - 1` unseen stretched variants (`tools.variants.vary_tool`,
 seeds 10,000 + v, as `table1.py`: the test tools); with `--data DIR`, that dataset's unseen tools instead
 (variants 1 .. --tools-per-task of its manifest, `dataset.unit_tool`: e.g. the validation tools). A
 method is a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
@@ -22,142 +22,20 @@ torque (`stats.failure_threshold`) is printed beside the paper's ~6.9 N m.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import time
-import warnings
 
 import numpy as np
 
 from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool, vary_tool
 from itup_jax.errors import InputError
-from itup_jax.evaluate import feasible_candidates
-from itup_jax.scene import build_scene
-from itup_jax.scoring import ScoreWeights, score
-from itup_jax.stats import failure_threshold
-from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
-from itup_jax.tool import load_tool
+from itup_jax.evaluate import data_config, method_scorer, stress_picks
+from itup_jax.task import TASK_KINDS
 
 PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (arXiv:2505.01399v3, Fig. 4)
 DEFAULT_GRID = (10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 100.0)
 DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", "force_closure", "geometric")
-
-
-def method_scorer(method: str) -> tuple[str, ScoreWeights]:
-    """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
-    'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->
-    (name, the default weights). InputError naming the method for an unknown or malformed weight."""
-    if "@" not in method:
-        return method, ScoreWeights()
-    model, spec = method.split("@", 1)
-    if model not in ("sdgnet", "sdgnet_paper") and not model.endswith(".npz"):
-        raise InputError(f"method {method!r}: weights apply to 'sdgnet', 'sdgnet_paper' or a checkpoint (.npz), "
-                         f"not {model!r}")
-    known = {f.name for f in dataclasses.fields(ScoreWeights)}
-    kw = {}
-    for part in spec.split(","):
-        k, eq, v = part.partition("=")
-        if not eq or k not in known:
-            raise InputError(f"method {method!r}: expected NAME=VALUE with NAME one of {', '.join(sorted(known))}, "
-                             f"got {part!r}")
-        try:
-            kw[k] = float(v)
-        except ValueError:
-            raise InputError(f"method {method!r}: {k} must be a number, got {v!r}") from None
-    return model, ScoreWeights(**kw)
-
-
-def data_config(data: str, tasks, tools_per_task: int) -> GenerateConfig:
-    """The GenerateConfig of the dataset in `data`, checked to hold `tools_per_task` unseen tools of every
-    task in `tasks` (InputError naming what is missing); builds no tool."""
-    config = GenerateConfig.from_json(read_manifest(data)["config"])
-    missing = [k for k in tasks if k not in config.tasks]
-    if missing:
-        raise InputError(f"--data {data}: the dataset has no {', '.join(map(repr, missing))} tools "
-                         f"(its tasks: {', '.join(config.tasks)})")
-    if tools_per_task > config.tools_per_task - 1:
-        raise InputError(f"--data {data}: it has {config.tools_per_task - 1} unseen tools per task, "
-                         f"asked for {tools_per_task}")
-    return config
-
-
-def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> list[tuple[int, object]]:
-    """[(v, Tool)]: the built-in tool and table1's unseen variants (seeds 10,000 + v), or with `data`
-    the dataset's variants 1 .. tools_per_task (its unseen tools, `data_config`)."""
-    if data is None:
-        base = load_tool(DEFAULT_TOOL[kind])
-        return [(v, base if v == 0 else vary_tool(base, 10_000 + v)) for v in range(tools_per_task)]
-    config = data_config(data, (kind,), tools_per_task)
-    return [(v, unit_tool(config, kind, v)[0]) for v in range(1, tools_per_task + 1)]
-
-
-def run(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print, data=None) -> dict:
-    scorers = {m: method_scorer(m) for m in methods}  # bad method names fail before any rollout
-    rows = []  # one per (task, tool, method)
-    rollouts = {k: {"torque": [], "failed": []} for k in tasks}
-    for kind in tasks:
-        for v, tool in stress_tools(kind, tools_per_task, data):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit
-                task = make_task(kind, tool)
-            scene = build_scene(tool, task)
-            t0 = time.perf_counter()
-            cands, _ = feasible_candidates(tool, task, n, seed=seed + v)
-            done: dict[int, dict] = {}  # candidate index -> its stress row (methods that pick it share it)
-            for m in methods:
-                model, weights = scorers[m]
-                i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
-                                                   seed=seed + v).total, float)))
-                if i in done:
-                    rows.append({**done[i], "method": m})
-                    continue
-                pick = cands[i:i + 1]
-                cache: dict[float, bool] = {}
-                at = {}
-                for g in grid:
-                    L = stress.rollouts_at_grip(tool, task, pick, g, draws=draws, seed=seed + v, scene=scene)
-                    cache[float(g)] = bool(stress.holds(L, draws)[0])
-                    ok = np.asarray(L.valid)
-                    at[float(g)] = {"failed": float(np.mean(L.failed[ok])) if ok.any() else None,
-                                    "success": float(np.mean(L.success[ok])) if ok.any() else None,
-                                    "holds": cache[float(g)], "probe": stress.is_probe(g),
-                                    "peak_torque_induced": float(np.mean(L.peak_torque_induced[ok])) if ok.any() else None}
-                    rollouts[kind]["torque"] += np.asarray(L.peak_torque_induced)[ok].tolist()
-                    rollouts[kind]["failed"] += np.asarray(L.failed)[ok].tolist()
-
-                mg = stress.pick_min_holding_grip(tool, task, pick, draws=draws, seed=seed + v, scene=scene, tol=tol,
-                                                  grid=grid, known=cache)  # the grid's answers reused
-                done[i] = {"task": kind, "tool": tool.name, "unseen": v > 0, "method": m, "index": i,
-                           "min_holding_grip_N": mg.force, "monotone": mg.monotone, "probe": mg.probe,
-                           "tried": {f"{f:g}": ok for f, ok in sorted(mg.tried.items())}, "at_grip": at}
-                rows.append(done[i])
-            log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
-                f"{r['method']} {r['min_holding_grip_N'] if r['min_holding_grip_N'] is None else round(r['min_holding_grip_N'], 1)} N"
-                for r in rows if r["task"] == kind and r["tool"] == tool.name))
-    summary = {}
-    for kind in tasks:
-        summary[kind] = {}
-        for m in methods:
-            mine = [r for r in rows if r["task"] == kind and r["method"] == m]
-            forces = [np.inf if r["min_holding_grip_N"] is None else r["min_holding_grip_N"] for r in mine]
-            med = float(np.median(forces)) if forces else None
-            summary[kind][m] = {
-                "median_min_holding_grip_N": None if med is None or not np.isfinite(med) else med,
-                "never_held": int(sum(r["min_holding_grip_N"] is None for r in mine)),
-                "non_monotone": int(sum(not r["monotone"] for r in mine)), "tools": len(mine),
-                "by_grip": {f"{g:g}": {k: _mean([r["at_grip"][float(g)][k] for r in mine]) for k in ("failed", "success")}
-                            for g in grid},
-            }
-        summary[kind]["failure_threshold"] = failure_threshold(rollouts[kind]["torque"], rollouts[kind]["failed"])
-    pooled = failure_threshold(sum((rollouts[k]["torque"] for k in tasks), []), sum((rollouts[k]["failed"] for k in tasks), []))
-    return {"rows": rows, "summary": summary, "pooled_failure_threshold": pooled}
-
-
-def _mean(values):
-    v = [x for x in values if x is not None]
-    return float(np.mean(v)) if v else None
 
 
 def plot(summary, tasks, methods, grid, path):
@@ -215,7 +93,7 @@ def main() -> None:
         ap.error(str(e))
     os.makedirs(a.out, exist_ok=True)
     t0 = time.perf_counter()
-    res = run(tasks, tools, n, methods, grid, draws, tol, seed=a.seed, data=a.data)
+    res = stress_picks(tasks, tools, n, methods, grid, draws, tol, seed=a.seed, data=a.data)
     out = {"schema": "itup.grip_stress/1", "config": {"tasks": tasks, "tools_per_task": tools, "n": n,
                                                        "methods": methods, "grid_N": grid, "draws": draws,
                                                        "tol_N": tol, "seed": a.seed, "quick": a.quick,

@@ -2,7 +2,7 @@
 
     python experiments/guard_shortlist.py --out results/guard_shortlist               # calibration tools
     python experiments/guard_shortlist.py --set test --out results/guard_shortlist    # test tools, after
-    python experiments/guard_shortlist.py --quick --out /tmp/gs                        # tiny (tests)
+    python experiments/guard_shortlist.py --quick --out results/gs_quick                        # tiny (tests)
 
 When a tool lies outside SDG-Net's training data, `itup plan` rolls a shortlist of K = 5 grasps out in
 MuJoCo (nominal physics) and picks the lowest measured total. On the held-out families SDG-Net's
@@ -37,21 +37,11 @@ import warnings
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
-
-from itup_jax.atomic import atomic_write_json  # noqa: E402
+from itup_jax.atomic import atomic_write_json
+from itup_jax.heldout import family_tools
 
 #: The rules in tie-break order (module docstring).
 RULES = ("sdgnet", "mixed", "analytic", "spread")
-
-
-def _ood_guard() -> dict:
-    """experiments/ood_guard.py's functions (its `set_tools` draws the same calibration and test tools)."""
-    import runpy
-
-    return runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "ood_guard.py"))
 
 
 def shortlists(net_total: np.ndarray, analytic_total: np.ndarray, z: np.ndarray, k: int) -> dict[str, list[int]]:
@@ -73,7 +63,7 @@ def tool_row(tool, kind: str, n: int, k: int, draws: int, seed: int) -> dict:
     from itup_jax import ood
     from itup_jax.grasp_sampler import sample_reachable
     from itup_jax.scoring import ScoreWeights
-    from itup_jax.simulate import Randomization
+    from itup_jax.sim.physics import Randomization
     from itup_jax.verify import measured_total, objective_of
 
     with warnings.catch_warnings():
@@ -111,8 +101,8 @@ def choose(rows: list[dict]) -> dict:
 
 
 def main(argv=None) -> dict:
-    from itup_jax import families
     from itup_jax.bench import machine_info
+    from itup_jax.tools import families
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--set", choices=("calibration", "test"), default="calibration")
@@ -136,10 +126,9 @@ def main(argv=None) -> dict:
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
     rows = []
-    set_tools = _ood_guard()["set_tools"]
     for name in names:
         for kind in families.get(name).tasks:
-            for tool, s in set_tools(name, args.set, args.tools):
+            for tool, s in family_tools(name, args.set, args.tools):
                 row = tool_row(tool, kind, args.n, args.k, args.draws, seed=s)
                 row["family"] = name
                 rows.append(row)

@@ -1,8 +1,8 @@
 """Headroom: how much lower could any scorer's pick go than the baselines' on the full induced peak wrist
 torque? The pick of a perfect predictor of one measured rollout, re-measured on fresh draws.
 
-    python experiments/headroom.py --data /tmp/d10/eval_s6 --out results/headroom     # 7 tools per task
-    python experiments/headroom.py --quick --out /tmp/headroom                        # tiny dataset (tests)
+    python experiments/headroom.py --data data/val --out results/headroom     # 7 tools per task
+    python experiments/headroom.py --quick --out results/headroom_quick                        # tiny dataset (tests)
 
 Per tool of --data (a labelled dataset: every reachable candidate rolled out once in randomised MuJoCo):
   oracle   the candidate with the lowest measured full induced peak torque among those that did the task
@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 import warnings
 
@@ -31,13 +30,12 @@ import numpy as np
 import itup_jax as itup
 from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import GenerateConfig, load_dataset, read_manifest, unit_tool
+from itup_jax.dataset import GenerateConfig, unit_tool
+from itup_jax.dataset_load import load_dataset, read_manifest
 from itup_jax.errors import InputError
-from itup_jax.scene import build_scene
+from itup_jax.heldout import dataset_grasps, quick_dataset, unit_rows, unseen_units
+from itup_jax.sim.scene import build_scene
 from itup_jax.stats import paired_ratio
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from objective_selection import dataset_grasps, quick_dataset, unit_rows, unseen_units  # noqa: E402
 
 BASELINES = ("force_closure", "geometric")
 DEFAULT_METHODS = ("sdgnet",) + BASELINES

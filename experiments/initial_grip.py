@@ -1,10 +1,10 @@
 """How the grip starts: how deep the pads sit in the tool at step 0, and how far the tool turns and slides
 in the pads during the settle, before the motion.
 
-    python experiments/initial_grip.py --data /tmp/sdg_v6_test8 --out results/initial_grip   # ~40 s
-    python experiments/initial_grip.py --quick --out /tmp/initial_grip   # a tiny dataset made here (tests)
+    python experiments/initial_grip.py --data data/test --out results/initial_grip   # ~40 s
+    python experiments/initial_grip.py --quick --out results/initial_grip_quick   # a tiny dataset made here (tests)
 
-A rollout starts with the pads closed `simulate.INITIAL_SQUEEZE` (0.3 mm) inside the jaw opening of the
+A rollout starts with the pads closed `sim.arm.INITIAL_SQUEEZE` (0.3 mm) inside the jaw opening of the
 grasp, the chord between the two antipodal surface points that the sampler found. Flat pads on a handle
 whose closure axis is tilted off its cross-section (the sampler accepts up to atan(mu)) touch it at their
 ends, deeper than that. The contacts push the tool out, and it turns until it lies flat between the pads.
@@ -18,7 +18,7 @@ own physics (the shard's `physics` array) and the shard's timestep:
                     positive = overlap; NaN if a pad touches nothing);
   turn_50ms_deg     the angle the tool turned in the grasp frame over the first 50 ms;
   turn_settle_deg   ... from 50 ms to the end of the settle;
-  slide_settle_mm   the slide of the tool at the grasp centre (`simulate.grasp_point_slip`) over the
+  slide_settle_mm   the slide of the tool at the grasp centre (`sim.labels.grasp_point_slip`) over the
                     whole settle.
 
 Reported per task as percentiles, and the first 50 ms turn by overlap bin. Writes initial_grip.json
@@ -35,25 +35,19 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-from candidate_count import held_out_dataset  # noqa: E402  (--quick's tiny dataset, and the manifest check)
-
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.dataset import GenerateConfig, load_shard, unit_tool  # noqa: E402
-from itup_jax.grasp import Grasps  # noqa: E402
-from itup_jax.scene import build_scene  # noqa: E402
-from itup_jax.simulate import (  # noqa: E402
-    INITIAL_SQUEEZE,
-    Physics,
-    SimConfig,
-    grasp_point_slip,
-    initial_pad_overlap,
-    plan,
-    quat_angle,
-    rollout_native,
-)
-from itup_jax.task import TASK_KINDS  # noqa: E402
+from itup_jax.atomic import atomic_write_json
+from itup_jax.dataset import GenerateConfig, unit_tool
+from itup_jax.dataset_load import load_shard
+from itup_jax.grasp import Grasps
+from itup_jax.heldout import held_out_dataset
+from itup_jax.rotations import quat_angle
+from itup_jax.sim.arm import INITIAL_SQUEEZE, plan
+from itup_jax.sim.config import SimConfig
+from itup_jax.sim.labels import grasp_point_slip, initial_pad_overlap
+from itup_jax.sim.native import rollout_native
+from itup_jax.sim.physics import Physics
+from itup_jax.sim.scene import build_scene
+from itup_jax.task import TASK_KINDS
 
 EARLY = 0.05  # s: the first part of the settle, where the contacts push the tool out
 BINS_MM = (0.0, 0.5, 1.0, 2.0, np.inf)  # overlap bins for the turn
@@ -116,8 +110,8 @@ def main(argv=None) -> dict:
     t0 = time.perf_counter()
     if a.quick:
         tasks = ("hammer",)
-    data, manifest, config, steps = held_out_dataset(a.data, os.path.join(a.out, "data") if a.quick else None,
-                                                     "--data", "initial_grip")
+    quick_dir = os.path.join(a.out, "data") if a.quick else None
+    data, manifest, config, steps = held_out_dataset(a.data, quick_dir, error=ap.error)
     per_task = {}
     for kind in tasks:
         entries = [e for e in manifest["shards"] if e["task"] == kind]

@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 import itup_jax as itup
-from itup_jax.dataset import part_variant
+from itup_jax.tools.variants import part_variant
 
 
 def _h(b: bytes) -> str:

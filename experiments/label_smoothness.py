@@ -1,8 +1,8 @@
 """Is the measured torque smooth in the grasp? If a grasp moved by a few millimetres and degrees ranks
 differently from where it was, no scorer of the grasp's pose can rank it better than that.
 
-    python experiments/label_smoothness.py --data /tmp/sdg_test8 --tasks hammer,knock --out results/smoothness
-    python experiments/label_smoothness.py --quick --out /tmp/smooth      # a tiny dataset made here (tests)
+    python experiments/label_smoothness.py --data data/test --tasks hammer,knock --out results/smoothness
+    python experiments/label_smoothness.py --quick --out results/smooth_quick      # a tiny dataset made here (tests)
 
 Per tool (a dataset shard; the built-in tool, variant 0, is skipped unless `--with-builtin`), every
 grasp is rolled out under nominal physics twice: as it is, and moved by `--move` metres in a random
@@ -31,51 +31,18 @@ import time
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, dataset_timesteps, generate, load_shard, unit_tool
-from itup_jax.grasp import Grasps, make_grasps, rotation_matrix
-from itup_jax.scene import build_scene
-from itup_jax.sdgnet import load_model, predict_costs
-from itup_jax.simulate import simulate
-from itup_jax.stats import spearman
+from itup_jax.dataset import GenerateConfig, generate, unit_tool
+from itup_jax.dataset_load import MANIFEST, dataset_timesteps, load_shard
+from itup_jax.heldout import mean_or_none, rho, with_moved_copies
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.model import predict_costs
+from itup_jax.sim.rollout import simulate
+from itup_jax.sim.scene import build_scene
 from itup_jax.task import TASK_KINDS
 
 #: The measured label the rankings are judged on: the full induced peak wrist torque.
 HEADLINE = "peak_torque_induced"
 FIELDS = ("rho_moved", "rho_draw", "rho_sdgnet", "rho_moved_projected")
-
-
-def moved(p: np.ndarray, R: np.ndarray, move: float, turn: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Positions [N, 3] and rotations [N, 3, 3] (tool frame) of N grasps moved by `move` m along a random
-    unit direction in each grasp's x-z plane and turned by +-`turn` rad about its y (jaw) axis."""
-    n = len(p)
-    phi = rng.uniform(0.0, 2 * np.pi, n)
-    step = move * (np.cos(phi)[:, None] * R[:, :, 0] + np.sin(phi)[:, None] * R[:, :, 2])
-    a = turn * rng.choice([-1.0, 1.0], n)
-    c, s = np.cos(a), np.sin(a)
-    Ry = np.zeros((n, 3, 3))
-    Ry[:, 0, 0], Ry[:, 0, 2], Ry[:, 1, 1], Ry[:, 2, 0], Ry[:, 2, 2] = c, s, 1.0, -s, c
-    return p + step, R @ Ry
-
-
-def with_moved_copies(a: dict, task_kind: str, variant: int, move: float, turn: float, seed: int) -> Grasps:
-    """[2N] grasps: a shard's N grasps `a`, then each of them `moved`. The moves are drawn from `seed`,
-    the task and the variant alone, so a tool's moves do not depend on which other tools are run."""
-    rng = np.random.default_rng([seed, TASK_KINDS.index(task_kind), variant])
-    R = np.stack([np.asarray(rotation_matrix(q), float) for q in a["grasp_q"]])
-    p1, R1 = moved(a["grasp_p"], R, move, turn, rng)
-    return make_grasps(np.concatenate([a["grasp_p"], p1]), np.concatenate([R, R1]),
-                       np.concatenate([a["grasp_width"]] * 2))
-
-
-def rho(a: np.ndarray, b: np.ndarray) -> float | None:
-    """Spearman of a and b, or None (null in the JSON) with fewer than 3 pairs."""
-    return spearman(a, b) if len(a) >= 3 else None
-
-
-def mean_or_none(values) -> float | None:
-    """The mean of the values that are not None, or None if there is none."""
-    v = np.array([x for x in values if x is not None], float)
-    return float(v.mean()) if len(v) else None
 
 
 def per_tool(data_dir: str, tasks: tuple[str, ...], move: float, turn: float, model, seed: int,

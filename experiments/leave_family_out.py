@@ -2,11 +2,11 @@
 does the guard fire where it does not?
 
     # data: one dataset per held-out-able family (itup generate --family F --tasks <its tasks>)
-    itup generate --out /tmp/fam/screwdriver --family screwdriver --tasks knock --tools-per-task 8 --grasps 192 --seed 30
+    itup generate --out results/fam_quick/screwdriver --family screwdriver --tasks knock --tools-per-task 8 --grasps 192 --seed 30
     ...
-    python experiments/leave_family_out.py --data screwdriver=/tmp/fam/screwdriver spanner=/tmp/fam/spanner \\
-        pry_bar=/tmp/fam/pry_bar hatchet=/tmp/fam/hatchet squeegee=/tmp/fam/squeegee --out results/lofo
-    python experiments/leave_family_out.py --quick --out /tmp/lofo          # two tiny families (tests)
+    python experiments/leave_family_out.py --data screwdriver=results/fam_quick/screwdriver spanner=results/fam_quick/spanner \\
+        pry_bar=results/fam_quick/pry_bar hatchet=results/fam_quick/hatchet squeegee=results/fam_quick/squeegee --out results/lofo
+    python experiments/leave_family_out.py --quick --out results/lofo_quick          # two tiny families (tests)
 
 Models, each the shipped checkpoint adapted (`training.adapt_on_datasets`: every task's network continues
 from its weights on the new rows, kept unless an epoch beats it on held-out tools) and given a guard
@@ -17,7 +17,7 @@ network adapted on new families alone forgets the old ones; docs/results.md):
   * `all`: adapted on every family in --data;
   * `without_<F>`: adapted on every family but F.
 Evaluation tools: per family in --data and per built-in family, `--tools` draws per task it can do
-(`families.draw`, seeds 200..: the test draws of experiments/ood_guard.py, none of them in any dataset),
+(`tools.families.draw`, seeds 200..: the test draws of experiments/ood_guard.py, none of them in any dataset),
 each with `--grasps` candidates the arm can carry, rolled out once in native MuJoCo under nominal
 physics; the same rollouts judge every model. Per model and family: the median Spearman rho between
 predicted and measured full induced peak wrist torque and grip demand, how often the guard fires, and
@@ -30,7 +30,6 @@ family F is `without_<F>` on F's tools. Writes lofo.json.
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import os
 import sys
@@ -40,26 +39,18 @@ import warnings
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
+from itup_jax.fidelity import learned_and_verified_picks
+from itup_jax.heldout import TEST_SEED
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-#: Seeds of the evaluation draws (experiments/ood_guard.py's test set).
-EVAL_SEED = 200
-
-
-@functools.lru_cache(maxsize=1)
-def _ood_guard() -> dict:
-    """experiments/ood_guard.py's functions, read once (its `picks` judges the learned and verified picks
-    alike)."""
-    import runpy
-
-    return runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)), "ood_guard.py"))
+#: Seeds of the evaluation draws (the out-of-distribution guard's test draws, `heldout.TEST_SEED`).
+EVAL_SEED = TEST_SEED
 
 
 def rollouts(name: str, kinds, tools: int, grasps: int) -> list[dict]:
     """The evaluation tools of family `name`: candidates and their nominal-physics labels."""
     import itup_jax as itup
-    from itup_jax import families
     from itup_jax.grasp_sampler import sample_reachable
+    from itup_jax.tools import families
 
     out = []
     for kind in kinds:
@@ -79,7 +70,7 @@ def judge(model_path: str, ev: dict, verify: int) -> dict:
     import itup_jax as itup
     from itup_jax import ood
     from itup_jax.scoring import ScoreWeights
-    from itup_jax.sdgnet import load_model
+    from itup_jax.sdgnet.checkpoint import load_model
     from itup_jax.stats import spearman
     from itup_jax.verify import measured_total, objective_of
 
@@ -91,7 +82,7 @@ def judge(model_path: str, ev: dict, verify: int) -> dict:
     ok = valid & np.asarray(L.success) & ~np.asarray(L.failed)
     total = np.asarray(s.total, float)
     measured = np.asarray(measured_total(L, ScoreWeights(), objective_of(s)), float)
-    learned, verified = _ood_guard()["picks"](total, measured, valid, verify)
+    learned, verified = learned_and_verified_picks(total, measured, valid, verify)
     rho = spearman(np.asarray(s.tau, float)[valid], np.asarray(L.peak_torque_induced, float)[valid])
     rho_grip = spearman(np.asarray(s.grip, float)[valid], np.asarray(L.grip_demand, float)[valid])
     return {"tool": tool.name, "task": task.kind, "rho_induced": None if np.isnan(rho) else rho,
@@ -114,12 +105,13 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def main(argv=None) -> dict:
-    from itup_jax import families
     from itup_jax.bench import machine_info
     from itup_jax.dataset import GenerateConfig, generate
     from itup_jax.ood import reference_path
-    from itup_jax.sdgnet import DEFAULT_MODEL, save_model
-    from itup_jax.training import adapt_on_datasets
+    from itup_jax.sdgnet.checkpoint import save_model
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+    from itup_jax.sdgnet.recipes import adapt_on_datasets
+    from itup_jax.tools import families
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", nargs="+", default=[], metavar="FAMILY=DIR", help="one dataset per family")

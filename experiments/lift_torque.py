@@ -1,7 +1,7 @@
 """Which grasps hold when a tool is lifted off the table: pick success against the lift torque share.
 
     python experiments/lift_torque.py --first-table 0 --tables 10 --out results/lift_torque   # calibration
-    python experiments/lift_torque.py --quick --out /tmp/lift                                # tiny (tests)
+    python experiments/lift_torque.py --quick --out results/lift_quick                                # tiny (tests)
 
 The pick filter (`pickup.pick_candidates`) keeps a grasp when the torque about its closure axis that the
 lift must hold, as a share of the pads' torsional capacity (`pickup.lift_torque`), is at most
@@ -32,15 +32,13 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-import itup_jax as itup  # noqa: E402
-from itup_jax import grounding, pickup, tabletop  # noqa: E402
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.simulate import SimConfig, _quat_to_matrix  # noqa: E402
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from pipeline_ablation import INSTRUCTIONS, clopper_pearson  # noqa: E402
+import itup_jax as itup
+from itup_jax import grounding, pickup, tabletop
+from itup_jax.atomic import atomic_write_json
+from itup_jax.pipeline import INSTRUCTIONS
+from itup_jax.rotations import quat_to_matrix_np
+from itup_jax.sim.config import SimConfig
+from itup_jax.stats import clopper_pearson
 
 #: Bands of the lift torque share the lift rate is reported in.
 BANDS = (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, math.inf)
@@ -88,8 +86,8 @@ def picks_on(top, task: str, pool: int, picks: int, samples: int, seed: int) -> 
     w = np.concatenate([np.asarray(f.grasps.width, float) for f in found])
     q_path = np.concatenate([f.q_path for f in found])
     share = np.concatenate([f.lift_load for f in found])
-    share_w = pickup.lift_torque(top, g.tool_index, tool, p, _quat_to_matrix(q), loads=None)
-    share_r = pickup.lift_torque(top, g.tool_index, tool, p, _quat_to_matrix(q), loads="rest")
+    share_w = pickup.lift_torque(top, g.tool_index, tool, p, quat_to_matrix_np(q), loads=None)
+    share_r = pickup.lift_torque(top, g.tool_index, tool, p, quat_to_matrix_np(q), loads="rest")
     order = np.argsort(share)
     chosen = np.unique(order[np.round(np.linspace(0, len(order) - 1, min(picks, len(order)))).astype(int)])
     loaded = len(tabletop.rest_loads(top, g.tool_index)[0]) > 0

@@ -1,10 +1,10 @@
 """Same labels either way? MJX against native MuJoCo on the same grasps and the same physics draws.
 
     python experiments/mjx_vs_native.py --out results/mjx_vs_native                 # all tasks, 256 grasps each
-    python experiments/mjx_vs_native.py --tasks hammer --grasps 1024 --out /tmp/mvn  # one task, larger batch
-    python experiments/mjx_vs_native.py --quick --out /tmp/mvn                       # tests (CPU: 3 grasps)
+    python experiments/mjx_vs_native.py --tasks hammer --grasps 1024 --out results/mvn_quick  # one task, larger batch
+    python experiments/mjx_vs_native.py --quick --out results/mvn_quick                       # tests (CPU: 3 grasps)
 
-Dataset generation runs MJX on an accelerator and native MuJoCo on a CPU (`simulate.default_backend`), and
+Dataset generation runs MJX on an accelerator and native MuJoCo on a CPU (`sim.rollout.default_backend`), and
 a dataset mixes neither: this script measures how far the two label sets differ when they could be mixed.
 Per task (its built-in tool), `sample_grasps(tool, N, seed)` is simulated with both backends under the
 same randomised physics (`simulate(..., seed=)`: the draws depend on the seed only), MJX in float64 as
@@ -28,7 +28,7 @@ Timing, per task: the native path on all of this machine's cores (end to end: IK
 and MJX's first call (compile included) and a second, warm call on the same inputs (`--once`: the first
 only, for a CPU, where MJX is slow); env-steps/s counts the feasible rollouts' steps, the only ones either
 backend steps (MJX pads its batch to a power of two). The two MJX calls' labels are compared too: equal
-on a CPU, and on a GPU only with deterministic scatters (`simulate.DETERMINISTIC_GPU_FLAG`).
+on a CPU, and on a GPU only with deterministic scatters (`sim.mjx.DETERMINISTIC_GPU_FLAG`).
 Writes mjx_vs_native.json (schema `itup.mjx_vs_native/1`) into --out.
 """
 
@@ -123,7 +123,7 @@ def run_task(kind: str, n: int, seed: int, timestep: float | None, nthread: int,
              traces: int = 0, mjx_float64: bool = True) -> dict:
     """Both backends on `n` sampled grasps of the task's built-in tool; agreement and timing."""
     import itup_jax as itup
-    from itup_jax.scene import build_scene
+    from itup_jax.sim.scene import build_scene
 
     tool = itup.load_tool(DEFAULT_TOOL[kind])
     task = itup.make_task(kind, tool)

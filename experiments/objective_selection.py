@@ -1,9 +1,9 @@
 """Which objective should SDG-Net learn and the planner minimise? Candidate objectives judged by their picks.
 
-    python experiments/objective_selection.py --data /tmp/d10/eval_s6 \
-        --model paper=/tmp/m/paper.npz --model wrench=/tmp/m/wrench.npz --out results/objective_val
-    python experiments/objective_selection.py --data /tmp/d10/eval_s1 --model ... --only CHOSEN --out ...
-    python experiments/objective_selection.py --quick --out /tmp/objective     # a tiny dataset made here (tests)
+    python experiments/objective_selection.py --data data/val \
+        --model paper=models/paper.npz --model wrench=models/wrench.npz --out results/objective_val
+    python experiments/objective_selection.py --data data/test --model ... --only CHOSEN --out ...
+    python experiments/objective_selection.py --quick --out results/objective_quick     # a tiny dataset made here (tests)
 
 Per tool of --data (a labelled dataset of tools no model was trained on), every candidate that was
 rolled out (the reachable ones, one randomised MuJoCo rollout each) is scored by every method, each
@@ -37,12 +37,9 @@ Writes objective.json.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import os
-import shutil
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -50,12 +47,15 @@ import numpy as np
 import itup_jax as itup
 from itup_jax.atomic import atomic_write_json
 from itup_jax.costs import CostParams
-from itup_jax.dataset import GenerateConfig, generate, load_dataset, read_manifest, unit_tool
-from itup_jax.grasp import make_grasps
-from itup_jax.objective import PAPER, WRENCH
-from itup_jax.objective import get as get_objective
+from itup_jax.dataset import GenerateConfig, unit_tool
+from itup_jax.dataset_load import load_dataset, read_manifest
+from itup_jax.heldout import dataset_grasps, quick_dataset, unit_rows, unseen_units
 from itup_jax.scoring import ScoreWeights
-from itup_jax.sdgnet import WEAK_TARGET, head_labels, load_model
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.config import WEAK_TARGET
+from itup_jax.sdgnet.objective import PAPER, WRENCH
+from itup_jax.sdgnet.objective import get as get_objective
+from itup_jax.sdgnet.training import head_labels
 from itup_jax.stats import paired_ratio, roc_auc, spearman
 
 MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
@@ -69,18 +69,6 @@ GRID = ((1.0, 0.0), (1.0, 0.005), (1.0, 0.01), (1.0, 0.02), (1.0, 0.05), (0.0, 0
 #: paper's reduction) and whose grip demand is at most 0.75 of the better baseline's pick's (the least
 #: holding grip's target, on the label the network learns). `corner` counts the candidates in it.
 CORNER = {"peak_torque_induced": 0.824, "grip_demand": 0.75}
-
-
-@contextlib.contextmanager
-def quick_dataset(prefix: str = "objective_quick_"):
-    """A tiny labelled dataset made in a temporary folder, removed afterwards (the experiments' --quick
-    runs): the reach, its built-in tool and one stretched variant, 24 grasps each, seed 6."""
-    tmp = tempfile.mkdtemp(prefix=prefix)
-    try:
-        generate(tmp, GenerateConfig(tasks=("reach",), tools_per_task=2, grasps=24, seed=6), progress=False)
-        yield tmp
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def settings_of(models: dict, base: dict | None = None) -> dict:
@@ -99,22 +87,6 @@ def settings_of(models: dict, base: dict | None = None) -> dict:
                 out[f"sdgnet/{name}/tau{w_tau:g}_grip{w_grip:g}"] = (
                     m, ScoreWeights(**{**base, "w_tau": w_tau, "w_grip": w_grip}))
     return out
-
-
-def unseen_units(data: dict) -> list[tuple[str, int]]:
-    """(task, variant) of every unseen tool (variant >= 1) with rows in a loaded dataset, sorted."""
-    return sorted({(str(t), int(v)) for t, v in zip(data["task"], data["tool_id"]) if int(v) >= 1})
-
-
-def unit_rows(data: dict, task: str, variant: int) -> np.ndarray:
-    """Indices of a loaded dataset's rows of one tool (task, variant)."""
-    return np.nonzero((np.asarray(data["task"]) == task) & (np.asarray(data["tool_id"]) == variant))[0]
-
-
-def dataset_grasps(data: dict, idx: np.ndarray):
-    """The `Grasps` of a loaded dataset's rows `idx`."""
-    return make_grasps(np.asarray(data["grasp_p"])[idx], width=np.asarray(data["grasp_width"])[idx],
-                       q_tool_grasp=np.asarray(data["grasp_q"])[idx])
 
 
 def tool_picks(data: dict, config: GenerateConfig, task: str, variant: int, methods: dict) -> dict | None:

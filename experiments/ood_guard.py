@@ -1,12 +1,12 @@
 """SDG-Net on tool families it never saw, and the out-of-distribution guard calibrated on them.
 
     python experiments/ood_guard.py --out results/ood_guard                  # 4 draws per family and task
-    python experiments/ood_guard.py --quick --out /tmp/ood                    # two families, tiny (tests)
+    python experiments/ood_guard.py --quick --out results/ood_quick                    # two families, tiny (tests)
 
 The shipped checkpoint was trained on four families (claw hammer, hand broom, mallet, L-stick; their
-part-wise and stretched variants). The five families of `itup_jax.families` (screwdriver, spanner, pry
+part-wise and stretched variants). The five families of `itup_jax.tools.families` (screwdriver, spanner, pry
 bar, hatchet, squeegee) are held out by construction. Per family and task it can do, two disjoint sets
-of tools are drawn (`families.draw`): a calibration set (the family's default and seeds 100..) and a test
+of tools are drawn (`tools.families.draw`): a calibration set (the family's default and seeds 100..) and a test
 set (seeds 200..). Per tool: `--grasps` candidates the arm can carry (`sample_reachable`), each rolled
 out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, and read by the guard
 (`ood.check`). Reported per tool:
@@ -44,41 +44,19 @@ import warnings
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
+from itup_jax.fidelity import learned_and_verified_picks
+from itup_jax.heldout import family_tools
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
-
-#: Seeds of the calibration and test draws (the family's default tool joins the calibration set).
-CAL_SEED, TEST_SEED = 100, 200
 #: rho below which SDG-Net's ranking counts as failed, and the share of such tools the guard must catch.
 RHO_FAIL, CATCH = 0.5, 0.9
-
-
-def picks(total: np.ndarray, measured: np.ndarray, valid: np.ndarray, verify: int) -> tuple[int, int]:
-    """(the learned pick: the lowest predicted total; the verified pick: among the `verify` best by
-    predicted total with a valid rollout, the lowest measured total, as `itup plan --verify K` picks under
-    nominal physics, or the learned pick when none is valid), from every candidate's rollout."""
-    order = np.argsort(total, kind="stable")
-    short = [int(i) for i in order if valid[i]][:verify]
-    return int(order[0]), (short[int(np.argmin(measured[short]))] if short else int(order[0]))
-
-
-def set_tools(name: str, set_name: str, tools: int) -> list[tuple]:
-    """[(tool, seed)] of family `name`'s calibration set (its default tool, planned with seed 0, and
-    `tools` draws from CAL_SEED) or test set (`tools` draws from TEST_SEED, each planned with its seed)."""
-    from itup_jax import families
-
-    base = CAL_SEED if set_name == "calibration" else TEST_SEED
-    seeds = ([None] if set_name == "calibration" else []) + [base + i for i in range(tools)]
-    return [(families.get(name).build(), 0) if s is None else (families.draw(name, s), s) for s in seeds]
 
 
 def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
     """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, the guard, which
     verifies 5 grasps when it fires), its pick then rolled out `draws` times under random physics."""
     from itup_jax.planning import plan_grasp
-    from itup_jax.simulate import Randomization, simulate
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.sim.rollout import simulate
 
     plan = plan_grasp(tool, task, n=n, seed=seed)
     out = {"status": plan.status, "guard_fired": bool(plan.guard is not None and plan.guard.fired),
@@ -96,7 +74,7 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
     from itup_jax.costs import CostParams, wrench_costs
     from itup_jax.grasp_sampler import sample_reachable
     from itup_jax.scoring import ScoreWeights
-    from itup_jax.simulate import Randomization
+    from itup_jax.sim.physics import Randomization
     from itup_jax.stats import spearman
     from itup_jax.verify import measured_total, objective_of
 
@@ -116,7 +94,7 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
     meas_tau, meas_grip = np.asarray(L.peak_torque_induced, float), np.asarray(L.grip_demand, float)
     ok = valid & np.asarray(L.success) & ~np.asarray(L.failed)
     measured = np.asarray(measured_total(L, ScoreWeights(), objective_of(s)), float)
-    learned, verified = picks(total, measured, valid, verify)
+    learned, verified = learned_and_verified_picks(total, measured, valid, verify)
     return {
         "tool": tool.name, "task": kind, "mass_kg": round(tool.mass, 4), "candidates": len(g), "drawn": r.drawn,
         "valid": int(valid.sum()),
@@ -213,8 +191,8 @@ def _nan_to_none(x):
 
 def main(argv=None) -> dict:
     import itup_jax as itup
-    from itup_jax import families
     from itup_jax.bench import machine_info
+    from itup_jax.tools import families
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--tools", type=int, default=4, help="drawn tools per family, task and set (default %(default)s)")
@@ -242,7 +220,7 @@ def main(argv=None) -> dict:
         fam = families.get(name)
         for kind in fam.tasks:
             for set_name in ("calibration", "test"):
-                for tool, s in set_tools(name, set_name, args.tools):
+                for tool, s in family_tools(name, set_name, args.tools):
                     row = tool_row(tool, kind, args.grasps, args.verify, seed=s)
                     row.update(family=name, builtin=fam.builtin)
                     if set_name == "test" and args.plan_n > 0:

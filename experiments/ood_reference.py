@@ -6,7 +6,7 @@ inputs, sampled per task (`itup_jax/models/training_reference.npz`, `ood.sample_
 The shipped checkpoints were trained on four `itup generate` runs (docs/results.md, "Data"). A row's
 features depend on the tool, the task and the grasp only, not on its rollout, so they are rebuilt here
 without simulating: each shard's tool and candidates (`dataset.shard_candidates`, as `dataset.make_shard`
-draws them), the ones the arm can carry (`simulate.reachable`: the rows a rollout can make valid), and
+draws them), the ones the arm can carry (`sim.arm.reachable`: the rows a rollout can make valid), and
 their features (`dataset.shard_features`). About 80 s on 2 cores.
 A checkpoint trained by `itup train` gets its reference from its own training rows instead.
 """
@@ -27,7 +27,7 @@ SHIPPED_RUNS = ((("hammer", "sweep", "knock"), 48, 20, "stretch"), (("hammer", "
 def training_features(runs=SHIPPED_RUNS, grasps: int = 256) -> tuple[np.ndarray, np.ndarray]:
     """(features [N, F], tasks [N]) of the reachable candidates of every shard of `runs`."""
     from itup_jax.dataset import GenerateConfig, shard_candidates, shard_features, shard_units
-    from itup_jax.simulate import reachable
+    from itup_jax.sim.arm import reachable
 
     feats, tasks = [], []
     for kinds, tools, seed, variants in runs:

@@ -1,7 +1,7 @@
 """The whole chain and the paper's ablations in simulation (the paper's Tables II and III beside ours).
 
     python experiments/pipeline_ablation.py --trials 50 --out results/pipeline       # >= 50 per cell (tables 0-49)
-    python experiments/pipeline_ablation.py --quick --out /tmp/pipe                    # tiny (tests)
+    python experiments/pipeline_ablation.py --quick --out results/pipe_quick                    # tiny (tests)
 
 Per task (one plain instruction each, INSTRUCTIONS), per table (no clutter: the four built-in tools
 apart; clutter: `--clutter` procedural tools dropped among them) and per trial t, one table is laid out
@@ -18,9 +18,9 @@ numbers (real robot, 10 trials per cell) are printed beside ours. Writes pipelin
 `--from JSON [JSON ...] [--first-trial K]` summarizes earlier runs' rows again (K: from table seed K on),
 merging runs of different tasks, e.g. two processes on a 2-core machine:
 
-    python experiments/pipeline_ablation.py --tasks hammer sweep --out /tmp/a &
-    python experiments/pipeline_ablation.py --tasks knock reach --out /tmp/b; wait
-    python experiments/pipeline_ablation.py --from /tmp/a/pipeline_ablation.json /tmp/b/pipeline_ablation.json --out results/pipeline
+    python experiments/pipeline_ablation.py --tasks hammer sweep --out results/ablation_a &
+    python experiments/pipeline_ablation.py --tasks knock reach --out results/ablation_b; wait
+    python experiments/pipeline_ablation.py --from results/ablation_a/pipeline_ablation.json results/ablation_b/pipeline_ablation.json --out results/pipeline
 """
 
 from __future__ import annotations
@@ -33,18 +33,13 @@ import sys
 import time
 
 import numpy as np
-from scipy.stats import beta
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import itup_jax as itup
+from itup_jax import tabletop
+from itup_jax.atomic import atomic_write_json
+from itup_jax.pipeline import INSTRUCTIONS, MAX_PICK_ATTEMPTS, METHODS, STAGES
+from itup_jax.stats import clopper_pearson
 
-import itup_jax as itup  # noqa: E402
-from itup_jax import tabletop  # noqa: E402
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.pipeline import MAX_PICK_ATTEMPTS, METHODS, STAGES  # noqa: E402
-
-#: One instruction per task (plain words; the rule grounder reads them).
-INSTRUCTIONS = {"hammer": "drive the nail", "sweep": "sweep the debris off the table",
-                "knock": "knock over the tower", "reach": "pull the block closer"}
 #: The paper's Table II (no clutter) and III (clutter), real world, 10 trials per cell (% success).
 PAPER_TABLE2 = {"hammer": {"itup": 50, "no_sdgnet": 30, "no_grounding": 0, "object_level": 10, "copa": 30},
                 "sweep": {"itup": 90, "no_sdgnet": 70, "no_grounding": 10, "object_level": 60, "copa": 70},
@@ -52,14 +47,6 @@ PAPER_TABLE2 = {"hammer": {"itup": 50, "no_sdgnet": 30, "no_grounding": 0, "obje
                 "reach": {"itup": 80, "no_sdgnet": 70, "no_grounding": 0, "object_level": 30, "copa": 60}}
 PAPER_TABLE3 = {"hammer": {"itup": 40, "copa": 20}, "sweep": {"itup": 90, "copa": 70},
                 "knock": {"itup": 90, "copa": 70}, "reach": {"itup": 60, "copa": 30}}
-
-
-def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
-    """Exact binomial interval for k successes in n trials."""
-    a = 1 - level
-    lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
-    hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
-    return lo, hi
 
 
 def summarize(rows: list[dict], tasks, methods, clutters) -> dict:

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.patches import Rectangle
 
 import itup_jax as itup
-from itup_jax.plotting import AXIS_COLOURS, _silhouette, _view_axes, save_figure
+from itup_jax.plotting import AXIS_COLOURS, save_figure, silhouette, view_axes
 
 
 def main() -> None:
@@ -25,9 +25,9 @@ def main() -> None:
     fig, axs = plt.subplots(1, len(names), figsize=(3.2 * len(names), 5.0))
     for ax, name in zip(axs, names):
         tool = itup.load_tool(name)
-        axes = _view_axes(tool)
+        axes = view_axes(tool)
         letters = "xyz"
-        _silhouette(ax, tool, axes)
+        silhouette(ax, tool, axes)
         lo, hi = tool.grasp_region.lo[list(axes)], tool.grasp_region.hi[list(axes)]
         ax.add_patch(Rectangle(lo, *(hi - lo), fill=False, ls="--", ec="0.35", lw=1.0, label="grasp region"))
         L = 0.08

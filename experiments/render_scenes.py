@@ -13,17 +13,18 @@ from __future__ import annotations
 import argparse
 import os
 
-import matplotlib  # noqa: E402
+import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-import itup_jax as itup  # noqa: E402
-from itup_jax.render import rollout_frames  # noqa: E402
-from itup_jax.scene import build_scene  # noqa: E402
-from itup_jax.simulate import plan, sample_physics  # noqa: E402
-from itup_jax.task import DEFAULT_TOOL  # noqa: E402
+import itup_jax as itup
+from itup_jax.render import rollout_frames
+from itup_jax.sim.arm import plan
+from itup_jax.sim.physics import sample_physics
+from itup_jax.sim.scene import build_scene
+from itup_jax.task import DEFAULT_TOOL
 
 VIEWS = {
     "hammer": dict(lookat=(0.45, 0.0, 0.15), azimuth=150.0),

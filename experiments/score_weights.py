@@ -1,9 +1,9 @@
 """Which weights should SDG-Net's total use when a planner scores many candidates? Picks re-weighted, measured.
 
-    python experiments/score_weights.py --data /tmp/sdg_v4_val8s6 --n 1024 --out results/weights_val
-    python experiments/score_weights.py --data /tmp/sdg_v4_test8 --n 1024 --grid 100,1,10,10 --grid 0,1,10,10 \
+    python experiments/score_weights.py --data data/val --n 1024 --out results/weights_val
+    python experiments/score_weights.py --data data/test --n 1024 --grid 100,1,10,10 --grid 0,1,10,10 \
         --out results/weights_test
-    python experiments/score_weights.py --quick --out /tmp/weights     # a tiny dataset made here (tests)
+    python experiments/score_weights.py --quick --out results/weights_quick     # a tiny dataset made here (tests)
 
 The shipped `ScoreWeights` (w_tau 1 /(N m), w_slip 100 /m, w_task 10, w_fail 10 from this experiment;
 w_align, w_weak and w_grip from `weight_by_stress.py` and `objective_selection.py`) were chosen on validation tools
@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import os
-import runpy
 import sys
 import time
 
@@ -47,16 +46,16 @@ import itup_jax as itup
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import unit_tool
 from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import build_scene
+from itup_jax.heldout import BESIDE, SAMPLE_SEED, held_out_dataset, measure_pick
 from itup_jax.scoring import ScoreWeights
-from itup_jax.sdgnet import load_model
-from itup_jax.simulate import reachable
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sim.arm import reachable
+from itup_jax.sim.scene import build_scene
 from itup_jax.stats import paired_ratio
 
 SHIPPED = ScoreWeights()
 FIELDS = ("w_slip", "w_align", "w_task", "w_fail")  # w_tau stays 1: the others are relative to it
 SLACK = 0.10  # how much more slip and drift than the shipped weights' picks a qualifying setting may show
-HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def setting_key(w: ScoreWeights) -> str:
@@ -79,12 +78,11 @@ def weighted_total(s, w: ScoreWeights) -> np.ndarray:
     return total
 
 
-def evaluate_tool(config, entry, n, draws, model, timestep, settings, cc) -> dict:
+def evaluate_tool(config, entry, n, draws, model, timestep, settings) -> dict:
     """One held-out tool: the picks among N fresh reachable candidates under every setting (and by C_tau),
-    each distinct pick measured once over `draws` rollouts. cc: candidate_count.py's namespace (its
-    candidates' seed and `_measure`)."""
+    each distinct pick measured once over `draws` rollouts (`heldout.measure_pick`)."""
     tool, task = unit_tool(config, entry["task"], entry["variant"])
-    g = sample_grasps(tool, n, seed=cc["SAMPLE_SEED"] + entry["variant"])
+    g = sample_grasps(tool, n, seed=SAMPLE_SEED + entry["variant"])
     g = g[np.nonzero(reachable(task, g))[0]]
     row = {"task": entry["task"], "variant": entry["variant"], "reachable": int(len(g.width)), "picks": {}}
     if not len(g.width):
@@ -97,7 +95,7 @@ def evaluate_tool(config, entry, n, draws, model, timestep, settings, cc) -> dic
     index = {"tau": int(np.argmin(np.asarray(s.tau)))}
     index.update({setting_key(w): int(np.argmin(weighted_total(s, w))) for w in settings})
     scene = build_scene(tool, task, timestep=timestep)
-    measured = {i: cc["_measure"](tool, task, scene, g, i, draws) for i in sorted(set(index.values()))}
+    measured = {i: measure_pick(tool, task, scene, g, i, draws) for i in sorted(set(index.values()))}
     row["picks"] = {k: {**measured[i], "index": i} for k, i in index.items()}
     row["distinct_picks"] = len(measured)
     return row
@@ -105,7 +103,7 @@ def evaluate_tool(config, entry, n, draws, model, timestep, settings, cc) -> dic
 
 def summarise(rows: list[dict], keys: list[str], beside: tuple[str, ...]) -> dict:
     """Per setting (and `tau`): geometric-mean torque over tools, success and failure rates, mean slip and
-    drift over tools with a pick, the means of `beside` (`candidate_count.BESIDE`); and the paired ratio of
+    drift over tools with a pick, the means of `beside` (`heldout.BESIDE`); and the paired ratio of
     torque against the shipped weights' picks."""
     rows = [r for r in rows if r["picks"]]
     ref = np.array([r["picks"][setting_key(SHIPPED)]["torque"] for r in rows])
@@ -172,20 +170,19 @@ def main(argv=None) -> dict:
         rows = list(itertools.product(*(_floats(getattr(args, f), "--" + f.replace("_", "-")) for f in FIELDS)))
     settings = list({setting_key(w): w for w in [SHIPPED] + [ScoreWeights(**dict(zip(FIELDS, r))) for r in rows]}.values())
     os.makedirs(args.out, exist_ok=True)
-    cc = runpy.run_path(os.path.join(HERE, "candidate_count.py"))
-    args.data, manifest, config, steps = cc["held_out_dataset"](
-        args.data, os.path.join(args.out, "data") if args.quick else None, "--data", "score_weights")
+    quick_dir = os.path.join(args.out, "data") if args.quick else None
+    args.data, manifest, config, steps = held_out_dataset(args.data, quick_dir, "--data", error=ap.error)
     model = load_model(args.model)
     rows_out, t0 = [], time.perf_counter()
     for e in manifest["shards"]:
         if e["variant"] == 0:
             continue
-        rows_out.append(evaluate_tool(config, e, args.n, args.draws, model, steps[e["task"]], settings, cc))
+        rows_out.append(evaluate_tool(config, e, args.n, args.draws, model, steps[e["task"]], settings))
         r = rows_out[-1]
         print(f"{r['task']:7s} {r['variant']:3d} {r['reachable']} reachable, {r.get('distinct_picks', 0)} distinct picks",
               flush=True)
     keys = ["tau"] + [setting_key(w) for w in settings]
-    summary = summarise(rows_out, keys, cc["BESIDE"])
+    summary = summarise(rows_out, keys, BESIDE)
     chosen, qualifying = choose(summary, settings)
     from itup_jax.bench import machine_info
 

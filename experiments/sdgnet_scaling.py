@@ -1,8 +1,8 @@
 """Is data what limits SDG-Net? Held-out fidelity against the number of training tools per task.
 
-    python experiments/sdgnet_scaling.py --train /tmp/d12/tr_a /tmp/d12/tr_b /tmp/d12/tr_c /tmp/d12/tr_d \\
-        --test /tmp/d11/eval_s6 --tools 6,12,24,all --seeds 3 --ensemble --out results/scaling_val
-    python experiments/sdgnet_scaling.py --quick --out /tmp/scaling     # tiny datasets made here (tests)
+    python experiments/sdgnet_scaling.py --train data/train_a data/train_b data/train_c data/train_d \\
+        --test data/val --tools 6,12,24,all --seeds 3 --ensemble --out results/scaling_val
+    python experiments/sdgnet_scaling.py --quick --out results/scaling_quick     # tiny datasets made here (tests)
 
 For each size k (tools per task) and seed, SDG-Net is trained with the shipped checkpoint's recipe
 (`--hidden`, `--weight-decay`, `--torque-scale`, `--epochs` override it) on the first k tools of every
@@ -11,7 +11,7 @@ the held-out tools of --test as `sdgnet_fidelity.py` does: Spearman between the 
 the measured full induced peak wrist torque (the paper's measure, no projection; the headline), per
 tool (median over tools, and per task) and pooled over every candidate of the held-out tools
 (`rho_pooled`, which also counts how the tools differ); the raw peak and the projected part beside
-it. With `--ensemble` the seeds of a size are also averaged into one model (`sdgnet.ensemble`) and
+it. With `--ensemble` the seeds of a size are also averaged into one model (`sdgnet.model.ensemble`) and
 scored the same way: what ensembling buys at that size. A straight line of the median rho (mean over
 seeds) against log2(k) gives the gain per doubling of the data and, where it rises, the size at which
 the line would reach a Spearman of 0.9; `fit_pooled` the same for the pooled rho. That is an
@@ -33,13 +33,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-from sdgnet_fidelity import GOALS, HEADLINE, evaluate  # noqa: E402  (the same per-tool scoring as the fidelity experiment)
-
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.dataset import GenerateConfig, generate, load_datasets  # noqa: E402
-from itup_jax.sdgnet import ensemble, load_model, train  # noqa: E402
+from itup_jax import fidelity as fid
+from itup_jax.atomic import atomic_write_json
+from itup_jax.dataset import GenerateConfig, generate
+from itup_jax.dataset_load import load_datasets
+from itup_jax.heldout import HEADLINE
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.model import ensemble
+from itup_jax.sdgnet.training import train
 
 
 def first_tools(data: dict, k: int | None) -> np.ndarray:
@@ -77,11 +78,11 @@ def parse_sizes(tools: str, counts: Sequence[int]) -> list[tuple[int, bool]]:
 
 
 def fidelity(model, test_dir: str) -> dict:
-    """The model's ranking of the held-out tools of `test_dir` (`sdgnet_fidelity.evaluate`): median over
+    """The model's ranking of the held-out tools of `test_dir` (`fidelity.fidelity`): median over
     tools of the per-tool Spearman against the measured full induced peak torque (`median_rho`, the
     headline), the raw peak and the projected part beside it, the mean per task, and the rho pooled over
     every candidate of the held-out tools (`rho_pooled`, and per task `pooled_by_task`)."""
-    ev = evaluate(model, test_dir)
+    ev = fid.fidelity(model, test_dir)
     rows = [r for r in ev["rows"] if r["held_out"]]
     rho = {m: np.array([r[f"rho_sdgnet_{m}"] for r in rows], float) for m in ("induced", "raw", "projected")}
     pooled = ev["rho_pooled_held_out"]
@@ -144,7 +145,7 @@ def plot(out: dict, path: str) -> None:
     if f["per_doubling"] is not None:
         xs = np.geomspace(min(k), max(k), 50)
         ax.plot(xs, f["intercept"] + f["per_doubling"] * np.log2(xs), "k:", lw=1, label="log2 fit")
-    ax.axhline(GOALS["spearman"], color="r", ls="--", lw=0.8, label="goal")
+    ax.axhline(fid.GOALS["spearman"], color="r", ls="--", lw=0.8, label="goal")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("training tools per task")
     ax.set_ylabel("held-out Spearman (full induced peak torque)")
@@ -226,7 +227,7 @@ def main(argv=None) -> dict:
             print(f"{label:>4} tools/task ensemble of {len(models)}: " + describe(size["ensemble"]), flush=True)
         results.append(size)
     fit = fit_log2([r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results],
-                   GOALS["spearman"])
+                   fid.GOALS["spearman"])
     grasps = manifests[0]["config"]["grasps"]
     n_tasks = len(results[0]["by_task"])
     if fit["tools_per_task_at_goal"] is not None:
@@ -234,14 +235,14 @@ def main(argv=None) -> dict:
     # the curve bends: the line through every size can cross the goal where a size already measured
     # is below it; the line through the three largest sizes is the local rate
     ks, meds = [r["tools_per_task"] for r in results], [r["median_rho"]["mean"] for r in results]
-    fit["contradicted_by"] = measured_past_goal(ks, meds, fit["tools_per_task_at_goal"], GOALS["spearman"])
+    fit["contradicted_by"] = measured_past_goal(ks, meds, fit["tools_per_task_at_goal"], fid.GOALS["spearman"])
     pooled = [r["rho_pooled"]["mean"] for r in results]
-    fit_pooled = fit_log2(ks, pooled, GOALS["spearman"])
-    fit_pooled["contradicted_by"] = measured_past_goal(ks, pooled, fit_pooled["tools_per_task_at_goal"], GOALS["spearman"])
+    fit_pooled = fit_log2(ks, pooled, fid.GOALS["spearman"])
+    fit_pooled["contradicted_by"] = measured_past_goal(ks, pooled, fit_pooled["tools_per_task_at_goal"], fid.GOALS["spearman"])
     if fit_pooled["tools_per_task_at_goal"] is not None:
         fit_pooled["rollouts_at_goal"] = fit_pooled["tools_per_task_at_goal"] * grasps * n_tasks
     if len(results) >= 3:
-        fit["tail"] = fit_log2(ks[-3:], meds[-3:], GOALS["spearman"])
+        fit["tail"] = fit_log2(ks[-3:], meds[-3:], fid.GOALS["spearman"])
         fit["tail"]["sizes"] = ks[-3:]
         if fit["tail"]["tools_per_task_at_goal"] is not None:
             fit["tail"]["rollouts_at_goal"] = fit["tail"]["tools_per_task_at_goal"] * grasps * n_tasks
@@ -250,7 +251,7 @@ def main(argv=None) -> dict:
     out = {"schema": "itup.scaling/2", "experiment": "sdgnet_scaling", "quick": args.quick,
            "train": [os.path.abspath(d) for d in args.train], "test": os.path.abspath(args.test),
            "train_config": {**dataclasses.asdict(base), "hidden": list(base.hidden)},
-           "tasks": list(results[0]["by_task"]), "goals": GOALS, "measured": HEADLINE, "sizes": results, "fit": fit, "fit_pooled": fit_pooled,
+           "tasks": list(results[0]["by_task"]), "goals": fid.GOALS, "measured": HEADLINE, "sizes": results, "fit": fit, "fit_pooled": fit_pooled,
            "machine": machine_info()}
     os.makedirs(args.out, exist_ok=True)
     atomic_write_json(os.path.join(args.out, "scaling.json"), out, indent=2)
@@ -261,20 +262,20 @@ def main(argv=None) -> dict:
     else:
         at = fit["tools_per_task_at_goal"]
         print(f"fit: median rho = {fit['intercept']:.3f} + {fit['per_doubling']:.3f} log2(tools per task)"
-              + (f"; the line reaches {GOALS['spearman']} at ~{at:.0f} tools per task (~{fit['rollouts_at_goal']:.0f}"
+              + (f"; the line reaches {fid.GOALS['spearman']} at ~{at:.0f} tools per task (~{fit['rollouts_at_goal']:.0f}"
                  " rollouts; an extrapolation)" if at is not None else "; it does not rise"))
         if fit["contradicted_by"]:
-            print(f"  contradicted: measured below {GOALS['spearman']} at {fit['contradicted_by']} tools per task, past that crossing")
+            print(f"  contradicted: measured below {fid.GOALS['spearman']} at {fit['contradicted_by']} tools per task, past that crossing")
         tail = fit.get("tail")
         if tail and tail["per_doubling"] is not None:
             at = tail["tools_per_task_at_goal"]
             print(f"  the three largest sizes {tail['sizes']}: {tail['per_doubling']:+.3f} per doubling"
-                  + (f"; at that rate {GOALS['spearman']} at ~{at:.0f} tools per task (~{tail['rollouts_at_goal']:.0f} rollouts)"
+                  + (f"; at that rate {fid.GOALS['spearman']} at ~{at:.0f} tools per task (~{tail['rollouts_at_goal']:.0f} rollouts)"
                      if at is not None else "; not rising"))
         if fit_pooled["per_doubling"] is not None:
             at = fit_pooled["tools_per_task_at_goal"]
             print(f"  pooled rho = {fit_pooled['intercept']:.3f} + {fit_pooled['per_doubling']:.3f} log2(tools per task)"
-                  + (f"; {GOALS['spearman']} at ~{at:.0f} tools per task" if at is not None else "; it does not rise"))
+                  + (f"; {fid.GOALS['spearman']} at ~{at:.0f} tools per task" if at is not None else "; it does not rise"))
     return out
 
 

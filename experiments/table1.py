@@ -4,11 +4,11 @@ against every other method (not against its own verified pick, which is SDG-Net 
 
     python experiments/table1.py --out results/table1                  # full: 4 tasks x 3 tools x 5 seeds
     python experiments/table1.py --timestep 0.002 --out results/table1_2ms   # every task at 2 ms
-    python experiments/table1.py --quick --out /tmp/t1                 # hammer, 1 tool, 1 seed (tests)
+    python experiments/table1.py --quick --out results/t1_quick                 # hammer, 1 tool, 1 seed (tests)
 
 Every method chooses among the same reachable candidates (`evaluate.feasible_candidates`), and rollout k
 of every method runs with the same physics draw and the same trajectory (`evaluate.evaluate`). Tools:
-each task's built-in tool plus procedural variants (`dataset.vary_tool`, seeds 10000+, none of which a
+each task's built-in tool plus procedural variants (`tools.variants.vary_tool`, seeds 10000+, none of which a
 training shard used). Writes table1.json, table1.csv and table1.png.
 
 The paper's Table I cells (its peak induced wrist torque, "measured at the wrist frame", N m, mean ±
@@ -28,27 +28,14 @@ import io
 import os
 import sys
 import time
-import warnings
 
 import numpy as np
 
 from itup_jax.atomic import atomic_write, atomic_write_json
-from itup_jax.dataset import vary_tool
 from itup_jax.errors import InputError
-from itup_jax.evaluate import DEFAULT_METHODS, MEASURED, evaluate, reduction
-from itup_jax.scene import build_scene, check_timestep, task_timestep
-from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, make_task
-from itup_jax.tool import load_tool
-
-#: The headline first (the full induced peak wrist torque, the paper's measure), then the raw peak, the
-#: induced torque's grasp-frame components at its peak, the projected torque (the C_tau component), the
-#: grip demand (N per pad).
-COLUMNS = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_induced_approach", "peak_induced_third",
-           "peak_torque_projected", "grip_demand", "slip_translation", "slip_rotation", "alignment_drift", "failed",
-           "success")
-#: The paired comparisons: the headline, the raw peak, the closure-axis component, the grip demand.
-PAIRED_MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
-
+from itup_jax.evaluate import COLUMNS, DEFAULT_METHODS, MEASURED, PAIRED_LEVEL, compare_on_tools
+from itup_jax.sim.scene import check_timestep, task_timestep
+from itup_jax.task import TASK_KINDS
 
 #: The paper's Table I (arXiv:2505.01399v3, Table I): peak induced wrist torque tau_max (N m, mean, std)
 #: per task and method, in Isaac Sim with the same contacts and trajectories for every method.
@@ -62,91 +49,6 @@ PAPER_TABLE1 = {
 PAPER = {"source": "Trupin, Wang, Qureshi: Physics-Conditioned Grasping for Stable Tool Use, arXiv:2505.01399v3",
          "induced_torque_suppression_up_to_pct": 17.6, "real_world_success_gain_pct": 17.5,
          "failure_threshold_Nm": 6.9}
-
-
-def run(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, log=print, model=None,
-        timestep: float | None = None) -> dict:
-    per_tool = []
-    for kind in tasks:
-        base = load_tool(DEFAULT_TOOL[kind])
-        for v in range(tools_per_task):
-            tool = base if v == 0 else vary_tool(base, 10_000 + v)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit: flagged
-                task = make_task(kind, tool)
-            t0 = time.perf_counter()
-            res = evaluate(tool, task, methods, n=n, seeds=seeds, seed=seed + v, model=model,
-                           scene=build_scene(tool, task, timestep=timestep))
-            log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
-                f"{m} {res['methods'][m]['measured']['peak_torque_induced']['mean']:.2f}" for m in methods))
-            per_tool.append(res)
-    table = {}
-    for kind in tasks:
-        rows = [r for r in per_tool if r["task"] == kind]
-        table[kind] = {}
-        for m in methods:
-            cell = {}
-            for c in COLUMNS:
-                v = np.concatenate([np.asarray(r["methods"][m]["rollouts"][c], dtype=float) for r in rows])
-                cell[c] = {"mean": float(np.nanmean(v)) if np.isfinite(v).any() else None,
-                           "std": float(np.nanstd(v)) if np.isfinite(v).any() else None, "n": int(np.isfinite(v).sum())}
-            table[kind][m] = cell
-        if "sdgnet" in methods:
-            ours = table[kind]["sdgnet"]
-            # against the other methods, not SDG-Net's own verified pick (it is SDG-Net too)
-            others = [m for m in methods if not m.startswith("sdgnet")]
-            table[kind]["sdgnet_torque_reduction_pct"] = {
-                m: reduction(ours["peak_torque_projected"]["mean"] or np.nan,
-                             table[kind][m]["peak_torque_projected"]["mean"] or np.nan)
-                for m in others}
-            table[kind]["sdgnet_induced_torque_reduction_pct"] = {
-                m: reduction(ours["peak_torque_induced"]["mean"] or np.nan,
-                             table[kind][m]["peak_torque_induced"]["mean"] or np.nan)
-                for m in others}
-            table[kind]["sdgnet_raw_torque_reduction_pct"] = {
-                m: reduction(ours["peak_torque"]["mean"] or np.nan, table[kind][m]["peak_torque"]["mean"] or np.nan)
-                for m in others}
-            table[kind]["sdgnet_failure_rate_ratio"] = {
-                m: (None if not table[kind][m]["failed"]["mean"] else ours["failed"]["mean"] / table[kind][m]["failed"]["mean"])
-                for m in others}
-    return {"table": table, "paired": paired_reductions(per_tool, tasks, methods),
-            "paired_paper_objective": paired_reductions(per_tool, tasks, methods, ours="sdgnet_paper"),
-            "per_tool": per_tool}
-
-
-#: The interval of the paired reductions: 90 % over tools.
-PAIRED_LEVEL = 0.90
-
-
-def paired_reductions(per_tool: list, tasks, methods, measures=PAIRED_MEASURES, ours: str = "sdgnet") -> dict:
-    """Per task, measure and baseline: the reduction of `ours` (SDG-Net, or its paper-objective
-    checkpoint "sdgnet_paper") against the baseline, paired tool by tool (each
-    tool's mean over its draws; the same candidates and draws for both), as 100 (1 - geometric-mean ratio)
-    with a PAIRED_LEVEL bootstrap interval over tools (`stats.paired_ratio`), on the unseen variants alone
-    and on every tool."""
-    from itup_jax.stats import paired_ratio
-
-    out = {}
-    if ours not in methods:
-        return out
-    for kind in tasks:
-        rows = [r for r in per_tool if r["task"] == kind]
-        out[kind] = {}
-        for meas in measures:
-            out[kind][meas] = {}
-            for m in [m for m in methods if not m.startswith("sdgnet")]:
-                entry = {}
-                for subset, keep in (("unseen", lambda i: i > 0), ("all", lambda i: True)):
-                    sel = [r for i, r in enumerate(rows) if keep(i)]
-                    a = [r["methods"][ours]["measured"][meas]["mean"] for r in sel]
-                    b = [r["methods"][m]["measured"][meas]["mean"] for r in sel]
-                    pr = paired_ratio(np.array(a, float), np.array(b, float), level=PAIRED_LEVEL)
-                    pct = lambda x: None if x is None else 100.0 * (1.0 - x)  # noqa: E731
-                    entry[subset] = {"reduction_pct": pct(pr["ratio"]), "n_tools": pr["n"],
-                                     "interval_pct": None if pr["ci"] is None else [pct(pr["ci"][1]), pct(pr["ci"][0])],
-                                     "tools_lower": pr["lower"], "tools_higher": pr["higher"]}
-                out[kind][meas][m] = entry
-    return out
 
 
 def to_csv(table: dict) -> str:
@@ -216,10 +118,10 @@ def main(argv=None) -> dict:
     t0 = time.perf_counter()
     model = None
     if a.model is not None:
-        from itup_jax.sdgnet import load_model
+        from itup_jax.sdgnet.checkpoint import load_model
 
         model = load_model(a.model)  # a bad path or file fails here, before any rollout
-    res = run(tasks, a.tools_per_task, a.n, a.seeds, methods, a.seed, model=model, timestep=a.timestep)
+    res = compare_on_tools(tasks, a.tools_per_task, a.n, a.seeds, methods, a.seed, model=model, timestep=a.timestep)
     from itup_jax.bench import machine_info
 
     out = {"schema": "itup.table1/1", "experiment": "table1", "quick": a.quick,

@@ -1,15 +1,15 @@
 """Are the labels converged in the simulator's timestep? The same grasps, the same contact model and
 nominal physics, integrated at several timesteps: if the labels at a step rank the grasps differently
 from the labels at a finer step, part of what they measure is the integration. This study chose each
-task's default step (`scene.TASK_TIMESTEP`).
+task's default step (`sim.scene.TASK_TIMESTEP`).
 
-    python experiments/timestep_convergence.py --data /tmp/sdg_test8 --tools-per-task 3 --out results/timestep
-    python experiments/timestep_convergence.py --quick --out /tmp/timestep     # a tiny dataset made here (tests)
+    python experiments/timestep_convergence.py --data data/test --tools-per-task 3 --out results/timestep
+    python experiments/timestep_convergence.py --quick --out results/timestep_quick     # a tiny dataset made here (tests)
 
 For the first `--tools-per-task` procedural tools of every task in --data, the valid grasps of the shard
 are rolled out under nominal physics in scenes built at each of `--timesteps` (s). Only the
 integration changes: every contact keeps the same parameters at every step <= 2 ms (the tool-target
-spring's time constant keeps its 4 ms floor, `scene.CONTACT_MIN_TIMECONST`; the pads 4 ms).
+spring's time constant keeps its 4 ms floor, `sim.scene.CONTACT_MIN_TIMECONST`; the pads 4 ms).
 Per tool and timestep, over the grasps valid at both that step and the finest:
 
   rho_vs_finest     Spearman of the full induced peak wrist torque (the paper's measure, no projection)
@@ -35,16 +35,15 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-from label_smoothness import mean_or_none, rho, with_moved_copies  # noqa: E402  (the smoothness experiment's moves)
-
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_shard, unit_tool  # noqa: E402
-from itup_jax.scene import MAX_TIMESTEP, build_scene  # noqa: E402
-from itup_jax.sdgnet import load_model, predict_costs  # noqa: E402
-from itup_jax.simulate import simulate  # noqa: E402
-from itup_jax.task import TASK_KINDS  # noqa: E402
+from itup_jax.atomic import atomic_write_json
+from itup_jax.dataset import GenerateConfig, generate, unit_tool
+from itup_jax.dataset_load import MANIFEST, load_shard
+from itup_jax.heldout import mean_or_none, rho, with_moved_copies
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.model import predict_costs
+from itup_jax.sim.rollout import simulate
+from itup_jax.sim.scene import MAX_TIMESTEP, build_scene
+from itup_jax.task import TASK_KINDS
 
 FIELDS = ("rho_vs_finest", "rho_vs_finest_projected", "ratio_vs_finest", "success_agree", "rho_moved", "rho_sdgnet")
 MOVE, TURN = 0.002, np.radians(2.0)

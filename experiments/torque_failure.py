@@ -3,9 +3,9 @@
 ~6.9 N m), and does lowering the torque of the pick lower its failure rate?
 
     python experiments/torque_failure.py --out results/torque_failure                 # generates its data
-    python experiments/torque_failure.py --data /tmp/sdg_train --table1 results/table1/table1.json \\
+    python experiments/torque_failure.py --data data/train_a --table1 results/table1/table1.json \\
         --out results/torque_failure                                                  # reuse earlier runs
-    python experiments/torque_failure.py --quick --out /tmp/tf                        # tests
+    python experiments/torque_failure.py --quick --out results/tf_quick                        # tests
 
 Three results, from every valid rollout of a dataset (random antipodal grasps, randomised physics;
 `itup generate`, made here in OUT/data unless --data names one):
@@ -21,7 +21,6 @@ Writes torque_failure.json and torque_failure.png into --out.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import sys
@@ -30,8 +29,9 @@ import time
 import numpy as np
 
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import MANIFEST, GenerateConfig, generate, load_dataset
-from itup_jax.evaluate import reduction
+from itup_jax.dataset import GenerateConfig, generate
+from itup_jax.dataset_load import MANIFEST, load_dataset
+from itup_jax.evaluate import compare_on_tools, reduction
 from itup_jax.stats import binned_rate, failure_threshold
 from itup_jax.task import TASK_KINDS
 
@@ -82,12 +82,9 @@ def _table1(path: str | None, quick: bool, tasks) -> dict:
     if path is not None:
         with open(path) as fh:
             return json.load(fh)
-    spec = importlib.util.spec_from_file_location("table1", os.path.join(os.path.dirname(os.path.abspath(__file__)), "table1.py"))
-    t1 = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(t1)
     if quick:
-        return t1.run(["hammer"], 1, 16, 1, ("sdgnet", "force_closure"), log=lambda *_: None)
-    return t1.run(tasks, 1, 128, 3, ("sdgnet", "force_closure", "geometric", "random"))
+        return compare_on_tools(["hammer"], 1, 16, 1, ("sdgnet", "force_closure"), log=lambda *_: None)
+    return compare_on_tools(tasks, 1, 128, 3, ("sdgnet", "force_closure", "geometric", "random"))
 
 
 def plot(d: dict, thr: dict, sup: list[dict], path: str) -> None:

@@ -1,9 +1,9 @@
 """What predicts that a grasp fails under a weak grip? Every candidate rolled out at the default grip and
 twice at a weak one.
 
-    python experiments/weak_grip.py --data /tmp/d10/eval_s6 --tasks sweep,knock --tools-per-task 3 \
+    python experiments/weak_grip.py --data data/val --tasks sweep,knock --tools-per-task 3 \
         --out results/weak_grip
-    python experiments/weak_grip.py --quick --out /tmp/weak_grip          # knock, 1 tool, 24 grasps (tests)
+    python experiments/weak_grip.py --quick --out results/weak_grip_quick          # knock, 1 tool, 24 grasps (tests)
 
 The grip stress experiments find picks that hold at 100 N per pad and fail at 25 N. A scorer can avoid
 them only if something it predicts ranks them, so this asks which quantity does. Per unseen tool of
@@ -37,12 +37,13 @@ import numpy as np
 import itup_jax as itup
 from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
-from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool
+from itup_jax.dataset import GenerateConfig, unit_tool
+from itup_jax.dataset_load import read_manifest
 from itup_jax.evaluate import feasible_candidates
-from itup_jax.scene import build_scene
+from itup_jax.sim.scene import build_scene
 from itup_jax.stats import spearman
 from itup_jax.task import TASK_KINDS, make_task
-from itup_jax.tool import load_tool
+from itup_jax.tools import load_tool
 
 LABELS = ("peak_torque_induced", "peak_induced_closure", "peak_induced_approach", "peak_induced_third", "peak_torque",
           "static_torque", "peak_force_induced", "grip_demand", "slip_rotation", "slip_translation", "alignment_drift")

@@ -1,11 +1,11 @@
 """How much should one of the planner's weights be? The weight chosen by the picks' grip stress on
 validation tools.
 
-    python experiments/weight_by_stress.py --weight w_align --grid 1,10,30,100,300 --data /tmp/d10/eval_s6 \
+    python experiments/weight_by_stress.py --weight w_align --grid 1,10,30,100,300 --data data/val \
         --tools-per-task 5 --out results/w_align
-    python experiments/weight_by_stress.py --weight w_weak --grid 0,3,10,30,100 --data /tmp/d11/eval_s6 \
+    python experiments/weight_by_stress.py --weight w_weak --grid 0,3,10,30,100 --data data/val \
         --tools-per-task 5 --out results/w_weak
-    python experiments/weight_by_stress.py --quick --out /tmp/ws      # hammer, 1 tool, 2 weights (tests)
+    python experiments/weight_by_stress.py --quick --out results/ws_quick      # hammer, 1 tool, 2 weights (tests)
 
 Why: at the default grip (100 N per pad) almost no pick fails, so whether a weight makes the planner
 prefer grasps that hold by where they sit on the tool, rather than by the force of the pads, shows only
@@ -55,19 +55,16 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import sys
 import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import grip_stress  # noqa: E402  (the stress experiment, one folder up the import path)
-
-from itup_jax.atomic import atomic_write_json  # noqa: E402
-from itup_jax.errors import InputError  # noqa: E402
-from itup_jax.scoring import ScoreWeights  # noqa: E402
-from itup_jax.sdgnet import load_model  # noqa: E402
-from itup_jax.task import TASK_KINDS  # noqa: E402
+from itup_jax.atomic import atomic_write_json
+from itup_jax.errors import InputError
+from itup_jax.evaluate import data_config, method_scorer, stress_picks
+from itup_jax.scoring import ScoreWeights
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.task import TASK_KINDS
 
 GRIDS = {"w_align": (1.0, 10.0, 30.0, 100.0, 300.0), "w_weak": (0.0, 3.0, 10.0, 30.0, 100.0)}
 BASELINES = ("force_closure", "geometric")
@@ -178,17 +175,17 @@ def main() -> None:
         (a.reference,) if a.reference else ())
     try:  # a bad model, weight or dataset fails here, before any rollout
         for m in methods:
-            grip_stress.method_scorer(m)
+            method_scorer(m)
         network = a.model.split("@")[0]  # without the weights it holds
         if network not in ("sdgnet", "sdgnet_paper"):
             load_model(network)
         if data is not None:
-            grip_stress.data_config(data, tasks, tools)
+            data_config(data, tasks, tools)
     except InputError as e:
         ap.error(str(e))
     os.makedirs(a.out, exist_ok=True)
     t0 = time.perf_counter()
-    res = grip_stress.run(tasks, tools, n, methods, forces, draws, tol, seed=a.seed, data=data)
+    res = stress_picks(tasks, tools, n, methods, forces, draws, tol, seed=a.seed, data=data)
     table = checks(res["rows"], tasks, weights, a.weight, a.model)
     w, why = choose(table, weights)
     reference = None

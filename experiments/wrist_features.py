@@ -4,18 +4,18 @@ The analytic torque at the wrist, with the closure-axis part capped by the pads'
 ('wrist/passed', docs/results.md "Why the ranking does not carry to new families"), ranks the measured
 full induced peak torque at 0.30-0.64 on held-out families where the network, which never saw them, ranks
 at 0.10-0.31; mixing the two rankings after the fact does not help. Here the physics becomes the
-network's input instead: `features.FeatureSpec(wrist=True)` appends six features (the wrist torque's
+network's input instead: `sdgnet.features.FeatureSpec(wrist=True)` appends six features (the wrist torque's
 peak per grasp-frame axis, its peak norm, the peak the pads pass on, the peak grip demand about the
 grasp; each log1p(x / scale), the targets' own transform), and two networks are trained with the shipped
 checkpoint's recipe on the same rows, one with the block and one without, so that the block is the only
 difference. The datasets' features are made again from their tools, tasks and grasps (no rollout is
 repeated; the base features so made are checked against the stored ones).
 
-    python experiments/wrist_features.py --train /tmp/d11/tr_a /tmp/d11/tr_b /tmp/d11/tr_c /tmp/d11/tr_d \\
-        --eval builtin=/tmp/d10/eval_s1 screwdriver=/tmp/fam11/screwdriver spanner=/tmp/fam11/spanner \\
-               pry_bar=/tmp/fam11/pry_bar hatchet=/tmp/fam11/hatchet squeegee=/tmp/fam11/squeegee \\
+    python experiments/wrist_features.py --train data/train_a data/train_b data/train_c data/train_d \\
+        --eval builtin=data/test screwdriver=data/families/screwdriver spanner=data/families/spanner \\
+               pry_bar=data/families/pry_bar hatchet=data/families/hatchet squeegee=data/families/squeegee \\
         --out results/wrist_features
-    python experiments/wrist_features.py --quick --out /tmp/wf       # tiny datasets made in --out (tests)
+    python experiments/wrist_features.py --quick --out results/wf_quick       # tiny datasets made in --out (tests)
 
 Per evaluation dataset and task, the median over its tools of the Spearman rho between each network's
 predicted full induced peak torque (the norm of its three torque outputs) and the measured one, the same
@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 import warnings
 
@@ -37,7 +36,6 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write_json
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: The networks compared: (name, the wrist block in the input, the occupancy grid in the input). The third
 #: keeps everything but the tool's shape near the grasp: the loads, contact, physics and wrist blocks.
 ARMS = (("base", False, True), ("wrist", True, True), ("wrist_no_shape", True, False))
@@ -57,11 +55,11 @@ def _tools(manifests: list[dict]) -> dict:
 
 
 def refeature(data: dict, manifests: list[dict], specs: list) -> tuple[list[np.ndarray], np.ndarray]:
-    """[N, spec.size] features of every row of `data` (`dataset.load_datasets`) under each of `specs`,
+    """[N, spec.size] features of every row of `data` (`dataset_load.load_datasets`) under each of `specs`,
     made again from the rows' tools, tasks and grasps (each tool built and its loads computed once), and
     [N] the variant of each row's tool."""
-    from itup_jax.features import batched_features, tool_field
     from itup_jax.grasp import Grasps
+    from itup_jax.sdgnet.features import batched_features, tool_field
     from itup_jax.wrench import task_loads
 
     tools = _tools(manifests)
@@ -80,8 +78,8 @@ def refeature(data: dict, manifests: list[dict], specs: list) -> tuple[list[np.n
 def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
     """The datasets' rows with their features made again under the base spec and under `spec`, and
     each row's variant; refuses a base remake that differs from the stored features (a wrong tool)."""
-    from itup_jax.dataset import load_datasets
-    from itup_jax.features import FeatureSpec
+    from itup_jax.dataset_load import load_datasets
+    from itup_jax.sdgnet.features import FeatureSpec
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -96,7 +94,7 @@ def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
 def arm_features(arm: tuple, base: np.ndarray, wrist: np.ndarray) -> np.ndarray:
     """The rows' features as the arm sees them (its occupancy columns zero when it does without them: a
     constant column is normalised to zero and carries nothing)."""
-    from itup_jax.features import FeatureSpec
+    from itup_jax.sdgnet.features import FeatureSpec
 
     _, with_wrist, with_shape = arm
     x = (wrist if with_wrist else base).copy()
@@ -109,8 +107,8 @@ def evaluate(models: dict, data: dict, variant: np.ndarray, feats: dict, only_ne
     """Per task: the median over tools of each model's Spearman (full induced torque, grip demand) and
     the analytic wrist/passed torque's (the wrist block's feature 4). `models` and `feats` (the rows'
     features as each model sees them) share their keys."""
-    from itup_jax.features import WRIST_SIZE, WRIST_TORQUE_SCALE
-    from itup_jax.sdgnet import predict_costs
+    from itup_jax.sdgnet.features import WRIST_SIZE, WRIST_TORQUE_SCALE
+    from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import spearman
 
     out = {}
@@ -149,8 +147,10 @@ def _quick_data(out: str) -> tuple[list[str], list[str]]:
 
 def main(argv=None) -> dict:
     from itup_jax.bench import machine_info
-    from itup_jax.features import FeatureSpec
-    from itup_jax.sdgnet import DEFAULT_MODEL, TrainConfig, load_model, save_model, train
+    from itup_jax.sdgnet.checkpoint import load_model, save_model
+    from itup_jax.sdgnet.config import DEFAULT_MODEL, TrainConfig
+    from itup_jax.sdgnet.features import FeatureSpec
+    from itup_jax.sdgnet.training import train
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--train", nargs="+", default=[], metavar="DIR", help="training datasets (itup generate)")
@@ -249,5 +249,4 @@ def print_table(table: dict) -> None:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, ROOT)
     main()

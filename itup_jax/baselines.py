@@ -31,9 +31,10 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from itup_jax.grasp import Grasps, rotation_matrix
+from itup_jax.grasp import Grasps
+from itup_jax.rotations import quat_to_matrix
 from itup_jax.task import Task
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 
 BASELINES = ("force_closure", "geometric", "static", "random")
 #: Edges of each linearised friction cone.
@@ -51,7 +52,7 @@ def tool_length(tool: Tool) -> float:
 def pad_contacts(tool: Tool, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
     """Where the two pads meet the tool: surface points [N, 2, 3] and inward surface normals [N, 2, 3]
     (tool frame), the points of the surface nearest each pad centre."""
-    R = np.asarray(rotation_matrix(grasps.q_tool_grasp), float)  # [N, 3, 3]
+    R = np.asarray(quat_to_matrix(grasps.q_tool_grasp), float)  # [N, 3, 3]
     p = np.asarray(grasps.p_tool_grasp, float)
     w = np.asarray(grasps.width, float)
     y = R[:, :, 1]
@@ -103,7 +104,7 @@ def force_closure_scores(tool: Tool, grasps: Grasps) -> np.ndarray:
 
 def geometric_scores(tool: Tool, grasps: Grasps) -> dict[str, np.ndarray]:
     """GraspNet-style terms [N] each (lower is better) and their sum."""
-    R = np.asarray(rotation_matrix(grasps.q_tool_grasp), float)
+    R = np.asarray(quat_to_matrix(grasps.q_tool_grasp), float)
     _, nrm = pad_contacts(tool, grasps)
     y = R[:, :, 1]
     # pad 0 (at -y) pushes along +y: its inward normal should be +y; pad 1's should be -y
@@ -119,7 +120,7 @@ def geometric_scores(tool: Tool, grasps: Grasps) -> dict[str, np.ndarray]:
 
 def static_scores(tool: Tool, task: Task, grasps: Grasps) -> dict[str, np.ndarray]:
     """C_tau (N m) and C_s (N) of the tool's weight held at the trajectory's first pose."""
-    R = np.asarray(rotation_matrix(grasps.q_tool_grasp), float)  # grasp axes in the tool frame
+    R = np.asarray(quat_to_matrix(grasps.q_tool_grasp), float)  # grasp axes in the tool frame
     p = np.asarray(grasps.p_tool_grasp, float)
     R_wt = np.asarray(task.traj.R_world_tool[0], float)
     m = float(tool.params.mass)

@@ -20,7 +20,7 @@ from itup_jax.grasp import Grasps
 from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
 from itup_jax.precision import full_precision
 from itup_jax.task import DEFAULT_TOOL, make_task
-from itup_jax.tool import load_tool
+from itup_jax.tools import load_tool
 
 
 def machine_info() -> dict[str, Any]:
@@ -128,25 +128,18 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
     raw: only `mujoco.rollout` on prepared models, states and controls. labels: `simulate` end to end
     (IK planning, per-rollout models, rollout, labels), with the scene prebuilt and the grasps given.
     MJX: `rollout_mjx`'s jitted vmap(scan(step)) on the first `mjx_steps` steps, compile timed apart, in
-    the float type it rolls out in (`simulate.MJX_FLOAT64`; each row's `dtype`).
+    the float type it rolls out in (`sim.mjx.MJX_FLOAT64`; each row's `dtype`).
     """
     import mujoco
     from mujoco import rollout as mj_rollout
 
     from itup_jax.grasp_sampler import sample_grasps
-    from itup_jax.scene import build_scene
-    from itup_jax.simulate import (
-        MJX_CPU_MAX_BATCH,
-        _initial_states,
-        _mjx_rollout_fn,
-        _slice_physics,
-        mjx_model_fields,
-        plan,
-        randomized_model,
-        reachable,
-        sample_physics,
-        simulate,
-    )
+    from itup_jax.sim.arm import plan, reachable
+    from itup_jax.sim.mjx import MJX_CPU_MAX_BATCH, mjx_rollout_fn
+    from itup_jax.sim.native import initial_states
+    from itup_jax.sim.physics import mjx_model_fields, randomized_model, sample_physics, slice_physics
+    from itup_jax.sim.rollout import simulate
+    from itup_jax.sim.scene import build_scene
 
     tool = load_tool("hammer")
     task = make_task("hammer", tool)
@@ -158,7 +151,7 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
     physics = sample_physics(tool, n, seed)
     p = plan(scene, task, grasps, physics)
     models = [randomized_model(scene, physics, i) for i in range(n)]
-    state0 = _initial_states(scene.model, p.qpos0)
+    state0 = initial_states(scene.model, p.qpos0)
     env_steps = n * p.nstep
     out: dict[str, Any] = {"benchmark": "rollout", "scene": "hammer", "n_rollouts": n, "nstep": p.nstep,
                            "timestep_s": scene.model.opt.timestep, "nq": scene.model.nq, "nv": scene.model.nv,
@@ -181,9 +174,9 @@ def bench_rollout(n: int = 64, threads: tuple = (1, 2), mjx_batches: tuple = (1,
         if jax.default_backend() == "cpu" and b > MJX_CPU_MAX_BATCH:
             continue
         idx = np.arange(b) % n  # an index array: _slice_physics and the plan arrays take it alike
-        fn = _mjx_rollout_fn(scene)
+        fn = mjx_rollout_fn(scene)
         dt = fn.dtype
-        fields = mjx_model_fields(scene, _slice_physics(physics, idx))
+        fields = mjx_model_fields(scene, slice_physics(physics, idx))
         args = tuple(a.astype(dt) for a in fields) + (p.qpos0[idx].astype(dt), p.ctrl[idx, :mjx_steps].astype(dt))
         t0 = time.perf_counter()
         jax.block_until_ready(fn(*args))
@@ -234,13 +227,14 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
     cost path on the same candidates as a second reference.
     """
     from itup_jax import scoring
-    from itup_jax.sdgnet import Model, load_model
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import Model
 
     tool = load_tool(DEFAULT_TOOL[task_kind])
     task = make_task(task_kind, tool)
     grasps = random_grasps(tool, n)
     m = model if isinstance(model, Model) else load_model(model)  # None: the shipped checkpoint; str: a path
-    args, kw = scoring._sdgnet_args(tool, task, grasps, m, scoring.ScoreWeights())
+    args, kw = scoring.sdgnet_args(tool, task, grasps, m, scoring.ScoreWeights())
     t0 = time.perf_counter()
     compiled = scoring.sdgnet_scores_jit.lower(*args, **kw).compile()
     compile_s = time.perf_counter() - t0
@@ -263,7 +257,7 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
         "t": task.num_steps,
         "features": spec.size,
         "hidden": [int(W.shape[-1]) for W, _ in m.for_task(task_kind).params[:-1]],  # the network scoring this task
-        "ensemble_size": m.ensemble_size,  # networks run and averaged per candidate (`sdgnet.ensemble`)
+        "ensemble_size": m.ensemble_size,  # networks run and averaged per candidate (`sdgnet.model.ensemble`)
         "class_heads": m.class_heads,
         "dtype": "float32",
         "compile_s": round(compile_s, 3),
@@ -291,10 +285,11 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
     scoring of the n sampled candidates (`score`, warm), measured in the same run. The scene is built once
     per task and reused, as a planner would; its build time is reported apart, like the scorer's compile."""
     from itup_jax.grasp_sampler import sample_grasps
-    from itup_jax.scene import build_scene
     from itup_jax.scoring import ScoreWeights, score
-    from itup_jax.sdgnet import Model, load_model
-    from itup_jax.simulate import Randomization
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import Model
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.sim.scene import build_scene
     from itup_jax.task import TASK_KINDS
     from itup_jax.verify import best_grasp_verified
 
@@ -337,13 +332,13 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
     in this run, with a check that the two agree on the chunk."""
     import functools
 
-    from itup_jax.grasp import rotation_matrix
-    from itup_jax.grasp_sampler import _CHUNK, SamplerConfig, _gripper_hits, collision_points, sample_grasps
-    from itup_jax.grasp_sampler import _gripper_hits_batch as kernel
+    from itup_jax.grasp_sampler import CHUNK, SamplerConfig, collision_points, gripper_hits, sample_grasps
+    from itup_jax.grasp_sampler import gripper_hits_batch as kernel
+    from itup_jax.rotations import quat_to_matrix
     from itup_jax.task import TASK_KINDS
 
     config = SamplerConfig()
-    dot_kernel = jax.jit(full_precision(jax.vmap(functools.partial(_gripper_hits, to_grasp_frame=lambda d, R: d @ R),
+    dot_kernel = jax.jit(full_precision(jax.vmap(functools.partial(gripper_hits, to_grasp_frame=lambda d, R: d @ R),
                                                  in_axes=(None, 0, 0, 0, None))))
     rows = []
     for kind in TASK_KINDS:
@@ -353,9 +348,9 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
         first_s = time.perf_counter() - t0
         warm_s = statistics.median(_timed(lambda: sample_grasps(tool, n, seed=seed), repeats))
         # one chunk of the sampled candidates (repeated if fewer), as the sampler feeds its kernel
-        idx = np.arange(_CHUNK) % len(g)
+        idx = np.arange(CHUNK) % len(g)
         pts = jnp.asarray(collision_points(tool, config.surface_spacing), jnp.float32)
-        args = (pts, jnp.asarray(rotation_matrix(g.q_tool_grasp)[idx], jnp.float32),
+        args = (pts, jnp.asarray(quat_to_matrix(g.q_tool_grasp)[idx], jnp.float32),
                 jnp.asarray(g.p_tool_grasp[idx], jnp.float32),
                 jnp.asarray(g.width[idx] + 2 * config.clearance, jnp.float32), jnp.float32(config.collision_margin))
         times = {}
@@ -368,7 +363,7 @@ def bench_sample(n: int = 4096, repeats: int = 3, seed: int = 0) -> dict[str, An
                      "grasps_per_s": round(n / warm_s), "kernel_chunk_ms": round(1e3 * times["kernel"], 2),
                      "dot_kernel_chunk_ms": round(1e3 * times["dot_kernel"], 2),
                      "kernel_speedup": round(times["dot_kernel"] / times["kernel"], 1), "kernels_agree": agree})
-    return {"benchmark": "sample", "n": n, "chunk": _CHUNK, "repeats": repeats, "tasks": rows,
+    return {"benchmark": "sample", "n": n, "chunk": CHUNK, "repeats": repeats, "tasks": rows,
             "machine": machine_info()}
 
 
@@ -377,8 +372,8 @@ def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0, families: tup
     `sample_reachable(tool, task, n)` warm (median of `repeats`; the first call, which compiles the
     sampler's kernels, apart), the candidates it drew and the reachable share, beside plain
     `sample_grasps` of as many candidates as it drew (the reference: the IK's share of the cost)."""
-    from itup_jax import families as fams
     from itup_jax.grasp_sampler import sample_grasps, sample_reachable
+    from itup_jax.tools import families as fams
 
     rows = []
     for name in families or fams.names():
@@ -399,12 +394,12 @@ def bench_reachable(n: int = 256, repeats: int = 3, seed: int = 0, families: tup
 
 #: The wall-time goals of a repeated command (s, on a 2-core laptop-class CPU): printed beside the
 #: measurements, not enforced.
-STARTUP_GOALS_S = {"plan": 3.0, "demo": 5.0}
+STARTUP_GOALS_S = {"plan": 3.0, "demo": 6.0}
 
 
 def bench_startup(repeats: int = 5, task_kind: str = "hammer") -> dict[str, Any]:
-    """Wall time of the command line from a shell, each run a fresh Python process: `itup --help` (Python,
-    JAX and the package imported, no work: the floor of every command, the reference), then `itup plan
+    """Wall time of the command line from a shell, each run a fresh Python process: `itup --help` (Python
+    and the command line's parser, no library import: the floor of every command, the reference), then `itup plan
     --task T` and `itup demo --task T --out <tmp>` without the caches kept between runs
     (`--no-compile-cache`), once with empty caches (the first run: it fills them) and `repeats` times
     repeated. The caches live in a temporary folder (ITUP_COMPILE_CACHE_DIR, ITUP_TASK_CACHE_DIR), so a
@@ -447,3 +442,48 @@ def bench_startup(repeats: int = 5, task_kind: str = "hammer") -> dict[str, Any]
                               statistics.median(repeated) - rows["help"]["median_s"], 2)}
     return {"benchmark": "startup", "task": task_kind, "repeats": repeats, "commands": rows,
             "machine": machine_info()}
+
+
+def describe(res: dict[str, Any], *, threads: int | None = None) -> str:
+    """A benchmark's result (any `bench_*`'s) in a few lines, as `itup bench` prints it without --json.
+    `threads`: the rollout benchmark's thread count to quote (default: the most it timed)."""
+    kind = res["benchmark"]
+    if kind == "costs":
+        return (f"costs: n={res['n']} t={res['t']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.1f} ms "
+                f"(numpy {res['numpy_ms']:.1f} ms, x{res['speedup_vs_numpy']}) on {res['machine']['cpu']}")
+    if kind == "rollout":
+        nt = threads or max(int(k.rsplit("threads", 1)[1]) for k in res if k.startswith("raw_steps_per_s_threads"))
+        return (f"rollout: raw {res[f'raw_steps_per_s_threads{nt}']} steps/s, labels "
+                f"{res[f'label_steps_per_s_threads{nt}']} steps/s (x{res[f'label_over_raw_threads{nt}']}) on {nt} "
+                f"threads; mjx {res['mjx']}")
+    if kind == "score":
+        return (f"score: n={res['n']} compile {res['compile_s']:.2f} s, warm {res['warm_ms']:.2f} ms "
+                f"({res['candidates_per_s']} candidates/s; {res['flops_per_s'] or 0:.3g} flop/s vs matmul "
+                f"{res['matmul_flops_per_s']:.3g}) on {res['machine']['cpu']}")
+    if kind == "verify":
+        return "\n".join(
+            f"verify {r['task']:6s}: {r['rollouts']} rollouts ({r['valid_rollouts']} valid) {r['verify_ms']:.0f} ms vs "
+            f"scoring {res['n']} candidates {r['score_warm_ms']:.1f} ms (x{r['verify_over_score']}); scene built in "
+            f"{r['scene_build_s']:.2f} s" for r in res["tasks"])
+    if kind == "sample":
+        return "\n".join(
+            f"sample {r['task']:6s}: {res['n']} grasps in {r['warm_s']:.2f} s warm ({r['grasps_per_s']} grasps/s; first "
+            f"call {r['first_call_s']:.2f} s); collision kernel {r['kernel_chunk_ms']:.1f} ms per {res['chunk']} "
+            f"candidates x {r['surface_points']} points vs {r['dot_kernel_chunk_ms']:.1f} ms as a batched dot "
+            f"(x{r['kernel_speedup']}, {'same' if r['kernels_agree'] else 'DIFFERENT'} hits)" for r in res["tasks"])
+    if kind == "reachable":
+        return "\n".join(
+            f"reachable {r['family']:11s} {r['task']:6s}: {r['reachable']} reachable of {r['drawn']} drawn "
+            f"({r['reachable_share']:.0%}) in {r['warm_s']:.2f} s warm (first call {r['first_call_s']:.2f} s; sampling "
+            f"alone {r['sample_only_s']:.2f} s, IK {r['ik_share']:.0%})" for r in res["families"])
+    if kind == "startup":
+        c = res["commands"]
+        lines = [f"startup itup --help: {c['help']['median_s']:.2f} s (Python and the command line's parser: the floor)"]
+        for name in ("plan", "demo"):
+            r = c[name]
+            lines.append(f"startup itup {name} --task {res['task']}: repeated {r['median_s']:.2f} s (median of "
+                         f"{res['repeats']}, {r['min_s']:.2f}-{r['max_s']:.2f}; goal {r['goal_s']:g} s), first run "
+                         f"{r['first_s']:.2f} s, without the caches {r['no_cache_s']:.2f} s; {r['over_import_floor_s']:.2f} "
+                         "s over the floor")
+        return "\n".join(lines)
+    raise ValueError(f"describe: unknown benchmark {kind!r}")

@@ -44,12 +44,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from itup_jax.errors import InputError
-from itup_jax.grasp import Grasps, rotation_matrix, validate_grasps
+from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
 from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
+from itup_jax.rotations import quat_to_matrix
 from itup_jax.task import Task
-from itup_jax.tool import Tool, ToolParams
+from itup_jax.tools import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
 
 LEVER_ARMS = ("grasp", "com", "wrist")
@@ -118,8 +119,8 @@ class Costs:
 
 # sqrt(x + TINY) - sqrt(TINY): equals sqrt(x) to ~1e-15 relative for the magnitudes here, and has a
 # finite gradient at x = 0 (where a plain sqrt's is infinite and would turn into NaN).
-_TINY = 1e-30
-_SQRT_TINY = 1e-15
+TINY = 1e-30
+SQRT_TINY = 1e-15
 
 
 def _safe_sqrt(sq: jax.Array) -> jax.Array:
@@ -147,7 +148,7 @@ def _off_axis_sq(tau: jax.Array, R: jax.Array) -> jax.Array:
     return (tau @ R[:, 0]) ** 2 + (tau @ R[:, 2]) ** 2
 
 
-def _passed_torque_sq(off_sq: jax.Array, tau_n: jax.Array, mu, grip_force) -> jax.Array:
+def passed_torque_sq(off_sq: jax.Array, tau_n: jax.Array, mu, grip_force) -> jax.Array:
     """[T] N^2 m^2: the torque the pads pass on, squared: the part off the closure axis (`off_sq`, its
     square) in full, the part about it up to the pads' torsional friction, 2 c_t mu f_grip (module
     docstring)."""
@@ -172,7 +173,7 @@ def _pivot(loads: Loads, grasp: Grasps, R: jax.Array, lever_arm: str) -> jax.Arr
 
 def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParams) -> Costs:
     """Per-step costs [T] of ONE grasp (shapes [3], [4], []). Not jitted; see `wrench_costs`."""
-    R = rotation_matrix(grasp.q_tool_grasp)
+    R = quat_to_matrix(grasp.q_tool_grasp)
     n_f = R[:, 1]
     pivot = _pivot(loads, grasp, R, params.lever_arm)
     tau = loads.moment_tool - jnp.cross(pivot, loads.force_tool)  # [T, 3]
@@ -181,7 +182,7 @@ def grasp_cost_trace(loads: Loads, grasp: Grasps, tool: ToolParams, params: Cost
     if params.torque_projection == "grip":
         c_tau = _safe_sqrt(_grip_torque_sq(F, tau, R, tool.mu, grasp.width))
     elif params.torque_projection == "passed":
-        c_tau = _safe_sqrt(_passed_torque_sq(_off_axis_sq(tau, R), tau_n, tool.mu, params.grip_force))
+        c_tau = _safe_sqrt(passed_torque_sq(_off_axis_sq(tau, R), tau_n, tool.mu, params.grip_force))
     elif params.torque_projection == "perp":
         c_tau = _safe_sqrt(_off_axis_sq(tau, R))
     else:
@@ -201,7 +202,7 @@ def grasp_costs(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParam
     arctangent per grasp instead of per step: a norm peaks where its square peaks, and the line angle
     is largest where |n_f . n| is smallest among the steps in contact.
     """
-    R = rotation_matrix(grasp.q_tool_grasp)
+    R = quat_to_matrix(grasp.q_tool_grasp)
     n_f = R[:, 1]
     pivot = _pivot(loads, grasp, R, params.lever_arm)
     F = loads.force_tool
@@ -211,16 +212,16 @@ def grasp_costs(loads: Loads, grasp: Grasps, tool: ToolParams, params: CostParam
     if params.torque_projection == "grip":
         c_tau_sq = _grip_torque_sq(F, tau, R, tool.mu, grasp.width)
     elif params.torque_projection == "passed":
-        c_tau_sq = _passed_torque_sq(_off_axis_sq(tau, R), tau_n, tool.mu, params.grip_force)
+        c_tau_sq = passed_torque_sq(_off_axis_sq(tau, R), tau_n, tool.mu, params.grip_force)
     else:
         c_tau_sq = _off_axis_sq(tau, R) if params.torque_projection == "perp" else tau_sq
-    tau = jnp.sqrt(jnp.maximum(jnp.max(c_tau_sq), 0.0) + _TINY) - _SQRT_TINY
+    tau = jnp.sqrt(jnp.maximum(jnp.max(c_tau_sq), 0.0) + TINY) - SQRT_TINY
     F_n = F @ n_f
     F_t_sq = _off_axis_sq(F, R)  # the force across the closure axis, from its two components
-    F_t = jnp.sqrt(F_t_sq + _TINY) - _SQRT_TINY
+    F_t = jnp.sqrt(F_t_sq + TINY) - SQRT_TINY
     slip = jnp.max(jnp.maximum(F_t - tool.mu * (jnp.abs(F_n) + 2.0 * params.grip_force), 0.0))
     cos = jnp.min(jnp.where(loads.active > 0, jnp.abs(loads.normal_tool @ n_f), 1.0))
-    sin = jnp.sqrt(jnp.maximum(1.0 - cos**2, 0.0) + _TINY) - _SQRT_TINY
+    sin = jnp.sqrt(jnp.maximum(1.0 - cos**2, 0.0) + TINY) - SQRT_TINY
     align = jnp.arctan2(sin, cos)
     total = params.w_tau * tau + params.w_slip * slip + params.w_align * align
     return Costs(tau=tau, slip=slip, align=align, total=total, tau_closure=jnp.max(jnp.abs(tau_n)))

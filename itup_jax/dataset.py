@@ -3,10 +3,10 @@
     manifest = generate("data/", GenerateConfig(tasks=("hammer",), tools_per_task=4, grasps=256))
 
 One shard per (task, tool variant): the tool (variant 0 is the built-in, the others are procedural
-variants of it: `vary_tool` stretches the whole tool, `part_variant` varies its handle and head
-independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with
+variants of it, `tools.variants`: `vary_tool` stretches the whole tool, `part_variant` varies its handle
+and head independently; `GenerateConfig.variants`), `grasps` sampled grasps, their rollouts in MuJoCo with
 randomised physics (`simulate`), each grasp's second rollout at a weak grip on the same physics draw
-(`weak_rollouts`, labels `label_weak_*`), the SDG-Net features (`features.py`) and the analytic costs. Every shard is a
+(`weak_rollouts`, labels `label_weak_*`), the SDG-Net features (`sdgnet.features.py`) and the analytic costs. Every shard is a
 .npz written atomically (temporary file, then rename) with fixed zip timestamps, so the same config
 and seed give the same bytes. The manifest (JSON, also written atomically after each shard) holds the
 config, seed, code version, per-shard SHA-256 and the counts of valid, diverged and infeasible
@@ -25,14 +25,12 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
-import inspect
 import io
 import json
 import os
 import warnings
 import zipfile
-from collections.abc import Callable, Collection, Sequence
-from types import MappingProxyType
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,27 +38,23 @@ import numpy as np
 from itup_jax import __version__
 from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
+from itup_jax.dataset_load import MANIFEST, dataset_timesteps, parse_manifest, sha256_file
 from itup_jax.errors import InputError, is_integer
-from itup_jax.features import FeatureSpec, batched_features, tool_field
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import CONTACT_MODELS, SamplerConfig, sample_grasps
-from itup_jax.scene import TIMESTEP, build_scene, check_timestep, task_timestep
-from itup_jax.simulate import (
-    DETERMINISTIC_GPU_FLAG,
-    LABEL_FIELDS,
-    Randomization,
-    SimConfig,
-    default_backend,
-    gpu_determinism,
-    simulate,
-)
+from itup_jax.sdgnet.features import FeatureSpec, batched_features, tool_field
+from itup_jax.sim.config import SimConfig
+from itup_jax.sim.labels import LABEL_FIELDS
+from itup_jax.sim.mjx import DETERMINISTIC_GPU_FLAG, gpu_determinism
+from itup_jax.sim.physics import Randomization
+from itup_jax.sim.rollout import default_backend, simulate
+from itup_jax.sim.scene import TIMESTEP, build_scene, check_timestep, task_timestep
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS, Task, make_task
-from itup_jax.tool import BUILTIN_TOOLS as BUILDERS
-from itup_jax.tool import Box, Tool, load_tool, make_tool_params
+from itup_jax.tools import Tool, families, load_tool
+from itup_jax.tools.variants import VARIANT_FAMILIES, part_variant, vary_tool
 from itup_jax.wrench import task_loads
 
 FORMAT = "itup.dataset/1"
-MANIFEST = "manifest.json"
 #: The version of the labels: what a row's labels mean (scenes, thresholds, measures). It changes only
 #: when labels change (CHANGELOG.md lists each change), not with the package's version. A dataset records
 #: it, and a folder of another label version refuses to resume (its rows would mean something else).
@@ -68,116 +62,12 @@ LABEL_VERSION = "0.11.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
-
-# ---------------------------------------------------------------------------------------------------
-# Procedural tool variants
-# ---------------------------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class VariantRanges:
-    """Uniform ranges of a variant: handle-axis scale, radial scale, density scale (all relative)."""
-
-    axial: tuple = (0.85, 1.15)
-    radial: tuple = (0.8, 1.25)
-    density: tuple = (0.8, 1.25)
-
-
-def vary_tool(tool: Tool, seed: int, ranges: VariantRanges = VariantRanges()) -> Tool:
-    """A procedural variant: the tool stretched by diag(r, r, a) (tool z is the handle axis) and made
-    denser or lighter by d. Mass properties transform exactly (each part keeps a uniform density):
-    m' = d r^2 a m, c' = D c, and with S = tr(I)/2 E - I the second moments, S' = d r^2 a D S D.
-    """
-    rng = np.random.default_rng(seed)
-    a, r, d = (rng.uniform(*ranges.axial), rng.uniform(*ranges.radial), rng.uniform(*ranges.density))
-    D = np.diag([r, r, a])
-    p = tool.params
-    I = np.asarray(p.inertia, float)
-    S = 0.5 * np.trace(I) * np.eye(3) - I
-    k = d * r * r * a
-    S2 = k * D @ S @ D
-    mesh = tool.mesh.copy()
-    mesh.apply_transform(np.diag([r, r, a, 1.0]))
-    prims = []
-    for prim in tool.primitives:
-        if prim[0] == "capsule":
-            _, p0, p1, rad = prim
-            prims.append(("capsule", D @ p0, D @ p1, rad * r))
-        else:
-            _, lo, hi = prim
-            prims.append(("box", D @ lo, D @ hi))
-    normal = np.linalg.solve(D, tool.contact_normal)  # normals transform by D^-T (D is diagonal)
-    params = make_tool_params(
-        mass=k * float(p.mass), com=D @ np.asarray(p.com, float), inertia=np.trace(S2) * np.eye(3) - S2,
-        restitution=float(p.restitution), mu=float(p.mu), contact_duration=float(p.contact_duration),
-        what=f"variant of {tool.name!r}")
-    return dataclasses.replace(
-        tool, name=f"{tool.name}~{seed}", mesh=mesh, params=params, contact_point=D @ tool.contact_point,
-        contact_points=tool.contact_points @ D, contact_normal=normal / np.linalg.norm(normal),
-        grasp_region=Box(D @ tool.grasp_region.lo, D @ tool.grasp_region.hi), primitives=tuple(prims),
-        parts=tuple((n, m, round(w * k, 4)) for n, m, w in tool.parts),
-        part_regions=tuple((n, Box(D @ b.lo, D @ b.hi)) for n, b in tool.part_regions))
-
-
-#: The part-wise family (`part_variant`): per built-in tool, each dimension's uniform range as a factor
-#: of the built-in's (a head_density factor multiplies the head material's density). The handle and
-#: the head vary independently, so the head's mass and shape change against the handle, unlike
-#: `vary_tool`'s stretch of the whole tool.
-PART_RANGES = MappingProxyType({
-    "hammer": {"head_z": (0.8, 1.2), "handle_radius": (0.8, 1.25), "head_radius": (0.8, 1.3),
-               "head_length": (0.75, 1.3), "head_density": (0.6, 1.5)},
-    "mallet": {"head_z": (0.8, 1.2), "handle_radius": (0.8, 1.25), "head_radius": (0.8, 1.3),
-               "head_length": (0.75, 1.3), "head_density": (0.6, 1.5)},
-    "broom": {"half_width": (0.75, 1.25), "bristle_height": (0.8, 1.3), "handle_radius": (0.8, 1.25),
-              "handle_length": (0.8, 1.2)},
-    "l_stick": {"shaft": (0.85, 1.15), "radius": (0.8, 1.3), "hook_end": (0.75, 1.3)},
-})
-
-
-def part_variant(base: str, seed: int) -> Tool:
-    """A procedural variant of built-in tool `base` whose parts vary independently (`PART_RANGES`): the
-    hammer's and the mallet's handle length and radius, head radius, head length and head density; the
-    broom's width, bristle height, handle radius and length; the L-stick's shaft length, rod radius and
-    hook length. The grasp region and the contact points follow the parts (the same fractions as the
-    built-in's). Built by the tool's own parametric builder (`tool.claw_hammer`, ...), so mass properties
-    come from the parts' meshes and densities. Name: '<base>#<seed>'."""
-    if base not in PART_RANGES:
-        raise InputError(f"part_variant: base must be one of {sorted(PART_RANGES)}, got {base!r}")
-    rng = np.random.default_rng(seed)
-    f = {k: rng.uniform(*r) for k, r in PART_RANGES[base].items()}
-    name = f"{base}#{seed}"
-    d = {k: p.default for k, p in inspect.signature(BUILDERS[base]).parameters.items()}  # the built-in's dimensions
-    if base in ("hammer", "mallet"):
-        z0, r0 = d["head_z"], d["head_radius"]
-        hr = r0 * f["head_radius"]
-        handle = (z0 - r0) * f["head_z"]  # the handle's length
-        kw = dict(head_z=handle + hr, handle_radius=d["handle_radius"] * f["handle_radius"], head_radius=hr,
-                  head_density=f["head_density"], grasp_top=d["grasp_top"] * handle / (z0 - r0))
-        kw["grasp_half"] = max(0.02, kw["handle_radius"] + 0.0055)
-        if base == "hammer":
-            kw.update(head_back=d["head_back"] * f["head_length"], head_front=d["head_front"] * f["head_length"])
-        else:
-            kw.update(head_half=d["head_half"] * f["head_length"])
-        return BUILDERS[base](name=name, **kw)
-    if base == "broom":
-        w, h = d["half_width"] * f["half_width"], d["bristle_height"] * f["bristle_height"]
-        b0 = d["bristle_height"] + 0.030  # the built-in block's top
-        length = (d["handle_top"] - b0) * f["handle_length"]
-        hr = d["handle_radius"] * f["handle_radius"]
-        return BUILDERS[base](name=name, half_width=w, bristle_height=h, handle_radius=hr, handle_top=h + 0.030 + length,
-                              grasp_bottom=h + 0.030 + (d["grasp_bottom"] - b0) * f["handle_length"],
-                              contact_x=d["contact_x"] * f["half_width"], grasp_half=max(0.02, hr + 0.009))
-    return BUILDERS[base](name=name, shaft=d["shaft"] * f["shaft"], radius=d["radius"] * f["radius"],
-                          hook_end=d["hook_end"] * f["hook_end"], contact_x=d["contact_x"] * f["hook_end"],
-                          grasp_top=d["grasp_top"] * f["shaft"])
-
-
-VARIANT_FAMILIES = ("stretch", "parts")  # `vary_tool`, `part_variant`
-
 #: N per pad: the weak grip at which `generate` rolls every candidate out a second time (`weak_rollouts`),
 #: a little above the Robotiq 2F-85's least setting of 20 N. At the default grip (100 N, +-20 %) almost
 #: no grasp fails in the grip, and the grasps that fail at a weak grip are not ranked by anything the
 #: default rollout measures (docs/results.md, "What fails under a weak grip"): this rollout labels them.
 WEAK_GRIP = 25.0
-#: The labels of the weak-grip rollout, stored per row as `label_weak_<name>` (`simulate.Labels`' meaning).
+#: The labels of the weak-grip rollout, stored per row as `label_weak_<name>` (`sim.labels.Labels`' meaning).
 WEAK_FIELDS = ("failed", "success", "slip_translation", "slip_rotation", "valid")
 
 
@@ -195,7 +85,7 @@ class GenerateConfig:
     backend: str | None = None
     randomize: bool = True
     feature_spec: dict = dataclasses.field(default_factory=lambda: FeatureSpec().to_dict())
-    # s, the scenes' integration step for every task; None: each task's own (`scene.TASK_TIMESTEP`).
+    # s, the scenes' integration step for every task; None: each task's own (`sim.scene.TASK_TIMESTEP`).
     # Contacts are the same at any step (scene.py). Labels made at different steps differ
     # (experiments/timestep_convergence.py), so one task's rows of different steps are not mixed
     # (`load_datasets`); the manifest records each task's step
@@ -206,8 +96,8 @@ class GenerateConfig:
     # the grasp sampler's contact model (`SamplerConfig.contact`): "flat" (the pads lie flat on the tool;
     # since code 0.6.0) or "point" (every dataset up to code 0.5.0; a manifest without the key)
     contact: str = "flat"
-    # a tool family (`families.FAMILIES`) whose tools every shard draws instead of the task's built-in tool
-    # and its variants: variant 0 the family's default tool, v >= 1 `families.draw`; None: the built-ins
+    # a tool family (`tools.families.FAMILIES`) whose tools every shard draws instead of the task's built-in tool
+    # and its variants: variant 0 the family's default tool, v >= 1 `tools.families.draw`; None: the built-ins
     family: str | None = None
     # N per pad: every candidate is rolled out a second time at this fixed grip, on the same physics
     # draw otherwise (`weak_rollouts`; labels `label_weak_*`, WEAK_FIELDS); about doubles the stepping.
@@ -231,8 +121,6 @@ class GenerateConfig:
 
             check_grip(self.weak_grip, "generate: weak_grip")
         if self.family is not None:
-            from itup_jax import families
-
             fam = families.get(self.family)
             if set(self.tasks) - set(fam.tasks):
                 raise InputError(f"generate: family {self.family!r} does the tasks {list(fam.tasks)}, not "
@@ -289,11 +177,9 @@ def unit_tool(config: GenerateConfig, task_kind: str, variant: int) -> tuple[Too
     """The tool and task of a shard: variant 0 is the task's built-in tool, variant v >= 1 the
     procedural variant of the config's family (`variants`) seeded from the run seed (the same tool
     every time, so experiments can rebuild a shard's tool from its manifest entry); with a tool
-    `family`, that family's default tool and its draws (`families.draw`) instead."""
+    `family`, that family's default tool and its draws (`tools.families.draw`) instead."""
     seed = _unit_seed(config, task_kind, variant)
     if config.family is not None:
-        from itup_jax import families
-
         tool = load_tool(config.family) if variant == 0 else families.draw(config.family, seed)
     elif variant == 0:
         tool = load_tool(DEFAULT_TOOL[task_kind])
@@ -390,14 +276,6 @@ def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
     return buf.getvalue()
 
 
-def sha256_file(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _counts(arrays: dict[str, np.ndarray]) -> dict[str, int]:
     return {"n": int(len(arrays["label_valid"])), "valid": int(arrays["label_valid"].sum()),
             "diverged": int(arrays["label_diverged"].sum()), "infeasible": int(arrays["label_infeasible"].sum())}
@@ -440,9 +318,13 @@ def _existing_shards(mpath: str, header: dict[str, Any]) -> list[dict]:
     resuming would mix shards that mean different things)."""
     if not os.path.exists(mpath):
         return []
-    old = _parse_manifest(mpath)
+    old = parse_manifest(mpath)
     if old.get("config") != header["config"]:
-        raise InputError(f"generate: {mpath} was made with another config; use a new folder")
+        was, now = old.get("config") or {}, header["config"]
+        diff = [f"{k} {was.get(k, '(unset)')!r} there, {now.get(k, '(unset)')!r} now" for k in sorted(set(was) | set(now))
+                if was.get(k, "(unset)") != now.get(k, "(unset)")]
+        raise InputError(f"generate: {mpath} was made with another config ({'; '.join(diff)}); resuming would mix "
+                         "their shards: run again with its settings, or use a new folder")
     old_steps = dataset_timesteps(old)
     if old_steps != header["timesteps"]:  # a default step changed since
         raise InputError(f"generate: {mpath} was simulated at {old_steps} s, this run would use "
@@ -470,7 +352,7 @@ def _merged_manifest(mpath: str, header: dict[str, Any], units: list, mine: set[
 
 def gpu_determinism_warning(backend: str | None) -> str | None:
     """Why a dataset made with `backend` here would not be reproducible, or None: MJX on a GPU whose
-    XLA_FLAGS leave scatters non-deterministic (`simulate.DETERMINISTIC_GPU_FLAG`; `itup generate` sets it)."""
+    XLA_FLAGS leave scatters non-deterministic (`sim.mjx.DETERMINISTIC_GPU_FLAG`; `itup generate` sets it)."""
     import jax
 
     if (backend or default_backend()) != "mjx" or jax.default_backend() != "gpu":
@@ -490,9 +372,11 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
 
     `mcap_dir`: also log `mcap_per_shard` valid rollouts of every shard made in this call as MCAP.
 
-    Resumes: shards already listed in the manifest whose file has the recorded checksum are kept; a
-    manifest made with another config or by another code version is refused. `after_shard(k)` is called after the k-th shard
-    is written (tests use it to interrupt a run).
+    Resumes: shards already listed in the manifest whose file has the recorded checksum are kept, and a
+    listed shard that is missing or fails its checksum is made again with a warning saying so; a manifest
+    made with another config (the message names the settings that differ), at other steps or of another
+    label version is refused. `after_shard(k)` is called after the k-th shard is written (tests use it
+    to interrupt a run).
 
     Several processes: with `process_count` n > 1, this process makes the shards `process_index`,
     `process_index` + n, ... of `shard_units` (round robin, so each gets a share of every task). Run n
@@ -529,9 +413,17 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     mine = {_shard_name(*u) for u in own}
     with _manifest_lock(out_dir):
         listed = [s for s in _existing_shards(mpath, header) if s["file"] in mine]
-    made = {s["file"]: s for s in listed  # checksums outside the lock: the other processes go on meanwhile
-            if os.path.exists(os.path.join(out_dir, s["file"]))
-            and sha256_file(os.path.join(out_dir, s["file"])) == s["sha256"]}
+    made = {}  # checksums outside the lock: the other processes go on meanwhile
+    for s in listed:
+        path = os.path.join(out_dir, s["file"])
+        if not os.path.exists(path):
+            warnings.warn(f"dataset {out_dir!r}: shard {s['file']} is listed in {MANIFEST} but missing; making it "
+                          "again", stacklevel=2)
+        elif sha256_file(path) != s["sha256"]:
+            warnings.warn(f"dataset {out_dir!r}: shard {s['file']} does not match its checksum in {MANIFEST} "
+                          "(corrupted or changed); making it again", stacklevel=2)
+        else:
+            made[s["file"]] = s
     todo = [u for u in own if _shard_name(*u) not in made]
     bar = None
     if progress:
@@ -564,171 +456,3 @@ def generate(out_dir: str, config: GenerateConfig = GenerateConfig(), *, progres
     return manifest
 
 
-def load_shard(out_dir: str, entry: dict, *, valid_only: bool = False, verify: bool = True) -> dict[str, np.ndarray]:
-    """Arrays of a manifest entry; checks its SHA-256 first (a corrupted shard raises InputError)."""
-    path = os.path.join(out_dir, entry["file"])
-    if not os.path.isfile(path):
-        raise InputError(f"dataset shard {path!r}: listed in {MANIFEST} but missing; restore it, or run the same "
-                         "`itup generate` again to remake it")
-    if verify and sha256_file(path) != entry["sha256"]:
-        raise InputError(f"dataset shard {path!r}: checksum mismatch (corrupted or changed); regenerate it")
-    with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
-    if valid_only:
-        keep = arrays["label_valid"]
-        arrays = {k: (v[keep] if v.ndim and len(v) == len(keep) and k != "meta_json" else v) for k, v in arrays.items()}
-    return arrays
-
-
-#: What a manifest must hold: its keys, and each shard entry's.
-MANIFEST_KEYS = ("config", "code_version", "shards")
-SHARD_KEYS = ("file", "task", "sha256")
-
-
-def _parse_manifest(mpath: str) -> dict[str, Any]:
-    """The manifest at `mpath`, checked for the keys every reader needs; InputError naming the file and
-    what is wrong (not JSON, truncated, a key or a shard's key missing)."""
-    try:
-        with open(mpath) as fh:
-            m = json.load(fh)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"dataset manifest {mpath!r}: not valid JSON ({exc}); truncated or edited by hand? "
-                         "Make the dataset again with `itup generate`") from None
-    except UnicodeDecodeError:
-        raise InputError(f"dataset manifest {mpath!r}: not a text file") from None
-    if not isinstance(m, dict):
-        raise InputError(f"dataset manifest {mpath!r}: expected a JSON object, got {type(m).__name__}")
-    missing = [k for k in MANIFEST_KEYS if k not in m]
-    if missing:
-        raise InputError(f"dataset manifest {mpath!r}: missing {', '.join(missing)}; not a manifest written by "
-                         "`itup generate`")
-    if not isinstance(m["shards"], list) or any(not isinstance(e, dict) or any(k not in e for k in SHARD_KEYS)
-                                                  for e in m["shards"]):
-        raise InputError(f"dataset manifest {mpath!r}: 'shards' must be a list of entries with "
-                         f"{', '.join(SHARD_KEYS)}")
-    return m
-
-
-def read_manifest(out_dir: str) -> dict[str, Any]:
-    """The manifest of the dataset in `out_dir`, checked (`_parse_manifest`); InputError if there is none."""
-    mpath = os.path.join(out_dir, MANIFEST)
-    if not os.path.exists(mpath):
-        raise InputError(f"dataset {out_dir!r}: no {MANIFEST} there (make one with `itup generate`)")
-    return _parse_manifest(mpath)
-
-
-def dataset_timesteps(manifest: dict[str, Any]) -> dict[str, float]:
-    """{task: s} the integration step of each task's rows in a dataset, from its manifest: recorded per
-    task since per-task steps; before, the config's one step for all (`GenerateConfig.from_json`: 2 ms
-    when it records none)."""
-    if "timesteps" in manifest:
-        return {t: float(v) for t, v in manifest["timesteps"].items()}
-    config = GenerateConfig.from_json(manifest["config"])
-    return {t: config.task_timestep(t) for t in config.tasks}
-
-
-def load_dataset(out_dir: str, *, valid_only: bool = True, tasks: Sequence[str] | None = None,
-                 manifest: dict[str, Any] | None = None, skip: Collection[str] = ()) -> dict[str, np.ndarray]:
-    """All shards of a dataset (verified), concatenated; adds `task` [N] (str) and `tool` [N] (str, the
-    tool's name: unique per procedural variant, the same for a built-in tool in every dataset) per row.
-    `manifest`: the folder's manifest if already read (`read_manifest`); `skip`: shard file names not to
-    read (`load_datasets`: shards already read from another folder)."""
-    manifest = read_manifest(out_dir) if manifest is None else manifest
-    parts = []
-    for entry in manifest["shards"]:
-        if (tasks is not None and entry["task"] not in tasks) or entry["file"] in skip:
-            continue
-        a = load_shard(out_dir, entry, valid_only=valid_only)
-        meta = json.loads(bytes(a.pop("meta_json")))
-        a["task"] = np.array([entry["task"]] * len(a["label_valid"]))
-        a["tool"] = np.array([meta["tool"]] * len(a["label_valid"]))
-        parts.append(a)
-    if not parts:
-        raise InputError(f"dataset {out_dir!r}: no shards{' for ' + ','.join(tasks) if tasks else ''}")
-    return _concat_common(parts)
-
-
-def _concat_common(parts: list[dict]) -> dict[str, np.ndarray]:
-    """The rows of several shard tables, concatenated over the arrays every one of them holds (datasets
-    of an older label version lack the label fields added since)."""
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if all(k in p for p in parts)}
-
-
-def split_dataset_arg(arg: str) -> tuple[str, tuple[str, ...] | None]:
-    """'DIR' -> (DIR, None); 'DIR:TASK[,TASK...]' -> (DIR, the tasks to take from that folder). A folder
-    whose own name contains ':' is taken whole when it exists. Unknown task names are refused."""
-    if os.path.isdir(arg) or ":" not in arg:
-        return arg, None
-    folder, spec = arg.rsplit(":", 1)
-    names = tuple(t.strip() for t in spec.split(","))
-    unknown = [t for t in names if t not in TASK_KINDS]
-    if not folder or unknown:
-        raise InputError(f"dataset {arg!r}: give a folder, or FOLDER:TASKS with TASKS among {', '.join(TASK_KINDS)} "
-                         f"separated by commas{' (unknown: ' + ', '.join(map(repr, unknown)) + ')' if unknown else ''}")
-    return folder, names
-
-
-def load_datasets(out_dirs: Sequence[str], *, valid_only: bool = True,
-                  tasks: Sequence[str] | None = None) -> tuple[dict[str, np.ndarray], list[dict]]:
-    """Several datasets (e.g. `itup generate` runs with different seeds, whose procedural tools differ)
-    as one: rows concatenated, plus the manifests. An entry 'DIR:TASK,TASK' takes only those tasks'
-    shards from DIR (`split_dataset_arg`), e.g. one task's rows from a newer dataset and the other
-    tasks' from an older one; `tasks` filters every folder. Refused: a folder given twice (its rows would count
-    twice), datasets whose features were made with different `FeatureSpec`s (their columns would
-    mean different things) and datasets whose rows of one task were simulated at different timesteps
-    (their labels measure different integrations; `dataset_timesteps`). Tasks at different steps mix. A
-    shard found in two folders by its checksum (the built-in tool's shard of one seed in both tool
-    families, or a task regenerated with a seed already used) is read once, from the first folder, with
-    a warning: its rows would otherwise count twice and fall on both sides of a split by tool.
-    `tool_id` is renumbered so that it names one tool across the datasets (the first keeps its ids; a
-    tool name seen before, such as a built-in tool, keeps its id; every other tool gets a new one), so a
-    split by tool stays a split by tool."""
-    if not out_dirs:
-        raise InputError("load_datasets: no dataset folder given")
-    split = [split_dataset_arg(a) for a in out_dirs]
-    out_dirs = [d for d, _ in split]
-    # per folder: the tasks to take (None: all it holds), its own filter within `tasks`
-    picks = [tasks if own is None else tuple(t for t in own if tasks is None or t in tasks) for _, own in split]
-    real = [os.path.realpath(d) for d in out_dirs]
-    if len(set(real)) != len(real):
-        raise InputError(f"datasets {list(out_dirs)}: a folder is given twice; its rows would count twice")
-    manifests = [read_manifest(d) for d in out_dirs]
-    first: dict[str, tuple[float, str]] = {}  # task -> (step, the first folder holding it)
-    for d, m, pick in zip(out_dirs, manifests, picks):
-        if m["config"]["feature_spec"] != manifests[0]["config"]["feature_spec"]:
-            raise InputError(f"dataset {d!r}: features made with {m['config']['feature_spec']}, but "
-                             f"{out_dirs[0]!r} with {manifests[0]['config']['feature_spec']}; they cannot be mixed")
-        for t, step in dataset_timesteps(m).items():
-            if pick is not None and t not in pick:
-                continue
-            step0, d0 = first.setdefault(t, (step, d))
-            if step != step0:
-                raise InputError(f"dataset {d!r}: its {t} rows simulated at a {step} s timestep, but those of "
-                                 f"{d0!r} at {step0} s; their labels cannot be mixed")
-    seen: dict[str, tuple[str, str]] = {}  # shard checksum -> (folder, file) where it is read
-    parts = []
-    for d, m, pick in zip(out_dirs, manifests, picks):
-        skip, read = set(), 0  # this folder's shards already read from an earlier folder; those left to read
-        for entry in m["shards"]:
-            if pick is not None and entry["task"] not in pick:
-                continue
-            d0, f0 = seen.setdefault(entry["sha256"], (d, entry["file"]))
-            if d0 == d:
-                read += 1
-                continue
-            skip.add(entry["file"])
-            warnings.warn(f"dataset {d!r}: shard {entry['file']} is byte for byte {f0} of {d0!r} (the same seed, "
-                          f"task and tool, e.g. the built-in tool in two families of one seed); read once",
-                          stacklevel=2)
-        if read or not skip:  # a folder with no shards at all still gets load_dataset's refusal
-            parts.append(load_dataset(d, valid_only=valid_only, tasks=pick, manifest=m, skip=skip))
-    ids: dict[tuple[str, str], int] = {}
-    for p in parts:
-        new_ids = p["tool_id"].copy()
-        for key in dict.fromkeys(zip(p["task"].tolist(), p["tool"].tolist())):
-            rows = (p["task"] == key[0]) & (p["tool"] == key[1])
-            if key not in ids:
-                ids[key] = int(p["tool_id"][rows][0]) if p is parts[0] else max(ids.values(), default=-1) + 1
-            new_ids[rows] = ids[key]
-        p["tool_id"] = new_ids
-    return _concat_common(parts), manifests

@@ -1,11 +1,12 @@
 """Evaluation against MuJoCo ground truth: every method picks a grasp from the same candidates, and the
-picks are rolled out with the same trajectories, contacts and randomised physics.
+picks are rolled out with the same trajectories, contacts and randomised physics; `stress_picks` also
+stresses each pick at weaker grips (its least holding grip).
 
     res = evaluate(tool, task, methods=("sdgnet", "force_closure", "geometric", "random"), n=256, seeds=5)
     res["methods"]["sdgnet"]["measured"]["peak_torque_induced"]["mean"]   # the headline (HEADLINE)
 
 Candidates are antipodal samples whose task trajectory the arm can reach (closed-form IK,
-`simulate.reachable`): an unreachable grasp is flagged and dropped here before any method sees the set, so no
+`sim.arm.reachable`): an unreachable grasp is flagged and dropped here before any method sees the set, so no
 method is credited or blamed for reachability. Each pick is rolled out `seeds` times; rollout k of
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
 the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
@@ -17,21 +18,30 @@ the evaluation's rollouts.
 
 from __future__ import annotations
 
+import dataclasses
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from itup_jax import robot
+from itup_jax import robot, stress
+from itup_jax.dataset import GenerateConfig, unit_tool
+from itup_jax.dataset_load import read_manifest
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
-from itup_jax.grasp_sampler import sample_grasps
-from itup_jax.scene import Scene, build_scene
+from itup_jax.grasp_sampler import MAX_CANDIDATES, sample_grasps
 from itup_jax.scoring import SCORERS, ScoreWeights, score
-from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
-from itup_jax.task import Task
-from itup_jax.tool import Tool
+from itup_jax.sim.arm import reachable
+from itup_jax.sim.config import SimConfig
+from itup_jax.sim.physics import Randomization
+from itup_jax.sim.rollout import simulate
+from itup_jax.sim.scene import Scene, build_scene
+from itup_jax.stats import failure_threshold, paired_ratio
+from itup_jax.task import DEFAULT_TOOL, Task, make_task
+from itup_jax.tools import Tool, load_tool
+from itup_jax.tools.variants import vary_tool
 from itup_jax.verify import best_grasp_verified
 
 #: Labels summarised per method: mean and std over seeds.
@@ -61,7 +71,7 @@ DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", VERIFIED, VERIFIED_TORQUE, "analyti
 
 def feasible_candidates(tool: Tool, task: Task, n: int, *, seed: int = 0,
                         oversample: int = 4) -> tuple[Grasps, dict]:
-    """Up to n sampled grasps whose trajectory the arm can follow (`simulate.reachable`); also {'sampled',
+    """Up to n sampled grasps whose trajectory the arm can follow (`sim.arm.reachable`); also {'sampled',
     'feasible', 'used'} counts."""
     g = sample_grasps(tool, oversample * n, seed=seed)
     ok = np.nonzero(reachable(task, g))[0]
@@ -101,11 +111,11 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         raise InputError(f"evaluate: methods must be among {METHODS}, got {list(methods)}")
     if seeds < 1 or n < 1:
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
+    if n > MAX_CANDIDATES:
+        raise InputError(f"evaluate: n must be at most {MAX_CANDIDATES:,} candidates, got {n:,}")
     scene = scene or build_scene(tool, task)
     sim_scene, config, sim_randomize = scene, SimConfig(), randomize
     if grip_force is not None:
-        from itup_jax import stress
-
         g = stress.check_grip(grip_force, "evaluate")
         config = SimConfig(grip_force=g)
         sim_scene, sim_randomize = stress.fixed_grip(scene, randomize, g)
@@ -170,4 +180,260 @@ def reduction(ours: float, theirs: float) -> float:
     return float("nan") if not np.isfinite(theirs) or theirs == 0 else 100.0 * (1.0 - ours / theirs)
 
 
+# ---------------------------------------------------------------------------------------------------
+# Methods' picks under grip stress (the experiments' grip stress and weight choice)
+# ---------------------------------------------------------------------------------------------------
+def method_scorer(method: str) -> tuple[str, ScoreWeights]:
+    """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
+    'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->
+    (name, the default weights). InputError naming the method for an unknown or malformed weight."""
+    if "@" not in method:
+        return method, ScoreWeights()
+    model, spec = method.split("@", 1)
+    if model not in ("sdgnet", "sdgnet_paper") and not model.endswith(".npz"):
+        raise InputError(f"method {method!r}: weights apply to 'sdgnet', 'sdgnet_paper' or a checkpoint (.npz), "
+                         f"not {model!r}")
+    known = {f.name for f in dataclasses.fields(ScoreWeights)}
+    kw = {}
+    for part in spec.split(","):
+        k, eq, v = part.partition("=")
+        if not eq or k not in known:
+            raise InputError(f"method {method!r}: expected NAME=VALUE with NAME one of {', '.join(sorted(known))}, "
+                             f"got {part!r}")
+        try:
+            kw[k] = float(v)
+        except ValueError:
+            raise InputError(f"method {method!r}: {k} must be a number, got {v!r}") from None
+    return model, ScoreWeights(**kw)
 
+
+def data_config(data: str, tasks, tools_per_task: int) -> GenerateConfig:
+    """The GenerateConfig of the dataset in `data`, checked to hold `tools_per_task` unseen tools of every
+    task in `tasks` (InputError naming what is missing); builds no tool."""
+    config = GenerateConfig.from_json(read_manifest(data)["config"])
+    missing = [k for k in tasks if k not in config.tasks]
+    if missing:
+        raise InputError(f"--data {data}: the dataset has no {', '.join(map(repr, missing))} tools "
+                         f"(its tasks: {', '.join(config.tasks)})")
+    if tools_per_task > config.tools_per_task - 1:
+        raise InputError(f"--data {data}: it has {config.tools_per_task - 1} unseen tools per task, "
+                         f"asked for {tools_per_task}")
+    return config
+
+
+def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> list[tuple[int, object]]:
+    """[(v, Tool)]: the built-in tool and table1's unseen variants (seeds 10,000 + v), or with `data`
+    the dataset's variants 1 .. tools_per_task (its unseen tools, `data_config`)."""
+    if data is None:
+        base = load_tool(DEFAULT_TOOL[kind])
+        return [(v, base if v == 0 else vary_tool(base, 10_000 + v)) for v in range(tools_per_task)]
+    config = data_config(data, (kind,), tools_per_task)
+    return [(v, unit_tool(config, kind, v)[0]) for v in range(1, tools_per_task + 1)]
+
+
+def stress_picks(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print, data=None) -> dict:
+    """Each method's pick on each tool, stressed: per task the built-in tool and `tools_per_task - 1` unseen
+    stretched variants (`stress_tools`), each method (`method_scorer`) picking the lowest total score among
+    the same `n` reachable candidates (methods that pick the same candidate share its rollouts); each pick
+    rolled out `draws` times at every force of `grid` (N per pad; the grip fixed, the other priors
+    randomised; draw d the same physics for every pick) and its least holding grip found by bisection to
+    `tol` N (`stress.pick_min_holding_grip`, the grid's answers reused). Returns {"rows": one per (task, tool,
+    method), "summary": per task and method (median least holding grip, failure and success by grip, the
+    logistic 50 % failure torque `stats.failure_threshold`), "pooled_failure_threshold"}.
+    `experiments/grip_stress.py` and `experiments/weight_by_stress.py` are this and a report."""
+    scorers = {m: method_scorer(m) for m in methods}  # bad method names fail before any rollout
+    rows = []  # one per (task, tool, method)
+    rollouts = {k: {"torque": [], "failed": []} for k in tasks}
+    for kind in tasks:
+        for v, tool in stress_tools(kind, tools_per_task, data):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit
+                task = make_task(kind, tool)
+            scene = build_scene(tool, task)
+            t0 = time.perf_counter()
+            cands, _ = feasible_candidates(tool, task, n, seed=seed + v)
+            done: dict[int, dict] = {}  # candidate index -> its stress row (methods that pick it share it)
+            for m in methods:
+                model, weights = scorers[m]
+                i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
+                                                   seed=seed + v).total, float)))
+                if i in done:
+                    rows.append({**done[i], "method": m})
+                    continue
+                pick = cands[i:i + 1]
+                cache: dict[float, bool] = {}
+                at = {}
+                for g in grid:
+                    L = stress.rollouts_at_grip(tool, task, pick, g, draws=draws, seed=seed + v, scene=scene)
+                    cache[float(g)] = bool(stress.holds(L, draws)[0])
+                    ok = np.asarray(L.valid)
+                    at[float(g)] = {"failed": float(np.mean(L.failed[ok])) if ok.any() else None,
+                                    "success": float(np.mean(L.success[ok])) if ok.any() else None,
+                                    "holds": cache[float(g)], "probe": stress.is_probe(g),
+                                    "peak_torque_induced": float(np.mean(L.peak_torque_induced[ok])) if ok.any() else None}
+                    rollouts[kind]["torque"] += np.asarray(L.peak_torque_induced)[ok].tolist()
+                    rollouts[kind]["failed"] += np.asarray(L.failed)[ok].tolist()
+
+                mg = stress.pick_min_holding_grip(tool, task, pick, draws=draws, seed=seed + v, scene=scene, tol=tol,
+                                                  grid=grid, known=cache)  # the grid's answers reused
+                done[i] = {"task": kind, "tool": tool.name, "unseen": v > 0, "method": m, "index": i,
+                           "min_holding_grip_N": mg.force, "monotone": mg.monotone, "probe": mg.probe,
+                           "tried": {f"{f:g}": ok for f, ok in sorted(mg.tried.items())}, "at_grip": at}
+                rows.append(done[i])
+            log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
+                f"{r['method']} {r['min_holding_grip_N'] if r['min_holding_grip_N'] is None else round(r['min_holding_grip_N'], 1)} N"
+                for r in rows if r["task"] == kind and r["tool"] == tool.name))
+    summary = {}
+    for kind in tasks:
+        summary[kind] = {}
+        for m in methods:
+            mine = [r for r in rows if r["task"] == kind and r["method"] == m]
+            forces = [np.inf if r["min_holding_grip_N"] is None else r["min_holding_grip_N"] for r in mine]
+            med = float(np.median(forces)) if forces else None
+            summary[kind][m] = {
+                "median_min_holding_grip_N": None if med is None or not np.isfinite(med) else med,
+                "never_held": int(sum(r["min_holding_grip_N"] is None for r in mine)),
+                "non_monotone": int(sum(not r["monotone"] for r in mine)), "tools": len(mine),
+                "by_grip": {f"{g:g}": {k: _mean_of_given([r["at_grip"][float(g)][k] for r in mine]) for k in ("failed", "success")}
+                            for g in grid},
+            }
+        summary[kind]["failure_threshold"] = failure_threshold(rollouts[kind]["torque"], rollouts[kind]["failed"])
+    pooled = failure_threshold(sum((rollouts[k]["torque"] for k in tasks), []), sum((rollouts[k]["failed"] for k in tasks), []))
+    return {"rows": rows, "summary": summary, "pooled_failure_threshold": pooled}
+
+
+def _mean_of_given(values):
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
+
+
+#: The headline first (the full induced peak wrist torque, the paper's measure), then the raw peak, the
+#: induced torque's grasp-frame components at its peak, the projected torque (the C_tau component), the
+#: grip demand (N per pad).
+COLUMNS = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_induced_approach", "peak_induced_third",
+           "peak_torque_projected", "grip_demand", "slip_translation", "slip_rotation", "alignment_drift", "failed",
+           "success")
+
+
+#: The paired comparisons: the headline, the raw peak, the closure-axis component, the grip demand.
+PAIRED_MEASURES = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "grip_demand")
+
+
+def compare_on_tools(tasks, tools_per_task: int, n: int, seeds: int, methods, seed: int = 0, log=print, model=None,
+                     timestep: float | None = None) -> dict:
+    """Table I's measurement: per task the built-in tool and `tools_per_task - 1` unseen stretched variants
+    (`tools.variants.vary_tool`, seeds 10,000 + v, none of which a training shard used), each `evaluate`d
+    (every method's pick among the same `n` reachable candidates, `seeds` paired draws). Returns {"table":
+    per task and method the mean and std over tools and draws of `COLUMNS` and SDG-Net's reductions against
+    every other method, "paired": `paired_reductions` of SDG-Net, "paired_paper_objective": those of its
+    paper-objective checkpoint, "per_tool": each tool's `evaluate` result}. `experiments/table1.py` is this
+    and its tables and plots."""
+    per_tool = []
+    for kind in tasks:
+        base = load_tool(DEFAULT_TOOL[kind])
+        for v in range(tools_per_task):
+            tool = base if v == 0 else vary_tool(base, 10_000 + v)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a stretched tool may exceed the speed limit: flagged
+                task = make_task(kind, tool)
+            t0 = time.perf_counter()
+            res = evaluate(tool, task, methods, n=n, seeds=seeds, seed=seed + v, model=model,
+                           scene=build_scene(tool, task, timestep=timestep))
+            log(f"{kind:7s} {tool.name:12s} {time.perf_counter() - t0:5.1f} s  " + "  ".join(
+                f"{m} {res['methods'][m]['measured']['peak_torque_induced']['mean']:.2f}" for m in methods))
+            per_tool.append(res)
+    table = {}
+    for kind in tasks:
+        rows = [r for r in per_tool if r["task"] == kind]
+        table[kind] = {}
+        for m in methods:
+            cell = {}
+            for c in COLUMNS:
+                v = np.concatenate([np.asarray(r["methods"][m]["rollouts"][c], dtype=float) for r in rows])
+                cell[c] = {"mean": float(np.nanmean(v)) if np.isfinite(v).any() else None,
+                           "std": float(np.nanstd(v)) if np.isfinite(v).any() else None, "n": int(np.isfinite(v).sum())}
+            table[kind][m] = cell
+        if "sdgnet" in methods:
+            ours = table[kind]["sdgnet"]
+            # against the other methods, not SDG-Net's own verified pick (it is SDG-Net too)
+            others = [m for m in methods if not m.startswith("sdgnet")]
+            table[kind]["sdgnet_torque_reduction_pct"] = {
+                m: reduction(ours["peak_torque_projected"]["mean"] or np.nan,
+                             table[kind][m]["peak_torque_projected"]["mean"] or np.nan)
+                for m in others}
+            table[kind]["sdgnet_induced_torque_reduction_pct"] = {
+                m: reduction(ours["peak_torque_induced"]["mean"] or np.nan,
+                             table[kind][m]["peak_torque_induced"]["mean"] or np.nan)
+                for m in others}
+            table[kind]["sdgnet_raw_torque_reduction_pct"] = {
+                m: reduction(ours["peak_torque"]["mean"] or np.nan, table[kind][m]["peak_torque"]["mean"] or np.nan)
+                for m in others}
+            table[kind]["sdgnet_failure_rate_ratio"] = {
+                m: (None if not table[kind][m]["failed"]["mean"] else ours["failed"]["mean"] / table[kind][m]["failed"]["mean"])
+                for m in others}
+    return {"table": table, "paired": paired_reductions(per_tool, tasks, methods),
+            "paired_paper_objective": paired_reductions(per_tool, tasks, methods, ours="sdgnet_paper"),
+            "per_tool": per_tool}
+
+
+#: The interval of the paired reductions: 90 % over tools.
+PAIRED_LEVEL = 0.90
+
+
+def paired_reductions(per_tool: list, tasks, methods, measures=PAIRED_MEASURES, ours: str = "sdgnet") -> dict:
+    """Per task, measure and baseline: the reduction of `ours` (SDG-Net, or its paper-objective
+    checkpoint "sdgnet_paper") against the baseline, paired tool by tool (each
+    tool's mean over its draws; the same candidates and draws for both), as 100 (1 - geometric-mean ratio)
+    with a PAIRED_LEVEL bootstrap interval over tools (`stats.paired_ratio`), on the unseen variants alone
+    and on every tool."""
+    out = {}
+    if ours not in methods:
+        return out
+    for kind in tasks:
+        rows = [r for r in per_tool if r["task"] == kind]
+        out[kind] = {}
+        for meas in measures:
+            out[kind][meas] = {}
+            for m in [m for m in methods if not m.startswith("sdgnet")]:
+                entry = {}
+                for subset, keep in (("unseen", lambda i: i > 0), ("all", lambda i: True)):
+                    sel = [r for i, r in enumerate(rows) if keep(i)]
+                    a = [r["methods"][ours]["measured"][meas]["mean"] for r in sel]
+                    b = [r["methods"][m]["measured"][meas]["mean"] for r in sel]
+                    pr = paired_ratio(np.array(a, float), np.array(b, float), level=PAIRED_LEVEL)
+                    pct = lambda x: None if x is None else 100.0 * (1.0 - x)  # noqa: E731
+                    entry[subset] = {"reduction_pct": pct(pr["ratio"]), "n_tools": pr["n"],
+                                     "interval_pct": None if pr["ci"] is None else [pct(pr["ci"][1]), pct(pr["ci"][0])],
+                                     "tools_lower": pr["lower"], "tools_higher": pr["higher"]}
+                out[kind][meas][m] = entry
+    return out
+
+
+def table(res: dict) -> str:
+    """Per method, mean ± std over its rollouts: the full induced peak wrist torque (the headline), the raw
+    peak, the induced torque's grasp-frame components at its peak (about the jaw's closure axis, the
+    approach axis, the third axis), the projected torque (the C_tau component), slip, turn in the pads,
+    alignment drift, grip failure and task success; `res` is `evaluate`'s result. `itup evaluate` and
+    `itup demo` print it."""
+    lines = [f"{'method':>22} {'tau_ind N·m':>12} {'tau_raw N·m':>12} {'closure':>8} {'approach':>8} {'third':>8} "
+             f"{'tau_proj':>9} {'grip N':>7} {'slip mm':>10} {'turn deg':>9} {'drift deg':>9} {'fail':>5} {'task':>5}  "
+             "grasp (tool frame, m)"]
+    for name, r in res["methods"].items():
+        m = r["measured"]
+
+        def ms(k, scale=1.0, w=5, p=2):
+            return f"{scale * m[k]['mean']:{w}.{p}f}±{scale * m[k]['std']:<{w}.{p}f}"
+
+        def mean(k, scale=1.0, w=8, p=2):
+            return f"{scale * m[k]['mean']:>{w}.{p}f}"
+        lines.append(f"{name:>22} {ms('peak_torque_induced', w=5)} {ms('peak_torque', w=5)} "
+                     f"{mean('peak_induced_closure')} {mean('peak_induced_approach')} {mean('peak_induced_third')} "
+                     f"{mean('peak_torque_projected', w=9)} {mean('grip_demand', w=7, p=0)} "
+                     f"{ms('slip_translation', 1e3, 4, 1)} {mean('slip_rotation', 180 / np.pi, 9, 1)} "
+                     f"{mean('alignment_drift', 180 / np.pi, 9, 1)} {m['failed']['mean']:>5.2f} "
+                     f"{m['success']['mean']:>5.2f}  {r['grasp']['p_tool_grasp_m']}")
+    lines.append("tau_ind: full peak induced wrist torque (static holding torque removed, all axes; the headline); "
+                 "closure/approach/third: its grasp-frame components at that peak (N·m); tau_proj: the part off the "
+                 "closure axis, the paper's C_tau component (N·m); grip: the normal force per pad the induced wrench "
+                 "needs (N); turn: the tool's turn in the pads")
+    return "\n".join(lines)

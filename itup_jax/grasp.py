@@ -35,6 +35,7 @@ import numpy as np
 
 from itup_jax import robot
 from itup_jax.errors import InputError
+from itup_jax.rotations import quat_to_matrix
 from itup_jax.shapes import to_device
 
 #: Column permutation from our grasp frame to graspnet's: graspnet (x, y, z) = ours (z, y, -x).
@@ -69,7 +70,7 @@ class Grasps:
     @property
     def rotation(self) -> jax.Array:
         """[..., 3, 3] R_tool_grasp."""
-        return rotation_matrix(self.q_tool_grasp)
+        return quat_to_matrix(self.q_tool_grasp)
 
     @property
     def closure_axis(self) -> jax.Array:
@@ -85,15 +86,6 @@ class Grasps:
         """[..., 2, 3] pad centres in the tool frame: origin -/+ (width / 2) * closure axis."""
         off = 0.5 * self.width[..., None] * self.closure_axis
         return jnp.stack([self.p_tool_grasp - off, self.p_tool_grasp + off], axis=-2)
-
-
-def rotation_matrix(q_wxyz: jax.Array) -> jax.Array:
-    """[..., 4] quaternion (w, x, y, z) -> [..., 3, 3] rotation matrix (normalises the quaternion)."""
-    q = q_wxyz / jnp.linalg.norm(q_wxyz, axis=-1, keepdims=True)
-    fn = lambda qq: jaxlie.SO3(qq).as_matrix()  # noqa: E731
-    for _ in range(q.ndim - 1):
-        fn = jax.vmap(fn)
-    return fn(q)
 
 
 #: [N, 3, 3] -> [N, 4] (w, x, y, z), the outer call of a host-side helper: one compiled kernel instead of

@@ -45,7 +45,7 @@ from itup_jax import robot
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.shapes import pad_rows_repeating, to_device
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,7 +211,7 @@ def _to_grasp_frame(d: jax.Array, R_tool_grasp: jax.Array) -> jax.Array:
     return d[:, 0:1] * R_tool_grasp[0] + d[:, 1:2] * R_tool_grasp[1] + d[:, 2:3] * R_tool_grasp[2]
 
 
-def _gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array,
+def gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax.Array,
                   opening: jax.Array, margin: jax.Array, to_grasp_frame=_to_grasp_frame) -> jax.Array:
     """[] bool for ONE grasp: does any tool point [S, 3] lie inside the gripper's boxes grown by margin?"""
     local = to_grasp_frame(points_tool - p_tool_grasp, R_tool_grasp)
@@ -224,8 +224,8 @@ def _gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp:
 
 
 #: The sampler's one jit: the collision check over a fixed-size chunk of candidates.
-_gripper_hits_batch = jax.jit(jax.vmap(_gripper_hits, in_axes=(None, 0, 0, 0, None)))  # no matrix products
-_CHUNK = 256
+gripper_hits_batch = jax.jit(jax.vmap(gripper_hits, in_axes=(None, 0, 0, 0, None)))  # no matrix products
+CHUNK = 256
 POINT_BUCKET_BITS = 4  # the tool points' count is padded to a bucket of 4 significant bits (shapes.py)
 
 
@@ -241,14 +241,14 @@ def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax
 
 
 #: contact="flat": the pads' span over a chunk of candidates (the sampler's second jit).
-_pad_span_batch = jax.jit(jax.vmap(_pad_span, in_axes=(None, 0, 0)))
+pad_span_batch = jax.jit(jax.vmap(_pad_span, in_axes=(None, 0, 0)))
 
 
 def pad_span(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray) -> np.ndarray:
     """[M, 2] m: per grasp (R_tool_grasp [M, 3, 3], p_tool_grasp [M, 3]), the least and greatest y in the
     grasp frame of the tool points [S, 3] inside the pads' footprint (`_pad_span`), as float64 from the
     jitted float32 kernel (`_over_chunks`)."""
-    return _over_chunks(_pad_span_batch, points_tool, R_tool_grasp, p_tool_grasp).astype(float)
+    return _over_chunks(pad_span_batch, points_tool, R_tool_grasp, p_tool_grasp).astype(float)
 
 
 def _over_chunks(kernel, points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray,
@@ -259,13 +259,13 @@ def _over_chunks(kernel, points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_to
     with copies of the first point, which no kernel here can tell apart (any / min / max over points):
     the kernel compiles once per bucket, not once per tool. Its [M, ...] rows back."""
     m = len(p_tool_grasp)
-    pad = (-m) % _CHUNK
+    pad = (-m) % CHUNK
     R = np.concatenate([R_tool_grasp, np.broadcast_to(np.eye(3), (pad, 3, 3))]).astype(np.float32)
     p = np.concatenate([p_tool_grasp, np.full((pad, 3), 1e3)]).astype(np.float32)  # far away: no hit
     extra = [np.concatenate([a, np.zeros(pad)]).astype(np.float32) for a in per_grasp]
     pts = to_device(pad_rows_repeating(np.asarray(points_tool, np.float32), POINT_BUCKET_BITS))
-    out = [np.asarray(kernel(pts, R[s:s + _CHUNK], p[s:s + _CHUNK], *(a[s:s + _CHUNK] for a in extra), *shared))
-           for s in range(0, m + pad, _CHUNK)]
+    out = [np.asarray(kernel(pts, R[s:s + CHUNK], p[s:s + CHUNK], *(a[s:s + CHUNK] for a in extra), *shared))
+           for s in range(0, m + pad, CHUNK)]
     return np.concatenate(out)[:m]
 
 
@@ -277,7 +277,7 @@ def gripper_collides(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_g
     jitted kernel on chunks of 256 (the last one padded), so it compiles once per bucket of the point
     count S (`_over_chunks`).
     """
-    return _over_chunks(_gripper_hits_batch, points_tool, R_tool_grasp, p_tool_grasp, opening,
+    return _over_chunks(gripper_hits_batch, points_tool, R_tool_grasp, p_tool_grasp, opening,
                         shared=(np.float32(margin),))
 
 
@@ -296,6 +296,9 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
     """
     if not isinstance(n, (int, np.integer)) or n < 1:
         raise InputError(f"sample_grasps: n must be a positive integer, got {n!r}")
+    if n > MAX_DRAWN:
+        raise InputError(f"sample_grasps: n {n:,} is over the {MAX_DRAWN:,} one call samples (~3 min with their "
+                         "reachability on a 2-core CPU); sample in several calls with other seeds")
     if config.contact not in CONTACT_MODELS:
         raise InputError(f"sample_grasps: config.contact must be one of {CONTACT_MODELS}, got {config.contact!r}")
     if not (0.0 <= config.flat_angle < math.pi / 2 and config.flat_excess >= 0.0):
@@ -371,6 +374,12 @@ def sample_grasps(tool: Tool, n: int, seed: Any = 0, *, config: SamplerConfig = 
 #: Candidates drawn per reachable one requested, at most, when no budget is given (`sample_reachable`):
 #: a tool of which under 1 in 40 sampled grasps the arm can carry is reported, not sampled further.
 REACHABLE_BUDGET_FACTOR = 40
+#: The most candidates one call samples (`sample_grasps`), and the most drawn in search of reachable ones
+#: (`sample_reachable`'s budget, whose default is capped here). Measured on a 2-core CPU (the built-in
+#: hammer): 20,000 grasps sample in ~2.5 s and their reachability (closed-form IK along the task) takes
+#: ~6 s, so 100,000 candidates take ~45 s and 400,000 draws ~3 min; more is refused before any work.
+MAX_CANDIDATES = 100_000
+MAX_DRAWN = 400_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -404,7 +413,7 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
                      config: SamplerConfig = SamplerConfig()) -> ReachableGrasps:
     """Sample grasps (`sample_grasps`) until `n` of them are ones the arm can carry through the whole task
     (closed-form IK at every trajectory sample, joint limits, the arm above the table:
-    `simulate.reachable`), or until `budget` candidates have been drawn.
+    `sim.arm.reachable`), or until `budget` candidates have been drawn.
 
     Each round draws about as many as the reachable share so far says it needs (at least 256), so a tool of
     which the arm reaches a third of the grasps costs ~3n candidates. Deterministic for a seed.
@@ -417,13 +426,16 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
     Raises:
       InputError for a bad n, budget or seed; SamplingError when the grasp region yields too few grasps.
     """
-    from itup_jax.simulate import reachable  # the arm's kinematics: imported only when asked
+    from itup_jax.sim.arm import reachable  # the arm's kinematics: imported only when asked
 
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
         raise InputError(f"sample_reachable: n must be a positive integer, got {n!r}")
-    budget = REACHABLE_BUDGET_FACTOR * int(n) if budget is None else budget
-    if not isinstance(budget, (int, np.integer)) or isinstance(budget, bool) or budget < n:
-        raise InputError(f"sample_reachable: budget must be an integer >= n ({n}), got {budget!r}")
+    if n > MAX_CANDIDATES:
+        raise InputError(f"sample_reachable: n {n:,} is over the {MAX_CANDIDATES:,} candidates one call finds "
+                         "(~45 s to sample and check on a 2-core CPU)")
+    budget = min(REACHABLE_BUDGET_FACTOR * int(n), MAX_DRAWN) if budget is None else budget
+    if not isinstance(budget, (int, np.integer)) or isinstance(budget, bool) or not n <= budget <= MAX_DRAWN:
+        raise InputError(f"sample_reachable: budget must be an integer in n ({n:,})..{MAX_DRAWN:,}, got {budget!r}")
     rng = _rng_from(seed)
     found: list[tuple[np.ndarray, ...]] = []  # host-side (p, q, width) of the reachable ones per round
     have = drawn = rounds = 0

@@ -16,10 +16,11 @@ names of TARGETS' values), e.g. a `tabletop.Tabletop`; a plain sequence of tools
 target.
 
 The rule grounder (`RuleGrounder`, the default) reads the instruction with a lexicon: task verbs and
-target nouns (`TASK_WORDS`), tool categories (`TOOL_WORDS`), part names (`parts.PART_WORDS`), and
-"tool 2" / "#2" for the scene's numbered tools. A target noun outweighs a verb ("hit the nail" is the
+target nouns (`TASK_WORDS`), the table's tools by number ("tool 2" / "#2", as `itup run` lists them), by
+name ("my_hammer", "spanner@3"), as the user's own ("my hammer", "my tool": a tool loaded from a mesh,
+`is_own`) or by category (`TOOL_WORDS`), and part names (`tools.parts.PART_WORDS`). A target noun outweighs a verb ("hit the nail" is the
 hammer task, "hit the tower" the knock). With no tool named it takes the scene's first tool of the task
-kind's default category, else of a family that does the task (`families.for_task`); with no part named,
+kind's default category, else of a family that does the task (`tools.families.for_task`); with no part named,
 the tool's working part and its grasp region. It refuses, with a `GroundingError` naming what it could
 not ground, an instruction with no task, an ambiguous one, a target or tool that is not on the table.
 """
@@ -31,9 +32,9 @@ import re
 from collections.abc import Sequence
 from typing import Any, Protocol
 
-from itup_jax import families, parts, tasks
+from itup_jax import tasks
 from itup_jax.errors import InputError
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool, families, parts
 
 
 class GroundingError(InputError):
@@ -100,7 +101,7 @@ class Grounding:
 
     def grounded_tool(self, scene: Any) -> Tool:
         """The scene's grounded tool with the contact of `work_part` and the grasp region of `grasp_part`
-        (`parts.apply`)."""
+        (`tools.parts.apply`)."""
         tool = scene_tools(scene)[self.tool_index]
         return parts.apply(tool, parts.find(tool, self.work_part), parts.find(tool, self.grasp_part))
 
@@ -149,9 +150,26 @@ def _free(span: tuple[int, int, str], used: list[tuple[int, int]]) -> bool:
     return all(span[1] <= a or span[0] >= b for a, b in used)
 
 
+def _opening_verb(span: tuple[int, int, str], task_spans: list[tuple[int, int]]) -> bool:
+    """Whether a word at `span` opens the instruction inside one of the task's words (its verb)."""
+    return span[0] <= 1 and any(a <= span[0] and span[1] <= b for a, b in task_spans)
+
+
+def _claim(mentions: list[tuple[tuple[int, int, str], Any]], used: list[tuple[int, int]]) -> list:
+    """The items of `mentions` [((start, end, phrase), item)] whose words are still free, in the order they
+    appear, the longest phrase first where several start together ('claw hammer' over 'hammer'); their
+    spans are added to `used`."""
+    out = []
+    for sp, item in sorted(mentions, key=lambda m: (m[0][0], -(m[0][1] - m[0][0]))):
+        if _free(sp, used):
+            used.append(sp[:2])
+            out.append(item)
+    return out
+
+
 def default_tool_index(task: str, tools: Sequence[Tool]) -> int | None:
     """The scene's tool a task uses when none is named: the first of the kind's default category, else
-    the first of a family that does the task (in `families.for_task` order); None when none can."""
+    the first of a family that does the task (in `tools.families.for_task` order); None when none can."""
     kind = tasks.get(task)
     default_category = {f.name: f.name for f in families.FAMILIES.values()}.get(kind.default_tool, kind.default_tool)
     order = [default_category] + [f for f in families.for_task(task) if f != default_category]
@@ -197,7 +215,8 @@ class RuleGrounder:
             raise GroundingError(f"grounding: {instruction!r} asks for the {task} task, but there is no {target} "
                                  f"on the table (targets: {', '.join(targets) or 'none'})")
         notes: list[str] = []
-        # the tool: a number, else a category word not used by the task's words, else the default
+        # the tool: a number, else a name or 'my ...', else a category word not used by the task's words,
+        # else the default
         tool_index = None
         m = re.search(r"(?:tool|#|number)\s*#?\s*(\d+)", text)
         if m:
@@ -208,20 +227,12 @@ class RuleGrounder:
             used.append(m.span())
         task_spans = [(a, b) for a, b, _ in hits[task]]
         if tool_index is None:
-            mentions = []
-            for cat, words in TOOL_WORDS.items():
-                for sp in _spans(text, words):
-                    # a tool word that is also the task's verb and opens the instruction ('hammer the nail')
-                    # is the verb: with no other tool named, the task's default tool (a hammer) is taken
-                    if sp[0] > 1 or not any(a <= sp[0] and sp[1] <= b for a, b in task_spans):
-                        mentions.append((sp, cat))
-            # the longest phrase wins a place ('claw hammer' over 'hammer')
-            mentions.sort(key=lambda m_: (m_[0][0], -(m_[0][1] - m_[0][0])))
-            cats = []
-            for sp, cat in mentions:
-                if _free(sp, used):
-                    used.append(sp[:2])
-                    cats.append(cat)
+            tool_index = _tool_by_name(instruction, text, tools, task_spans, used, notes)
+        if tool_index is None:
+            # a tool word that is also the task's verb and opens the instruction ('hammer the nail') is the
+            # verb: with no other tool named, the task's default tool (a hammer) is taken
+            cats = _claim([(sp, cat) for cat, words in TOOL_WORDS.items() for sp in _spans(text, words)
+                           if not _opening_verb(sp, task_spans)], used)
             if len(set(cats)) > 1:
                 raise GroundingError(f"grounding: {instruction!r} names several tools ({', '.join(sorted(set(cats)))}); "
                                      "name one")
@@ -268,6 +279,49 @@ class RuleGrounder:
         return Grounding(instruction=instruction, task=task, target=target, tool_index=int(tool_index),
                          tool_name=tool.name, work_part=work.name, grasp_part=grasp.name, grounder=self.name,
                          notes=tuple(notes))
+
+
+def is_own(tool: Tool) -> bool:
+    """Whether `tool` is a user's own (a mesh and spec), not a built-in, family or procedural tool: its name
+    is none of theirs ('hammer', 'spanner@3', 'hammer#3', 'hammer~3')."""
+    return families.parse_name(tool.name) is None and not re.search(r"[#~]\d+$", tool.name)
+
+
+#: Words after "my" that mean the user's own tool, whatever it is.
+OWN_TOOL_WORDS = ("tool", "own tool")
+
+
+def _tool_by_name(instruction: str, text: str, tools: Sequence[Tool], task_spans: list, used: list,
+                  notes: list) -> int | None:
+    """The table's tool the instruction names by its name ('my_hammer', 'spanner@3', as `itup run` lists it)
+    or as the user's own ('my hammer', 'my own mallet', 'my tool': `is_own`), or None when it names none
+    this way (categories are looked up after). Marks the words it used."""
+    # a name that opens the instruction as its verb ('hammer the nail') is the verb; 'my hammer' asks for the
+    # user's own hammer, not the built-in tool named 'hammer'
+    named = _claim([(sp, i) for i, t in enumerate(tools) for sp in _spans(text, (_norm(t.name).strip(),))
+                    if not _opening_verb(sp, task_spans)
+                    and (is_own(t) or not text[:sp[0]].endswith(("my ", "my own ")))], used)
+    if len(set(named)) > 1:
+        raise GroundingError(f"grounding: {instruction!r} names several tools ({', '.join(tools[i].name for i in named)});"
+                             " name one")
+    if named:
+        return named[0]
+    own = [i for i, t in enumerate(tools) if is_own(t)]
+    for cat, words in (("own", OWN_TOOL_WORDS), *TOOL_WORDS.items()):
+        spans = [sp for w in words for sp in _spans(text, (f"my {w}", f"my own {w}")) if _free(sp, used)]
+        if not spans:
+            continue
+        used.append(spans[0][:2])
+        idx = [i for i in own if cat == "own" or tools[i].category == cat]
+        if not idx:
+            yours = ", ".join(f"{tools[i].name} ({tools[i].category})" for i in own) or "none"
+            raise GroundingError(f"grounding: {instruction!r} asks for your {'tool' if cat == 'own' else cat.replace('_', ' ')}, "
+                                 f"but no tool of yours on the table is {'there' if cat == 'own' else 'one'} (yours: "
+                                 f"{yours}; add one as a mesh and spec, `itup run --add-tool MESH SPEC`)")
+        if len(idx) > 1:
+            notes.append(f"{len(idx)} of your tools fit '{spans[0][2]}'; took the first ({tools[idx[0]].name})")
+        return idx[0]
+    return None
 
 
 def _category_tasks(category: str) -> tuple[str, ...]:

@@ -39,7 +39,8 @@ from mcap.writer import CompressionType, Writer
 
 from itup_jax.atomic import atomic_write
 from itup_jax.errors import InputError
-from itup_jax.scene import Scene, target_bodies
+from itup_jax.rotations import quat_mul, quat_rotate
+from itup_jax.sim.scene import Scene, target_bodies
 from itup_jax.task import Task
 
 _VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
@@ -109,17 +110,11 @@ def _tf(ns: int, parent: str, child: str, p, q_wxyz) -> dict:
             "translation": _v(p), "rotation": _q(q_wxyz)}
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(4)
-    mujoco.mju_mulQuat(out, np.asarray(a, float), np.asarray(b, float))
-    return out
-
-
 def _grasp_pose_world(p_tool: np.ndarray, q_tool: np.ndarray, p_tool_g: np.ndarray, q_tool_g: np.ndarray):
     """World pose of the grasp frame from the tool's world pose and its pose in the grasp frame:
     T_wg = T_wt T_gt^-1."""
     q_gt_inv = np.array([q_tool_g[0], -q_tool_g[1], -q_tool_g[2], -q_tool_g[3]])
-    q_wg = _quat_mul(q_tool, q_gt_inv)
+    q_wg = quat_mul(q_tool, q_gt_inv)
     R_wg = np.empty(9)
     mujoco.mju_quat2Mat(R_wg, q_wg)
     p_wg = p_tool - R_wg.reshape(3, 3) @ p_tool_g
@@ -170,7 +165,7 @@ def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
             out["cubes"].append({"pose": _pose(pos, quat), "size": _v(2 * size), "color": color})
         elif kind == G.mjGEOM_PLANE:
             half = [size[0] or 0.6, size[1] or 0.6]
-            slab = np.asarray(pos, float) - _quat_rotate(quat, [0.0, 0.0, 0.001])
+            slab = np.asarray(pos, float) - quat_rotate(quat, [0.0, 0.0, 0.001])
             out["cubes"].append({"pose": _pose(slab, quat), "size": _v([2 * half[0], 2 * half[1], 0.002]),
                                  "color": color})
         elif kind == G.mjGEOM_CYLINDER:
@@ -178,7 +173,7 @@ def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
             out["cylinders"].append({"pose": _pose(pos, quat), "size": {"x": d, "y": d, "z": 2 * float(size[1])},
                                      "bottom_scale": 1.0, "top_scale": 1.0, "color": color})
         elif kind == G.mjGEOM_CAPSULE:
-            axis = _quat_rotate(quat, [0.0, 0.0, float(size[1])])
+            axis = quat_rotate(quat, [0.0, 0.0, float(size[1])])
             c, sp = _capsule_entities(np.asarray(pos) - axis, np.asarray(pos) + axis, float(size[0]), color)
             out["cylinders"] += c
             out["spheres"] += sp
@@ -190,13 +185,6 @@ def _geom_primitives(m: mujoco.MjModel, geoms, poses=None) -> dict[str, list]:
             v0, nv = int(m.mesh_vertadr[k_mesh]), int(m.mesh_vertnum[k_mesh])
             f0, nf = int(m.mesh_faceadr[k_mesh]), int(m.mesh_facenum[k_mesh])
             out["triangles"].append(_triangles(m.mesh_vert[v0:v0 + nv], m.mesh_face[f0:f0 + nf], _pose(pos, quat), color))
-    return out
-
-
-def _quat_rotate(q_wxyz, v) -> np.ndarray:
-    """v [3] rotated by the unit quaternion q (w, x, y, z)."""
-    out = np.zeros(3)
-    mujoco.mju_rotVecQuat(out, np.asarray(v, float), np.asarray(q_wxyz, float))
     return out
 
 
@@ -224,12 +212,13 @@ def robot_link_poses(scene: Scene, p_grasp: np.ndarray, q_grasp: np.ndarray, fin
     Returns (bodies [L], pos [S, L, 3], quat [S, L, 4]); rows where IK finds no solution are NaN."""
     from itup_jax import ik
     from itup_jax.robot import HOME_Q
-    from itup_jax.simulate import _grasp_flange_pose, _pose_matrix, _quat_to_matrix
+    from itup_jax.rotations import pose_matrix, quat_to_matrix_np
+    from itup_jax.sim.arm import grasp_flange_pose
 
     m = scene.model
     S = len(p_grasp)
-    T_world_grasp = _pose_matrix(_quat_to_matrix(np.asarray(q_grasp, float)), np.asarray(p_grasp, float))
-    q = ik.track(T_world_grasp @ _grasp_flange_pose(), HOME_Q)  # [S, 6]
+    T_world_grasp = pose_matrix(quat_to_matrix_np(np.asarray(q_grasp, float)), np.asarray(p_grasp, float))
+    q = ik.track(T_world_grasp @ grasp_flange_pose(), HOME_Q)  # [S, 6]
     bodies = robot_bodies(m)
     pos = np.full((S, len(bodies), 3), np.nan)
     quat = np.full((S, len(bodies), 4), np.nan)
@@ -257,11 +246,12 @@ def _scene_update(scene: Scene, task: Task, width: float) -> dict:
             c, s = _capsule_entities(prim[1], prim[2], prim[3], wood)
             cyls += c
             sphs += s
-        else:
+        elif prim[0] == "box":
             lo, hi = np.asarray(prim[1]), np.asarray(prim[2])
             cubes.append({"pose": _pose((lo + hi) / 2), "size": _v(hi - lo), "color": _rgba(0.5, 0.5, 0.55)})
-    # a user's mesh tool (no primitives) is drawn as its mesh, in the tool frame
-    tris = [] if scene.tool.primitives else [_triangles(scene.tool.mesh.vertices, scene.tool.mesh.faces, _pose(), wood)]
+    # a user's mesh tool (its primitives are convex pieces) is drawn as its mesh, in the tool frame
+    mesh_tool = any(prim[0] == "hull" for prim in scene.tool.primitives)
+    tris = [_triangles(scene.tool.mesh.vertices, scene.tool.mesh.faces, _pose(), wood)] if mesh_tool else []
     entities.append({"timestamp": _time(0), "frame_id": "tool", "id": "tool", "lifetime": _time(0),
                      "frame_locked": True, "cubes": cubes, "cylinders": cyls, "spheres": sphs, "triangles": tris})
     pad = m.geom("gripper/pad_neg")

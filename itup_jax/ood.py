@@ -40,13 +40,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from itup_jax.errors import InputError
-from itup_jax.features import FeatureSpec, _batched
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.precision import full_precision
+from itup_jax.sdgnet.features import FeatureSpec, batched, cached_tool_field
 from itup_jax.shapes import to_device
 from itup_jax.wrench import task_loads
 
-#: The feature groups, in feature order (`features.grasp_features`): geometry [G^3], loads [12],
+#: The feature groups, in feature order (`sdgnet.features.grasp_features`): geometry [G^3], loads [12],
 #: contact [9], physics [4].
 FEATURE_GROUPS = ("geometry", "loads", "contact", "physics")
 #: Nearest reference rows averaged per candidate.
@@ -81,7 +81,7 @@ def group_distances(z: jax.Array, spec: FeatureSpec) -> jax.Array:
 
 
 def _distances(field, tool_params, task, grasps, x_mean, x_std, ref, spec, k):
-    feats = _batched(field, task_loads(tool_params, task), tool_params, grasps, spec)
+    feats = batched(field, task_loads(tool_params, task), tool_params, grasps, spec)
     z = (feats.astype(x_mean.dtype) - x_mean) / x_std
     return knn_distance(z, ref, k), group_distances(z, spec)
 
@@ -148,7 +148,8 @@ def load_reference(path: str) -> Reference:
 @functools.lru_cache(maxsize=1)
 def _shipped_first_layers() -> tuple[np.ndarray, ...]:
     """The first-layer weights of the shipped checkpoints (read once per process)."""
-    from itup_jax.sdgnet import DEFAULT_MODEL, PAPER_MODEL, load_model
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.config import DEFAULT_MODEL, PAPER_MODEL
 
     return tuple(np.asarray(load_model(p).params[0][0]) for p in (DEFAULT_MODEL, PAPER_MODEL))
 
@@ -156,7 +157,8 @@ def _shipped_first_layers() -> tuple[np.ndarray, ...]:
 def reference_path_of(model: Any) -> str | None:
     """The reference file of a checkpoint: the shipped one's for the shipped checkpoints (a path, None,
     or a loaded `Model` with their weights), `<stem>.reference.npz` beside any other path, else None."""
-    from itup_jax.sdgnet import DEFAULT_MODEL, PAPER_MODEL, Model
+    from itup_jax.sdgnet.config import DEFAULT_MODEL, PAPER_MODEL
+    from itup_jax.sdgnet.model import Model
 
     if isinstance(model, Model):
         w = np.asarray(model.params[0][0])
@@ -218,10 +220,10 @@ class Guard:
 
 def check(tool, task, grasps: Grasps, model: Any = None, *, threshold: float | None = None) -> Guard | None:
     """The guard's reading for `grasps` [N >= 1] of `tool` in `task` under SDG-Net checkpoint `model`
-    (None: the shipped one; a path; a loaded `sdgnet.Model`), against `threshold` (None:
+    (None: the shipped one; a path; a loaded `sdgnet.model.Model`), against `threshold` (None:
     GUARD_THRESHOLD). None when the checkpoint has no reference (`reference_path_of`)."""
-    from itup_jax.scoring import _tool_field
-    from itup_jax.sdgnet import Model, load_model
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import Model
 
     validate_grasps(grasps)
     path = reference_path_of(model)
@@ -238,7 +240,7 @@ def check(tool, task, grasps: Grasps, model: Any = None, *, threshold: float | N
         return None
     z_ref, scale = _standardised(path, task.kind, x_mean.tobytes(), x_std.tobytes(), k)
     dt = jnp.float32
-    d, groups = guard_distances_jit(_tool_field(tool, spec, dt), tool.params, task, grasps, to_device(x_mean),
+    d, groups = guard_distances_jit(cached_tool_field(tool, spec, dt), tool.params, task, grasps, to_device(x_mean),
                                     to_device(x_std), to_device(z_ref), spec=spec, k=k)
     ratio = np.asarray(d, float) / scale
     score = float(np.median(ratio))

@@ -3,7 +3,8 @@
     from itup_jax import pickup
     cands = pickup.pick_candidates(top, i, tool, grasps)   # which grasps can be picked from the rest pose
     result = pickup.execute_pick(top, i, cands.grasps[k:k+1], cands.q_path[k], keep_state=True)
-    back = pickup.put_back(top, i, result, cands.q_path[k])       # lower, release, rise; the table at rest
+
+After a pick that cannot go on, `regrasp` puts the tool back down or turns it over.
 
 A grasp sampled on the tool (`grasp_sampler`, tool frame) is turned into a pick from the tool's resting
 pose (`tabletop.Tabletop.poses`):
@@ -35,9 +36,7 @@ descends along the approach, closes (the grip force rises to `grip_force` per pa
 lifts PICK_LIFT and holds. It measures, rather than assumes, the grasp it achieved: the tool's pose in
 the grasp frame after the lift (`PickResult.achieved`), its error against the planned grasp, and
 whether the tool came up in the pads. The gripper's actuator opens the jaw with a negative force in
-this scene only (the task scenes hold a closed grip throughout). `put_back` goes on from a pick's end
-state: it lowers the tool back down, opens the jaw, raises the gripper and lets the table come to rest,
-the new rest poses the table a second pick plans on (`pipeline.run(max_attempts=)`).
+this scene only (the task scenes hold a closed grip throughout).
 """
 
 from __future__ import annotations
@@ -53,21 +52,19 @@ from itup_jax import ik, robot, units
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
 from itup_jax.grasp_sampler import collision_points, gripper_collides
-from itup_jax.scene import attach_robot
-from itup_jax.simulate import _quat_to_matrix
+from itup_jax.rotations import quat_to_matrix_np
+from itup_jax.sim.scene import attach_robot
 from itup_jax.tabletop import (
     NOSLIP_ITERATIONS,
     ROLLING_FRICTION,
     TABLE_FRICTION,
     Tabletop,
-    _add_tool_body,
-    _rot,
-    _tools_spec,
+    add_table_tool,
     rest_loads,
     tool_contacts,
-    tool_poses,
+    tools_spec,
 )
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 
 #: rad, the largest angle between a pick's approach axis and straight down.
 MAX_APPROACH_TILT = math.radians(35.0)
@@ -112,25 +109,6 @@ LIFT_SIM_STEP = 0.002
 LIFT_WINDOW = 0.05
 #: IK samples per straight segment of the pick's path.
 PATH_SAMPLES = 12
-#: s, putting a tool back after a pick that cannot go on (`put_back`): lower it along the lift's path to
-#: its first sample above the grasp (PICK_LIFT / PATH_SAMPLES, 10 mm), open the jaw, raise the open
-#: gripper back up the lift's path; then the arm holds still until every tool is at rest (at least
-#: PUT_BACK_SETTLE[0], at most PUT_BACK_SETTLE[1]).
-PUT_BACK_PHASES = (0.8, 0.3, 0.8)
-PUT_BACK_SETTLE = (0.3, 3.0)
-#: Turning a tool over (`turn_over`), for a rest pose from which no grasp the task can use is pickable
-#: (an L-stick lying with its hook up is picked from above only along the hook, and the reach needs the
-#: opposite): m, the grasp point's height above the table while the tool turns; rad, the turn about the
-#: tool's handle axis (either way, whichever the arm can follow): held tilted by it past where it
-#: balanced, the tool falls onto another face when let go (turned a quarter turn, the lower finger
-#: lies under it and carries it along as it withdraws); m, the gripper's lowest point above the table
-#: when the jaw opens (to the pick's pre-shape opening only, so the lower finger does not sweep down
-#: onto the table); s, the phases: rise, turn, lower, open, withdraw (back along the approach), then
-#: the settling of PUT_BACK_SETTLE.
-TURN_HEIGHT = 0.25
-TURN_ANGLE = math.pi / 4
-TURN_RELEASE = 0.01
-TURN_PHASES = (0.6, 1.2, 0.8, 0.3, 0.8)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -162,7 +140,7 @@ def approach_opening(width: np.ndarray) -> np.ndarray:
     return np.minimum(np.asarray(width, float) + 2 * PICK_CLEARANCE, robot.GRIPPER_MAX_OPENING)
 
 
-def _corners(width: np.ndarray) -> np.ndarray:
+def corners(width: np.ndarray) -> np.ndarray:
     """[M, 24, 3] the corners of the pre-shaped gripper's boxes (`approach_opening`) in the grasp frame."""
     out = []
     for _, lo, hi in gripper_boxes(approach_opening(width)):
@@ -171,7 +149,7 @@ def _corners(width: np.ndarray) -> np.ndarray:
     return np.stack(out, axis=1)
 
 
-def _to_flange(T_world_grasp: np.ndarray) -> np.ndarray:
+def to_flange(T_world_grasp: np.ndarray) -> np.ndarray:
     """[..., 4, 4] the flange poses (what the IK solves for) of grasp-frame poses [..., 4, 4]: FLANGE_TO_GRASP
     back along the approach axis."""
     flange = np.eye(4)
@@ -179,22 +157,22 @@ def _to_flange(T_world_grasp: np.ndarray) -> np.ndarray:
     return T_world_grasp @ flange
 
 
-def _ik_ok(q: np.ndarray) -> np.ndarray:
+def ik_ok(q: np.ndarray) -> np.ndarray:
     """[...] bool: joint paths q [..., P, 6] (`ik.track`) reachable at every sample and within the joint limits."""
     return ~np.isnan(q).any(axis=(-2, -1)) & ~(np.abs(np.nan_to_num(q)) > robot.JOINT_LIMITS).any(axis=(-2, -1))
 
 
-def _mj_warnings(d: mujoco.MjData) -> int:
+def mj_warnings(d: mujoco.MjData) -> int:
     """How often MuJoCo met a bad acceleration, velocity or position (and reset the state)."""
     return sum(int(d.warning[w].number) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL,
                                                   mujoco.mjtWarning.mjWARN_BADQPOS))
 
 
-def _jaw_preshape(m: mujoco.MjModel, d: mujoco.MjData, width: float):
+def jaw_preshape(m: mujoco.MjModel, d: mujoco.MjData, width: float):
     """(q_open, servo): the finger joints' position at which the pads stand `approach_opening(width)` apart
     (pad faces INITIAL_SQUEEZE past qpos), and the grip actuator's force that holds them there
     (PRESHAPE_GAIN, PRESHAPE_DAMPING, within +-OPEN_FORCE) in the state `d`."""
-    from itup_jax.simulate import INITIAL_SQUEEZE
+    from itup_jax.sim.arm import INITIAL_SQUEEZE
 
     fq = [m.joint(f"gripper/finger_{s}").qposadr[0] for s in ("neg", "pos")]
     fv = [m.joint(f"gripper/finger_{s}").dofadr[0] for s in ("neg", "pos")]
@@ -206,7 +184,7 @@ def _jaw_preshape(m: mujoco.MjModel, d: mujoco.MjData, width: float):
     return q_open, servo
 
 
-def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
+def world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
     """[M, 2 PATH_SAMPLES + 1, 4, 4] flange poses: pre-grasp -> grasp -> lift (straight lines)."""
     s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
     approach = T_world_grasp[:, :3, 2]
@@ -215,7 +193,7 @@ def _world_paths(T_world_grasp: np.ndarray) -> np.ndarray:
                                            (len(approach), PATH_SAMPLES, 3))], axis=1)  # [M, P, 3]
     T = np.repeat(T_world_grasp[:, None], offs.shape[1], axis=1).copy()
     T[..., :3, 3] += offs
-    return _to_flange(T)
+    return to_flange(T)
 
 
 @functools.lru_cache(maxsize=8)
@@ -231,7 +209,7 @@ def lift_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray, np.nd
     immutable)."""
     if not 0 <= index < len(top.tools):
         raise InputError(f"lift_loads: index {index} is not one of the table's 0-{len(top.tools) - 1}")
-    spec = _tools_spec(top.tools, top.poses, LIFT_SIM_STEP)
+    spec = tools_spec(top.tools, top.poses, LIFT_SIM_STEP)
     spec.delete(spec.joint(f"tool_{index}"))
     spec.body(f"tool_{index}").mocap = True
     m = spec.compile()
@@ -257,7 +235,7 @@ def lift_loads(top: Tabletop, index: int) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def lift_torque(top: Tabletop, index: int, tool: Tool, p_tool_grasp: np.ndarray, R_tool_grasp: np.ndarray, *,
-                grip_force: float = 100.0, loads: str | None = "lift") -> np.ndarray:
+                grip_force: float = robot.GRIP_FORCE, loads: str | None = "lift") -> np.ndarray:
     """[M] the torque about each grasp's closure axis, at the grasp point, that the lift must hold, as a
     share of the pads' torsional capacity 2 PAD_TORSION x `grip_force`: the tool's weight and, by
     `loads`, the forces of the other tools, 'lift' (`lift_loads`: the largest over the simulated lift
@@ -292,7 +270,7 @@ def lift_torque(top: Tabletop, index: int, tool: Tool, p_tool_grasp: np.ndarray,
 
 
 def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
-                    grip_force: float = 100.0, lift_torque_share: float = LIFT_TORQUE_SHARE,
+                    grip_force: float = robot.GRIP_FORCE, lift_torque_share: float = LIFT_TORQUE_SHARE,
                     lift_torque_limit: float = LIFT_TORQUE_LIMIT) -> PickCandidates:
     """The grasps [N] (tool frame) of the table's tool `index` that can be picked from its rest pose with
     `grip_force` N per pad, shifted to clear the table (module docstring). `tool` is that tool (its
@@ -303,16 +281,16 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
         raise InputError(f"pick_candidates: index {index} is not one of the table's 0-{len(top.tools) - 1}")
     T_wt = np.asarray(top.poses[index], float)
     p = np.asarray(grasps.p_tool_grasp, float)
-    R_tg = _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float))
+    R_tg = quat_to_matrix_np(np.asarray(grasps.q_tool_grasp, float))
     w = np.asarray(grasps.width, float)
     R_wg = T_wt[:3, :3] @ R_tg
     counts = {"given": len(p)}
     down = -R_wg[:, 2, 2] >= math.cos(MAX_APPROACH_TILT)
     counts["pointing_down"] = int(down.sum())
     # lowest gripper corner above the table; raise along -approach (world +z share -R_wg[2, 2])
-    corners = _corners(w)  # [M, 24, 3]
+    gripper = corners(w)  # [M, 24, 3]
     p_w = p @ T_wt[:3, :3].T + T_wt[:3, 3]
-    z_low = p_w[:, 2] + np.einsum("mj,mcj->mc", R_wg[:, 2, :], corners).min(1)
+    z_low = p_w[:, 2] + np.einsum("mj,mcj->mc", R_wg[:, 2, :], gripper).min(1)
     rise = np.maximum(-R_wg[:, 2, 2], 1e-6)
     shift = np.maximum(TABLE_CLEARANCE - z_low, 0.0) / rise
     ok = down & (shift <= MAX_PAD_SHIFT)
@@ -347,8 +325,8 @@ def pick_candidates(top: Tabletop, index: int, tool: Tool, grasps: Grasps, *,
     T_wg = np.tile(np.eye(4), (len(idx), 1, 1))
     T_wg[:, :3, :3] = R_wg[idx]
     T_wg[:, :3, 3] = p_s[idx] @ T_wt[:3, :3].T + T_wt[:3, 3]
-    q = ik.track(_world_paths(T_wg), robot.HOME_Q, min_height=robot.ARM_CLEARANCE) if len(idx) else np.zeros((0, 2 * PATH_SAMPLES + 1, 6))
-    good = _ik_ok(q)
+    q = ik.track(world_paths(T_wg), robot.HOME_Q, min_height=robot.ARM_CLEARANCE) if len(idx) else np.zeros((0, 2 * PATH_SAMPLES + 1, 6))
+    good = ik_ok(q)
     counts["reachable"] = int(good.sum())
     idx, q = idx[good], q[good]
     out = make_grasps(p_s[idx], R_tg[idx], w[idx]) if len(idx) else None
@@ -364,12 +342,12 @@ REACH_MARGIN_TURN = math.radians(4.0)
 
 def reachable_with_margin(task, grasps: Grasps) -> np.ndarray:
     """[N] bool: each grasp and its four perturbations (+-REACH_MARGIN_SHIFT along the grasp's x axis,
-    +-REACH_MARGIN_TURN about its closure axis) can all be carried through `task` (`simulate.reachable`):
+    +-REACH_MARGIN_TURN about its closure axis) can all be carried through `task` (`sim.arm.reachable`):
     the grasp a pick achieves, a few millimetres and degrees off, can still do the task."""
-    from itup_jax.simulate import reachable
+    from itup_jax.sim.arm import reachable
 
     p = np.asarray(grasps.p_tool_grasp, float)
-    R = _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float))
+    R = quat_to_matrix_np(np.asarray(grasps.q_tool_grasp, float))
     w = np.asarray(grasps.width, float)
     ps, Rs = [p], [R]
     for sgn in (-1.0, 1.0):
@@ -438,7 +416,7 @@ def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
     spec.option.noslip_iterations = NOSLIP_ITERATIONS
     names = {}
     for i, (t, T) in enumerate(zip(top.tools, top.poses)):
-        names[i] = _add_tool_body(spec, i, t, T)
+        names[i] = add_table_tool(spec, i, t, T)
     for i, t in enumerate(top.tools):
         mu = float(t.params.mu)
         for pad in ("gripper/pad_neg", "gripper/pad_pos"):
@@ -454,13 +432,13 @@ def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
 
 
 def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *,
-                 grip_force: float = 100.0, record_every: int | None = None, keep_state: bool = False) -> PickResult:
+                 grip_force: float = robot.GRIP_FORCE, record_every: int | None = None, keep_state: bool = False) -> PickResult:
     """Roll the pick of table tool `index` with `grasp` ([1] or a single grasp, tool frame) along its
     joint path `q_path` [P, 6] (`PickCandidates.q_path`) out in MuJoCo (module docstring); with
     `record_every` k, every body's pose every k-th step (`PickResult.trace`, for `mcap_log.bodies_mcap_bytes`);
     with `keep_state`, the simulation's end state (`PickResult.state`, for `put_back`)."""
     from itup_jax.robot import ARM_JOINTS
-    from itup_jax.simulate import INITIAL_SQUEEZE
+    from itup_jax.sim.arm import INITIAL_SQUEEZE
 
     m, geoms = pick_model(top, index)
     d = mujoco.MjData(m)
@@ -472,7 +450,7 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     tq = m.joint(f"tool_{index}").qposadr[0]
     d.qpos[arm_q] = q_path[0]
     # the jaw pre-shaped to the opening the clearance checks assumed
-    q_open, preshape = _jaw_preshape(m, d, float(np.asarray(grasp.width, float).reshape(-1)[0]))
+    q_open, preshape = jaw_preshape(m, d, float(np.asarray(grasp.width, float).reshape(-1)[0]))
     d.qpos[fq] = q_open
     mujoco.mj_forward(m, d)
     body = m.body(f"tool_{index}").id
@@ -513,7 +491,7 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
             rec_p.append(d.xpos[bodies].copy())
             rec_q.append(d.xquat[bodies].copy())
     # MuJoCo resets the state when it meets a bad value (and counts a warning): either means unstable
-    diverged = _mj_warnings(d) > 0 or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
+    diverged = mj_warnings(d) > 0 or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
     rise = float(d.xipos[body][2]) - z0
     tool_geoms = {m.geom(g).id for g in geoms}
     pads = {m.geom("gripper/pad_neg").id, m.geom("gripper/pad_pos").id}
@@ -528,11 +506,11 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
     T_wg = np.eye(4)
     T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
     T_wt = np.eye(4)
-    T_wt[:3, :3] = _quat_to_matrix(d.qpos[tq + 3:tq + 7].copy())
+    T_wt[:3, :3] = quat_to_matrix_np(d.qpos[tq + 3:tq + 7].copy())
     T_wt[:3, 3] = d.qpos[tq:tq + 3]
     T_tg = np.linalg.inv(T_wt) @ T_wg
     p_plan = np.asarray(grasp.p_tool_grasp, float).reshape(3)
-    R_plan = _quat_to_matrix(np.asarray(grasp.q_tool_grasp, float).reshape(4))
+    R_plan = quat_to_matrix_np(np.asarray(grasp.q_tool_grasp, float).reshape(4))
     pos_err = float(np.linalg.norm(T_tg[:3, 3] - p_plan))
     cos = (np.trace(R_plan.T @ T_tg[:3, :3]) - 1) / 2
     ang_err = float(np.arccos(np.clip(cos, -1.0, 1.0)))
@@ -547,239 +525,3 @@ def execute_pick(top: Tabletop, index: int, grasp: Grasps, q_path: np.ndarray, *
                       state=(m, d) if keep_state else None)
 
 
-@dataclasses.dataclass(frozen=True)
-class PutBack:
-    """What putting a tool back did (`put_back`).
-
-    Attributes:
-      tabletop: the table with every tool's new rest pose (`settle_time`: this settling's time), or None
-        when the simulation went unstable, the tools did not come to rest, or a tool was left touching
-        the gripper (it does not rest on the table).
-      why: None, or one sentence on why `tabletop` is None.
-      trace: with `put_back(record_every=k)`, as `PickResult.trace` (times go on from the pick's).
-    """
-
-    tabletop: Tabletop | None
-    why: str | None = None
-    trace: dict | None = None
-
-
-class _Going:
-    """Drives a pick's MuJoCo state on (`put_back`, `turn_over`): the arm's servos along joint paths, the
-    grip's force, every body's pose recorded every `record_every` steps."""
-
-    def __init__(self, pick: PickResult, record_every: int | None):
-        from itup_jax.robot import ARM_JOINTS
-
-        self.m, self.d = pick.state
-        m = self.m
-        self.act = np.array([m.actuator(f"ur5e/{j}").id for j in ARM_JOINTS])
-        self.act_v = np.array([m.actuator(f"ur5e/{j}_vel").id for j in ARM_JOINTS])
-        self.arm_q = np.array([m.joint(f"ur5e/{j}").qposadr[0] for j in ARM_JOINTS])
-        self.grip = m.actuator("gripper/grip").id
-        self.every = record_every
-        self.bodies = [b for b in range(1, m.nbody) if np.any(m.geom_bodyid == b)]
-        self.rec_t, self.rec_p, self.rec_q, self.count = [], [], [], 0
-
-    def step(self, n: int = 1) -> None:
-        for _ in range(n):
-            mujoco.mj_step(self.m, self.d)
-            if self.every and self.count % self.every == 0:
-                self.rec_t.append(self.d.time)
-                self.rec_p.append(self.d.xpos[self.bodies].copy())
-                self.rec_q.append(self.d.xquat[self.bodies].copy())
-            self.count += 1
-
-    def hold(self, q: np.ndarray, force: float, duration: float) -> None:
-        d = self.d
-        d.ctrl[self.act], d.ctrl[self.act_v], d.ctrl[self.grip] = q, np.zeros(6), force
-        self.step(int(round(duration / self.m.opt.timestep)))
-
-    def open_to(self, q: np.ndarray, width: float, duration: float) -> None:
-        """Hold the arm at `q` [6] while the jaw opens to `approach_opening(width)` (the pre-shape servo,
-        within +-OPEN_FORCE, as the pick approaches): the tool is let go of without the fingers
-        sweeping their whole stroke."""
-        m, d = self.m, self.d
-        _, servo = _jaw_preshape(m, d, width)
-        self.jaw = servo
-        d.ctrl[self.act], d.ctrl[self.act_v] = q, np.zeros(6)
-        for _ in range(int(round(duration / m.opt.timestep))):
-            d.ctrl[self.grip] = servo()
-            self.step()
-
-    def follow(self, path: np.ndarray, duration: float, force: float | None) -> None:
-        """Along joint path [P, 6] in `duration` s (linear between samples, the servos' velocity feed-forward),
-        the grip at `force` N (None: the jaw held at the opening of the last `open_to`)."""
-        d, dt, n = self.d, self.m.opt.timestep, len(path) - 1
-        for k in range(int(round(duration / dt))):
-            s = (k + 1) * dt / duration * n
-            i0 = min(int(s), n - 1)
-            d.ctrl[self.act] = path[i0] + (s - i0) * (path[i0 + 1] - path[i0])
-            d.ctrl[self.act_v] = (path[i0 + 1] - path[i0]) * n / duration
-            d.ctrl[self.grip] = self.jaw() if force is None else force
-            self.step()
-
-    def settle(self, top: Tabletop, what: str) -> PutBack:
-        """Hold the arm still until every tool is at rest (PUT_BACK_SETTLE); the table as it then lies."""
-        from itup_jax.tabletop import REST_SPEED, _point_speeds
-
-        m, d = self.m, self.d
-        d.ctrl[self.act], d.ctrl[self.act_v] = d.qpos[self.arm_q], np.zeros(6)
-        t, speed, check = 0.0, math.inf, int(round(0.05 / m.opt.timestep))
-        unstable = f"{what} went unstable (MuJoCo)"
-        while t < PUT_BACK_SETTLE[1]:
-            self.step(check)
-            t += check * m.opt.timestep
-            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-                return self.result(None, unstable)
-            speed = _point_speeds(m, d, top.tools)
-            if t >= PUT_BACK_SETTLE[0] and speed < REST_SPEED:
-                break
-        else:
-            return self.result(None, f"the tools had not come to rest {PUT_BACK_SETTLE[1]:g} s after {what} "
-                               f"(fastest point {speed:.3f} m/s)")
-        if _mj_warnings(d):
-            return self.result(None, unstable)
-        # a tool still touching the gripper (left in the open jaw) is not at rest on the table
-        gripper = {g for g in range(m.ngeom) if m.geom(g).name.startswith("gripper/")}
-        tool_bodies = {m.body(f"tool_{i}").id for i in range(len(top.tools))}
-        for c in d.contact[:d.ncon]:
-            g1, g2 = int(c.geom1), int(c.geom2)
-            if (g1 in gripper and int(m.geom_bodyid[g2]) in tool_bodies) or (
-                    g2 in gripper and int(m.geom_bodyid[g1]) in tool_bodies):
-                return self.result(None, f"a tool stayed in the open jaw after {what}")
-        return self.result(dataclasses.replace(top, poses=tool_poses(m, d, len(top.tools)), settle_time=float(t),
-                                               rest_speed=float(speed)))
-
-    def result(self, tabletop: Tabletop | None, why: str | None = None) -> PutBack:
-        trace = None
-        if self.every:
-            nb = len(self.bodies)
-            trace = {"t": np.array(self.rec_t), "bodies": self.bodies, "pos": np.array(self.rec_p).reshape(-1, nb, 3),
-                     "quat": np.array(self.rec_q).reshape(-1, nb, 4), "model": self.m}
-        return PutBack(tabletop=tabletop, why=why, trace=trace)
-
-
-def _check_state(pick: PickResult, what: str) -> None:
-    if pick.state is None:
-        raise InputError(f"{what}: the pick was run without keep_state=True; there is no state to go on from")
-
-
-def put_back(top: Tabletop, index: int, pick: PickResult, q_path: np.ndarray, *,
-             grip_force: float = 100.0, record_every: int | None = None) -> PutBack:
-    """Put table tool `index` back down after `pick` (run with `keep_state=True` along `q_path`) and let
-    the table settle: the arm lowers along the lift's path to PICK_LIFT / PATH_SAMPLES above the grasp
-    (10 mm; a tool that came up turned or only partly drops at most that far), the jaw opens, the open
-    gripper rises back up the lift's path and holds still while the tools come to rest (PUT_BACK_PHASES,
-    PUT_BACK_SETTLE). The pick's state goes on (it is used up)."""
-    _check_state(pick, "put_back")
-    go = _Going(pick, record_every)
-    up = np.asarray(q_path, float)[PATH_SAMPLES + 1:]  # the lift's path from its first sample above the grasp
-    t_lower, t_open, t_raise = PUT_BACK_PHASES
-    go.follow(up[::-1], t_lower, grip_force)
-    go.hold(up[0], -OPEN_FORCE, t_open)
-    go.follow(up, t_raise, -OPEN_FORCE)
-    return go.settle(top, "putting it back down")
-
-
-def turn_path(T_world_grasp: np.ndarray, axis: np.ndarray, width: float, angle: float) -> np.ndarray:
-    """[4 PATH_SAMPLES + 1, 4, 4] flange poses that turn a held tool over: from the grasp frame
-    `T_world_grasp` [4, 4] straight up to TURN_HEIGHT, a turn by `angle` rad about the world `axis` [3]
-    through the grasp point, down until the gripper's lowest point (its boxes at the jaw's `width` m) is
-    TURN_RELEASE above the table; then (after the jaw opens) back along the turned approach axis by
-    PICK_APPROACH."""
-    s = np.linspace(0.0, 1.0, PATH_SAMPLES + 1)
-    T0 = np.asarray(T_world_grasp, float)
-    poses = [T0.copy() for _ in s]
-    for T, x in zip(poses, s):
-        T[2, 3] += x * (TURN_HEIGHT - T0[2, 3])
-    top = poses[-1]
-    for x in s[1:]:
-        T = top.copy()
-        T[:3, :3] = _rot(axis, angle * x) @ top[:3, :3]
-        poses.append(T)
-    turned = poses[-1]
-    lowest = float(np.min(np.einsum("j,cj->c", turned[:3, :3][2], _corners(np.array([width]))[0])))
-    drop = turned[2, 3] + lowest - TURN_RELEASE
-    for x in s[1:]:
-        T = turned.copy()
-        T[2, 3] -= x * drop
-        poses.append(T)
-    down = poses[-1]
-    for x in s[1:]:
-        T = down.copy()
-        T[:3, 3] -= x * PICK_APPROACH * down[:3, 2]
-        poses.append(T)
-    return _to_flange(np.stack(poses))
-
-
-def _turn_axis(R_world_tool: np.ndarray) -> np.ndarray | None:
-    """The horizontal direction of the tool's handle axis (+z), or None when the handle stands too
-    steeply (more than ~72 degrees) for a turn about it to lay the tool on another face."""
-    h = np.asarray(R_world_tool, float)[:, 2]
-    axis = np.array([h[0], h[1], 0.0])
-    return axis if np.linalg.norm(axis) >= 0.3 else None
-
-
-def can_turn_over(top: Tabletop, index: int, grasps: Grasps, q_paths: np.ndarray) -> np.ndarray:
-    """[M] bool: the arm can follow `turn_path` (either way) from the end of each pick's planned lift:
-    grasps [M] of table tool `index` (tool frame, as `pick_candidates` returns them) with their joint
-    paths `q_paths` [M, P, 6]. The planned grasp stands in for the achieved one (`turn_over` plans again
-    from the achieved)."""
-    T_wt = np.asarray(top.poses[index], float)
-    axis = _turn_axis(T_wt[:3, :3])
-    m = len(np.asarray(grasps.width).reshape(-1))
-    if axis is None or m == 0:
-        return np.zeros(m, bool)
-    R_wg = T_wt[:3, :3] @ _quat_to_matrix(np.asarray(grasps.q_tool_grasp, float).reshape(-1, 4))
-    p_wg = np.asarray(grasps.p_tool_grasp, float).reshape(-1, 3) @ T_wt[:3, :3].T + T_wt[:3, 3]
-    width = np.asarray(grasps.width, float).reshape(-1)
-    ok = np.zeros(m, bool)
-    for angle in (TURN_ANGLE, -TURN_ANGLE):
-        paths = []
-        for k in range(m):
-            T = np.eye(4)
-            T[:3, :3], T[:3, 3] = R_wg[k], p_wg[k] + [0.0, 0.0, PICK_LIFT]
-            paths.append(turn_path(T, axis, float(width[k]), angle))
-        q = ik.track(np.stack(paths), np.asarray(q_paths, float)[:, -1], min_height=robot.ARM_CLEARANCE)
-        ok |= _ik_ok(q)
-    return ok
-
-
-def turn_over(top: Tabletop, index: int, pick: PickResult, *, grip_force: float = 100.0,
-              record_every: int | None = None) -> PutBack:
-    """Turn table tool `index`, lifted by `pick` (run with `keep_state=True`), over about its handle axis
-    and let it fall onto another face: up to TURN_HEIGHT, a turn of TURN_ANGLE (whichever way the arm can
-    follow, `turn_path`, closed-form IK with the elbow and wrist above the table), down until the gripper
-    is TURN_RELEASE above the table, the jaw opened to the pick's pre-shape opening (`approach_opening`),
-    the gripper back along its approach, the table settled (PUT_BACK_SETTLE).
-    The pick's state goes on (it is used up). `PutBack.tabletop` is None, with why, when neither way
-    can be followed, the tool was not held, or the table did not come to rest."""
-    _check_state(pick, "turn_over")
-    if not pick.lifted:
-        return PutBack(tabletop=None, why="the tool was not held; it cannot be turned over")
-    go = _Going(pick, record_every)
-    m, d = go.m, go.d
-    site = m.site("gripper/grasp").id
-    T_wg = np.eye(4)
-    T_wg[:3, :3], T_wg[:3, 3] = d.site_xmat[site].reshape(3, 3), d.site_xpos[site]
-    tq = m.joint(f"tool_{index}").qposadr[0]
-    axis = _turn_axis(_quat_to_matrix(d.qpos[tq + 3:tq + 7].copy()))
-    if axis is None:
-        return PutBack(tabletop=None, why="the tool's handle is not lying along the table; it cannot be turned over")
-    width = float(np.asarray(pick.achieved.width, float)[0])
-    q_now = d.qpos[go.arm_q].copy()
-    n = PATH_SAMPLES
-    for angle in (TURN_ANGLE, -TURN_ANGLE):
-        q = ik.track(turn_path(T_wg, axis, width, angle)[None], q_now, min_height=robot.ARM_CLEARANCE)[0]
-        if _ik_ok(q):
-            break
-    else:
-        return PutBack(tabletop=None, why="the arm cannot turn the tool over either way (IK)")
-    t_rise, t_turn, t_lower, t_open, t_back = TURN_PHASES
-    go.follow(np.concatenate([q_now[None], q[:n + 1]]), t_rise, grip_force)
-    go.follow(q[n:2 * n + 1], t_turn, grip_force)
-    go.follow(q[2 * n:3 * n + 1], t_lower, grip_force)
-    go.open_to(q[3 * n], width, t_open)
-    go.follow(q[3 * n:], t_back, None)
-    return go.settle(top, "turning it over")

@@ -19,13 +19,13 @@ The stages (the paper's six, in simulation):
        weight alone always within `pickup.LIFT_TORQUE_LIMIT`);
   5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
-       it achieved measured), then the task rolled out from the achieved grasp (`simulate.simulate`,
+       it achieved measured), then the task rolled out from the achieved grasp (`sim.rollout.simulate`,
        randomised physics by default), its task success and grip failure as the labels define them.
        A pick that does not lift the tool, or lifts it into a grasp that cannot be carried through the
-       task, puts the tool back down (`pickup.put_back`, simulated on: the tools settle where they
+       task, puts the tool back down (`regrasp.put_back`, simulated on: the tools settle where they
        come to rest) and stages 4-6 run again on that table, without the grasps near those tried; where
        grasps are pickable but none can be carried through the task, the tool is picked by the one
-       whose lift loads the pads least and turned over onto another face (`pickup.turn_over`) before
+       whose lift loads the pads least and turned over onto another face (`regrasp.turn_over`) before
        planning again; up to MAX_PICK_ATTEMPTS picks in all (`run(max_attempts=)`).
 The move from the lift to the task's first pose is not simulated: the task rollout starts with the tool
 held at the grasp the pick achieved.
@@ -50,16 +50,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from typing import Any
 
 import numpy as np
 
 from itup_jax import grounding as grounding_mod
-from itup_jax import parts
+from itup_jax import robot
 from itup_jax.errors import InputError
+from itup_jax.grasp_sampler import MAX_CANDIDATES
 from itup_jax.tabletop import Tabletop, make_tabletop
-from itup_jax.tool import CATEGORY_CONTACT_NORMAL, Box, Tool
+from itup_jax.tools import CATEGORY_CONTACT_NORMAL, Box, Tool, parts
 
 #: method -> (grounding level, scorer).
 METHODS = {
@@ -80,8 +82,9 @@ SAMPLE_ROUNDS = 4
 #: `experiments/lift_torque.py`, cluttered: held 89 % at 1-1.5, 69 % at 1.5-2, 9 % at 2-3, none past 3),
 #: so the scorer chooses only among lifts about as good as the best the table allows.
 LIFT_FALLBACK_SPREAD = 0.25
-#: N per pad, the grip force of the pick and the task.
-DEFAULT_GRIP_FORCE = 100.0
+#: One instruction per task, in plain words the rule grounder reads (the whole chain's experiments use them).
+INSTRUCTIONS = {"hammer": "drive the nail", "sweep": "sweep the debris off the table",
+                "knock": "knock over the tower", "reach": "pull the block closer"}
 #: Stages a run can end at (`RunResult.stage`).
 STAGES = ("grounding", "plan", "pick", "grip", "task", "done")
 #: Steps between the pick's recorded poses when traces are kept (every 10 ms at the pick's 2 ms step).
@@ -110,8 +113,8 @@ class RunResult:
         'turn over: the least lift load' and the lift load as its score.
       pick: `pickup.PickResult` of the last pick (None when no pick ran).
       attempts: the picks before it, each {"choice", "pick" (its JSON), "why", "action"}: 'put_back'
-        (it could not go on: the tool put back down, `pickup.put_back`) or 'turn_over' (no grasp the
-        task can use was pickable: the tool turned over, `pickup.turn_over`); the table was planned
+        (it could not go on: the tool put back down, `regrasp.put_back`) or 'turn_over' (no grasp the
+        task can use was pickable: the tool turned over, `regrasp.turn_over`); the table was planned
         again after each.
       pick_tabletop: the table as the last pick found it (None when that is `tabletop`: no earlier pick).
       labels: the task rollout's labels as {name: value} (None when none ran).
@@ -140,6 +143,40 @@ class RunResult:
     @property
     def success(self) -> bool:
         return self.stage == "done"
+
+    def report(self) -> str:
+        """The run as `itup run` prints it: the grounding, the candidates at each filter, every pick, the
+        task's measurement and where the chain ended."""
+        from itup_jax import pickup
+
+        lines: list[str] = []
+        out = lines.append
+        g = self.grounding
+        out(f"grounded: task {g.task} (target: the {g.target}), tool {g.tool_index + 1} {g.tool_name}, "
+            f"strike with the {g.work_part}, hold the {g.grasp_part}" + "".join(f"; {n}" for n in g.notes))
+        c = self.counts
+        if c:
+            out(f"grasps: {c['sampled']} sampled, {c.get('pick_reachable', 0)} can be picked from the rest pose, "
+                f"{c.get('task_reachable', 0)} of those can be carried through the task, {c.get('lift_within_share', 0)} "
+                f"of those the pads' torsional grip holds through the lift (its load at most "
+                f"{pickup.LIFT_TORQUE_SHARE:.0%} of the grip's capacity)")
+            if c.get("scored") and not c.get("lift_within_share"):
+                out(f"  none does: scored the {c['scored']} least-loaded lifts (within {LIFT_FALLBACK_SPREAD:.0%} "
+                    f"of the grip's capacity of the least; the tool may turn in the pads)")
+        for k, a in enumerate(self.attempts):
+            out(f"pick {k + 1}: {a['why']}; " + ("turned the tool over" if a["action"] == "turn_over" else
+                                                 "put the tool back down") + ", planned again")
+        if self.pick is not None:
+            p = self.pick
+            out(f"pick{'' if not self.attempts else f' {len(self.attempts) + 1}'}: {'lifted' if p.lifted else 'failed'} (rose "
+                f"{p.rise * 1000:.0f} mm); achieved grasp {p.position_error * 1000:.1f} mm and "
+                f"{np.degrees(p.angle_error):.1f} deg from the planned one")
+        if self.labels is not None:
+            L = self.labels
+            out(f"task: metric {L['task_metric']:.4g}, success {L['success']}, grip failure {L['failed']}; full "
+                f"induced peak wrist torque {L['peak_torque_induced']:.2f} N·m (raw {L['peak_torque']:.2f})")
+        out(f"{'done' if self.success else 'ended at ' + self.stage}: {self.message}")
+        return "\n".join(lines)
 
     def to_json(self) -> dict:
         return {"schema": "itup.run/1", "instruction": self.instruction, "method": self.method, "stage": self.stage,
@@ -215,7 +252,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
     leaving out grasps within RETRY_EXCLUSION of a `tried` origin. Returns {"counts", "grasps", "shifts",
     "q_paths", "lift_load"} or {"counts", "failure": why none, "stage": where the run ends, and where
     grasps could be picked but none carried: "turnable": (of the pickable grasps whose turn the arm can
-    follow, `pickup.can_turn_over`, the one [1] whose lift loads the pads least, its joint path, its lift
+    follow, `regrasp.can_turn_over`, the one [1] whose lift loads the pads least, its joint path, its lift
     load), to turn the tool over with}."""
     import itup_jax as itup
     from itup_jax.grasp_sampler import SamplingError
@@ -262,7 +299,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
             what = f"none of the {counts['pick_reachable']} pickable grasps can be carried through the {g.task} task"
         out = {"counts": counts, "failure": what, "stage": "pick"}
         if pickable:
-            from itup_jax.pickup import can_turn_over
+            from itup_jax.regrasp import can_turn_over
 
             # of the pickable grasps whose turn the arm can follow, the one whose lift loads the pads least
             best = None
@@ -296,7 +333,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
 
 def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
         method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
-        grip_force: float = DEFAULT_GRIP_FORCE, randomize: bool = True, model: Any = None,
+        grip_force: float = robot.GRIP_FORCE, randomize: bool = True, model: Any = None,
         traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS) -> RunResult:
     """Run the whole chain once (module docstring).
 
@@ -308,24 +345,29 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       samples: grasps sampled per round before the pick and reach filters (rounds until MIN_CANDIDATES
         pass, at most SAMPLE_ROUNDS).
       grip_force: N per pad, pick and task.  randomize: the task's physics drawn around the priors
-        (`simulate.Randomization`), else nominal.
+        (`sim.physics.Randomization`), else nominal.
       model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
       traces: keep the task rollout's per-step traces and the picks' body poses (for `mcap_log`: every
         pick and put-back in turn, in `pick.trace`).
       max_attempts: picks made at most. A pick that does not lift the tool, or lifts it into a grasp
-        that cannot be carried through the task, puts it back down (`pickup.put_back`); where no
-        pickable grasp can be carried through the task, a pick turns the tool over (`pickup.turn_over`);
+        that cannot be carried through the task, puts it back down (`regrasp.put_back`); where no
+        pickable grasp can be carried through the task, a pick turns the tool over (`regrasp.turn_over`);
         either way the table is planned again from the tools' new rest poses, without the grasps within
         RETRY_EXCLUSION of those tried. 1: one pick, as planned first.
     """
     import itup_jax as itup
-    from itup_jax.pickup import execute_pick, put_back, turn_over
-    from itup_jax.simulate import Randomization, SimConfig, reachable, simulate
+    from itup_jax.pickup import execute_pick
+    from itup_jax.regrasp import put_back, turn_over
+    from itup_jax.sim.arm import reachable
+    from itup_jax.sim.config import SimConfig
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.sim.rollout import simulate
 
     if method not in METHODS:
         raise InputError(f"run: method {method!r}: unknown; choose from {', '.join(METHODS)}")
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise InputError(f"run: samples must be an integer >= 1, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_CANDIDATES:
+        raise InputError(f"run: samples must be an integer in 1..{MAX_CANDIDATES:,} (grasps sampled per round), got "
+                         f"{samples!r}")
     if not (isinstance(grip_force, (int, float)) and math.isfinite(grip_force) and grip_force > 0):
         raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
     if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
@@ -441,3 +483,32 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     if not labels["success"]:
         return end("task", f"the {g.task} task was not done (task metric {labels['task_metric']:.4g})", **kw)
     return end("done", f"the {g.task} task was done with the {tool.name}", **kw)
+
+
+def write_outputs(r: RunResult, out: str, *, view: str = "top") -> dict[str, str]:
+    """Write a run's files into folder `out` (made if missing): `pick.mcap` (every pick and put-back, when a
+    pick ran), `task.mcap` (the task rollout, when one ran), `scene.png` (the table with the grounded tool
+    highlighted, from `view`: 'camera' or 'top') and `run.json` (schema itup.run/1, with the files and the
+    view). Returns {what: path}. `itup run` is `run`, this and a printout."""
+    from itup_jax import tabletop
+    from itup_jax.atomic import atomic_write, atomic_write_json
+    from itup_jax.mcap_log import bodies_mcap_bytes, write_rollout_mcap
+    from itup_jax.sim.scene import build_scene
+
+    os.makedirs(out, exist_ok=True)
+    files = {}
+    g = r.grounding
+    if r.pick is not None and r.pick.trace is not None:
+        tr = r.pick.trace
+        files["pick_mcap"] = os.path.join(out, "pick.mcap")
+        atomic_write(files["pick_mcap"], bodies_mcap_bytes(tr["model"], tr["t"], tr["pos"], tr["quat"], tr["bodies"],
+                                                           {"tool": g.tool_name, "instruction": r.instruction}))
+    if r.sim is not None:
+        files["mcap"] = write_rollout_mcap(os.path.join(out, "task.mcap"), build_scene(r.tool, r.task), r.task, r.sim,
+                                           0, grasp=r.pick.achieved[0])
+    files["png"] = os.path.join(out, "scene.png")
+    tabletop.picture(r.tabletop, files["png"], highlight=g.tool_index, view=view,
+                     title=f"{r.instruction!r}: tool {g.tool_index + 1} ({g.tool_name}); {r.stage}")
+    files["json"] = os.path.join(out, "run.json")
+    atomic_write_json(files["json"], {**r.to_json(), "files": files, "picture_view": view}, indent=2)
+    return files

@@ -20,7 +20,8 @@ import numpy as np
 
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, to_graspnet
-from itup_jax.tool import Tool
+from itup_jax.grasp_sampler import MAX_CANDIDATES
+from itup_jax.tools import Tool
 
 #: Candidates sampled by default.
 DEFAULT_N = 1000
@@ -121,6 +122,104 @@ class GraspPlan:
                       if getattr(s, k, None) is not None},
         }
 
+    def report(self) -> str:
+        """The plan as `itup plan` prints it: the ranking, the pick, the verification rollouts and what to
+        try when there is no pick."""
+        lines: list[str] = []
+        out = lines.append
+        tool, grasps, costs = self.tool, self.grasps, self.scores
+        sm = self.sampling
+        drawn = (f"{sm['reachable']} reachable of {sm['drawn']} drawn" if sm["mode"] == "reachable"
+                 else f"{sm['drawn']} drawn")
+        out(f"task {self.task.kind} | tool {tool.name} ({tool.mass:.3f} kg) | regime {self.regime} | "
+            f"{self.n} antipodal candidates ({drawn}, seed {self.seed}) | scorer {self.scorer}")
+        if sm["mode"] == "reachable" and not sm["complete"]:
+            out(f"warning: the arm can carry {sm['reachable']} of {sm['drawn']} drawn candidates through the task, "
+                f"fewer than the {sm['requested']} asked for (--budget {sm['budget']} spent)")
+        g = self.guard
+        if g is not None and g.fired:
+            if self.guard_verified:
+                what = (f"{self.verify_k} grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
+                        "trust the learned score)")
+            else:
+                what = ("the --verify rollouts decide the pick" if self.verified is not None
+                        else "--no-guard: the learned score decides the pick")
+            if self.shortlist_rule == "guard_mixed":
+                m = int(GUARD_ANALYTIC_SHARE * self.verify_k)
+                what += (f"; the grasps verified are SDG-Net's {self.verify_k - m} best and the analytic wrench cost's "
+                         f"{m} best")
+            out("warning: " + g.message(tool.name, self.task.kind) + "; " + what)
+        if costs is None:  # the reachable sampler found none: nothing was scored
+            out(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
+                "(closed-form IK); " + "; ".join(self.advice))
+            return "\n".join(lines)
+        # analytic costs are wrench components (N m, N, rad); SDG-Net predicts measured torque, slip, drift
+        # (N m, m, rad); the baselines' scores are dimensionless
+        units = {"analytic": ("N·m", "N", "rad"), "analytic_wrench": ("N·m", "N", "rad"), "sdgnet": ("N·m", "m", "rad"),
+                 "sdgnet_paper": ("N·m", "m", "rad")}.get(self.scorer, ("", "", ""))
+        grip = getattr(costs, "grip", None) is not None  # a wrench-objective SDG-Net: predicted grip demand (N per pad)
+        p_task = getattr(costs, "p_success", None) is not None  # SDG-Net with a success head: P(task achieved)
+        p_fail = getattr(costs, "p_failed", None) is not None  # and with a failure head: P(fails in the grip)
+        p_weak = getattr(costs, "p_failed_weak", None) is not None  # and with a weak-grip head: P(fails at 25 N)
+        out(f"{'rank':>4} {'idx':>5} {'C_tau ' + units[0]:>10} {'C_s ' + units[1]:>9} {'C_alpha ' + units[2]:>11} "
+            + (f"{'grip N':>7} " if grip else "")
+            + (f"{'P(task)':>7} " if p_task else "") + (f"{'P(fail)':>7} " if p_fail else "")
+            + (f"{'P(f@25)':>7} " if p_weak else "")
+            + f"{'C':>9} {'reach':>5}  grasp origin (tool frame, m)")
+        listed = [(rank, int(i)) for rank, i in enumerate(self.top)]
+        pick_rank, best = self.pick_rank, self.best_index
+        if pick_rank >= len(self.top):  # the pick lies below the listed ones: its row follows them
+            listed.append((pick_rank, best))
+        marked = self.status == "ok" and self.verified is None
+        for rank, i in listed:
+            c = self.row(i)["costs"]
+            if rank > len(self.top):  # a gap between the listed rows and the pick
+                out(f"{'...':>4}")
+            out(f"{rank + 1:>4} {i:>5} {c['tau']:>10.3f} {c['slip']:>9.3f} {c['align']:>11.3f} "
+                + (f"{c['grip']:>7.1f} " if grip else "")
+                + (f"{c['p_success']:>7.2f} " if p_task else "") + (f"{c['p_failed']:>7.2f} " if p_fail else "")
+                + (f"{c['p_failed_weak']:>7.2f} " if p_weak else "")
+                + f"{c['total']:>9.3f} {'yes' if self.reachable[i] else 'no':>5}  "
+                f"{np.asarray(grasps.p_tool_grasp)[i].astype(float).round(4).tolist()}"
+                f"{' <- pick' if i == best and marked else ''}")
+        if self.status == "no_reachable_candidate":
+            out(f"no pick: none of the {self.n} candidates is reachable for the arm along the task (closed-form IK); "
+                + "; ".join(self.advice))
+        elif pick_rank > 0:
+            out(f"reach: whether the arm can follow the task trajectory with the grasp (closed-form IK); the pick is "
+                f"the best-scored reachable grasp (rank {pick_rank + 1}); --verify K rolls out the K best reachable ones")
+        total = np.asarray(costs.total)
+        out(f"all candidates: C {total.min():.3f}..{total.max():.3f} (median {float(np.median(total)):.3f})")
+        v = self.verified
+        if v is None:
+            return "\n".join(lines)
+        draws = self.verify_draws
+        out(f"MuJoCo ({self.physics} physics{', seed ' + str(self.seed) if self.physics == 'random' else ''}"
+            f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
+            + ("by the scorer" if self.shortlist_rule == "scorer" else "by SDG-Net and by the analytic wrench cost")
+            + f": the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
+        out(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
+            f"{'failed':>6} {'success':>7} {'measured C':>10}")
+        for j, row in enumerate(self.verify_rows):
+            r, d = divmod(j, draws)
+            i = row["index"]
+            status = "ok" if row["valid"] else "diverged"
+            mean = (f"{v.measured_total[r]:>10.3f}{' *' if i == v.index else ''}" if d == draws - 1 else "")
+            out(f"{(str(r + 1) if d == 0 else ''):>4} {(str(i) if d == 0 else ''):>5} {status:>8} "
+                f"{row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
+                f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
+                f"{str(row['failed']):>6} {str(row['success']):>7} {mean}")
+        ahead = (int(np.sum(total[v.unreachable] <= total[v.shortlist].max())) if len(v.shortlist)
+                 else len(v.unreachable))
+        if ahead:
+            out(f"({ahead} grasp(s) scored among these are unreachable for the arm along the task (IK) and were skipped)")
+        if v.chosen_by == "score":
+            out("no rollout was valid: the scorer's pick stands (it may be unreachable)")
+        if self.status == "no_verified_success":
+            out(f"no pick: none of the {len(v.shortlist)} verified grasps did the task and held in MuJoCo; "
+                + "; ".join(self.advice))
+        return "\n".join(lines)
+
     def to_json(self) -> dict[str, Any]:
         """The `itup.plan/6` document."""
         s = self.scores
@@ -160,23 +259,6 @@ class GraspPlan:
         return out
 
 
-def first_reachable(task, grasps: Grasps, ranking: np.ndarray, *, check_first: int = 0) -> tuple[int | None, dict]:
-    """(rank of the first reachable candidate of `ranking` or None, {index: reachable} of every candidate
-    checked). Walks the ranking in chunks (`simulate.reachability_in_order`) until a reachable one is
-    found and at least the first `check_first` are checked."""
-    from itup_jax.simulate import reachability_in_order  # MuJoCo's kinematics: imported only when asked
-
-    reachable: dict[int, bool] = {}
-    rank_found = None
-    for rank, (i, ok) in enumerate(reachability_in_order(task, grasps, ranking)):
-        reachable[i] = ok
-        if ok and rank_found is None:
-            rank_found = rank
-        if rank_found is not None and rank + 1 >= check_first:
-            break
-    return rank_found, reachable
-
-
 def guard_order(scorer_total: np.ndarray, analytic_total: np.ndarray, k: int) -> np.ndarray:
     """[N] the order in which the verifier tries candidates when the out-of-distribution guard fired: the
     k - m best by the scorer, then the m = floor(GUARD_ANALYTIC_SHARE k) best by the analytic wrench cost
@@ -205,7 +287,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         found or `budget` candidates are spent (`grasp_sampler.sample_reachable`; fewer are scored when
         the budget runs out, none: status "no_reachable_candidate"). "all": n drawn, scored, and the
         ranking walked to the best reachable one.
-      scorer: "sdgnet" (the checkpoint `model`, a path or a loaded `sdgnet.Model`; default the shipped
+      scorer: "sdgnet" (the checkpoint `model`, a path or a loaded `sdgnet.model.Model`; default the shipped
         one), "sdgnet_paper" (the paper objective's shipped checkpoint), "analytic" (the paper's form),
         "analytic_wrench" (the grip-demand form), or a baseline.
       weights: the total's weights: for the analytic scorers `CostParams` fields (w_tau, w_slip,
@@ -228,12 +310,15 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       InputError: an invalid option or combination, before any work.
     """
     import itup_jax as itup
-    from itup_jax.objective import OBJECTIVES
     from itup_jax.scoring import ANALYTIC_SCORERS, SCORERS, SDGNET_SCORERS, ScoreWeights
+    from itup_jax.sdgnet.objective import OBJECTIVES
 
     for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
         if not isinstance(v, (int, np.integer)) or v < lowest:
             raise InputError(f"plan_grasp: {flag} must be an integer >= {lowest}, got {v!r}")
+    if n > MAX_CANDIDATES:
+        raise InputError(f"plan_grasp: n must be at most {MAX_CANDIDATES:,} (candidates sampled, checked for reach and "
+                         f"scored: ~45 s on a 2-core CPU at the most), got {n:,}")
     if scorer not in SCORERS:
         raise InputError(f"plan_grasp: scorer {scorer!r}: unknown; choose from {', '.join(SCORERS)}")
     physics = verify_physics or ("random" if verify_draws > 1 else "nominal")
@@ -289,7 +374,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     reading, guard_verified = None, False
     if scorer in SDGNET_SCORERS:
         from itup_jax import ood
-        from itup_jax.sdgnet import PAPER_MODEL
+        from itup_jax.sdgnet.config import PAPER_MODEL
 
         reading = ood.check(tool, task, grasps, model=PAPER_MODEL if scorer == "sdgnet_paper" else model)
         if guard and reading.fired and verify == 0:
@@ -304,6 +389,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     if sampled is not None:  # every candidate is reachable
         rank_found, reachable = 0, {int(i): True for i in order}
     else:
+        from itup_jax.sim.arm import first_reachable  # MuJoCo's kinematics: imported only when asked
+
         rank_found, reachable = first_reachable(task, grasps, ranking, check_first=len(order))
         sampled = {"mode": "all", "requested": n, "reachable": sum(reachable.values()), "drawn": n, "budget": n,
                    "complete": rank_found is not None}
@@ -319,7 +406,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     if verify == 0:
         return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
 
-    from itup_jax.simulate import Randomization
+    from itup_jax.sim.physics import Randomization
     from itup_jax.verify import best_grasp_verified, measured_total, objective_of
 
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's

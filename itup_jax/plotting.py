@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
 
 from itup_jax.grasp import Grasps, gripper_boxes  # noqa: E402
-from itup_jax.tool import Tool  # noqa: E402
+from itup_jax.tools import Tool  # noqa: E402
 
 AXIS_COLOURS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
 _BOX_EDGES = [(0, 1), (0, 2), (0, 4), (1, 3), (1, 5), (2, 3), (2, 6), (3, 7), (4, 5), (4, 6), (5, 7), (6, 7)]
@@ -128,14 +128,14 @@ def plot_grasp_candidates(tool: Tool, grasps: Grasps, values: Any, path: str, *,
     return save_figure(fig, path, dpi=100)
 
 
-def _view_axes(tool: Tool) -> tuple[int, int]:
+def view_axes(tool: Tool) -> tuple[int, int]:
     """The tool-frame plane a side view draws: (the axis across the handle that the contact normal leans
     along, z). Hammer and mallet: x-z (the face normal is +x); broom: y-z; L-stick: x-z (its hook)."""
     n = np.asarray(tool.contact_normal, float)
     return (0, 2) if abs(n[0]) >= abs(n[1]) else (1, 2)
 
 
-def _silhouette(ax, tool: Tool, axes: tuple[int, int], colour: str = "0.8", origin=(0.0, 0.0),
+def silhouette(ax, tool: Tool, axes: tuple[int, int], colour: str = "0.8", origin=(0.0, 0.0),
                 scale: float = 1.0) -> None:
     """The mesh projected on the plane of `axes`: every triangle filled (their union is the outline),
     drawn as scale * (point - origin) (e.g. mm about a zoom's centre)."""
@@ -172,14 +172,14 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     at contact, tool frame), the direction the tool moves; each pick as the outline of its two pads and
     its approach axis. Middle: the same view zoomed on the picks, in mm, each pick with its own colour and
     line style. Right: the torque traces, {method: (t [S] s, induced [S] N m, raw [S] N m)}: the full
-    induced torque (`simulate.induced`'s norm, the comparison's headline; solid) and the raw torque
+    induced torque (`sim.labels.induced`'s norm, the comparison's headline; solid) and the raw torque
     norm, holding torque included (dotted).
     grasps: {method: Grasps of one}. Writes a PNG (atomically) and returns the path."""
     from matplotlib.ticker import MaxNLocator
 
     colours = ["tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
     styles = ["-", "--", "-.", ":", "-", "--"]
-    axes = _view_axes(tool)
+    axes = view_axes(tool)
     names = "xyz"
     ncol = 3 if traces else 2
     fig, axs = plt.subplots(1, ncol, figsize=(5.2 * ncol, 5.2), gridspec_kw={"width_ratios": [1, 1, 1.6][:ncol]})
@@ -189,7 +189,7 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     span = float(np.ptp(verts, axis=0).max())
     pads = {name: _pad_outlines(g, axes) for name, g in grasps.items()}
     ax = axs[0]
-    _silhouette(ax, tool, axes)
+    silhouette(ax, tool, axes)
     for name, c, ls in zip(grasps, colours, styles):
         for pad in pads[name]:
             ax.fill(*pad.T, facecolor=c, alpha=0.35, edgecolor=c, lw=1.2, ls=ls)
@@ -223,7 +223,7 @@ def plot_picks(tool: Tool, grasps: dict, path: str, *, traces: dict | None = Non
     pts = np.concatenate([np.concatenate(v) for v in pads.values()])
     centre = pts.mean(0)
     half = max(float(np.ptp(pts, axis=0).max()) / 2 + 0.015, 0.03)
-    _silhouette(ax, tool, axes, colour="0.85", origin=centre, scale=1e3)
+    silhouette(ax, tool, axes, colour="0.85", origin=centre, scale=1e3)
     for (name, g), c, ls in zip(grasps.items(), colours, styles):
         for k, pad in enumerate(pads[name]):
             ax.fill(*(1e3 * (pad - centre)).T, facecolor="none", edgecolor=c, lw=2, ls=ls,

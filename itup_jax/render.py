@@ -26,8 +26,9 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from itup_jax.scene import Scene
-from itup_jax.simulate import Physics, Plan, randomized_model
+from itup_jax.sim.arm import Plan
+from itup_jax.sim.physics import Physics, randomized_model
+from itup_jax.sim.scene import Scene
 
 
 class RenderUnavailable(RuntimeError):

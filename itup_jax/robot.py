@@ -45,6 +45,9 @@ JOINT_TORQUE_LIMITS = np.array([150.0, 150.0, 150.0, 28.0, 28.0, 28.0])
 GRIPPER_MAX_OPENING = 0.085  # m, full stroke
 GRIPPER_MIN_GRIP_FORCE = 20.0  # N
 GRIPPER_MAX_GRIP_FORCE = 235.0  # N
+#: N per pad, the grip every rollout, pick and analytic wrist load uses unless told otherwise (randomised
+#: +-20 % with the physics draws), within the 2F-85's range.
+GRIP_FORCE = 100.0
 GRIPPER_MASS = 0.925  # kg
 PAD_WIDTH = 0.022  # m, pad extent along the grasp x axis
 PAD_LENGTH = 0.0375  # m, pad extent along the approach (z) axis

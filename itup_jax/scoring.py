@@ -12,7 +12,6 @@ with the same shapes does not recompile.
 from __future__ import annotations
 
 import dataclasses
-import weakref
 from typing import Any
 
 import jax
@@ -22,14 +21,16 @@ import numpy as np
 from itup_jax.baselines import BASELINES
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, check_seed
-from itup_jax.features import DensityField, _batched, tool_field
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.objective import WRENCH, costs_of
 from itup_jax.precision import full_precision
-from itup_jax.sdgnet import PAPER_MODEL, Model, load_model, predict_from_features
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.config import PAPER_MODEL
+from itup_jax.sdgnet.features import batched, cached_tool_field
+from itup_jax.sdgnet.model import Model, predict_from_features
+from itup_jax.sdgnet.objective import WRENCH, costs_of
 from itup_jax.shapes import to_device
 from itup_jax.task import Task
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 from itup_jax.wrench import task_loads
 
 #: Weights of SDG-Net's predicted probabilities in the total (N m of torque per unit): that the grasp
@@ -100,7 +101,7 @@ class ScoreWeights:
         return cls(w_tau=1.0, w_slip=0.0, w_align=0.0, w_grip=0.0, w_task=w_task, w_fail=w_fail)
 
     def costs(self, dtype=jnp.float32) -> jax.Array:
-        """[4] weights of the cost columns (tau, slip, align, grip: `objective.COST_COLUMNS`)."""
+        """[4] weights of the cost columns (tau, slip, align, grip: `sdgnet.objective.COST_COLUMNS`)."""
         return to_device([self.w_tau, self.w_slip, self.w_align, self.w_grip], dtype)
 
     def heads(self, class_heads, dtype=jnp.float32) -> jax.Array:
@@ -142,7 +143,7 @@ class Scores:
 def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_mean, y_std, y_scale, w_costs,
                    head_coef, spec, objective):
     loads = task_loads(tool_params, task)
-    feats = _batched(field, loads, tool_params, grasps, spec)
+    feats = batched(field, loads, tool_params, grasps, spec)
     y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
     c = costs_of(y, objective)
     return c[:, 0], c[:, 1], c[:, 2], c[:, 3], sdgnet_total(c, p, w_costs, head_coef), p
@@ -150,27 +151,16 @@ def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_me
 
 #: The one jit of SDG-Net scoring (the outer call).
 sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("spec", "objective"))
-_FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
 
 
-def _tool_field(tool: Tool, spec, dt) -> DensityField:
-    """The tool's density field for a feature spec in dtype `dt`, cached per tool and spec (no
-    conversion per call)."""
-    per_tool = _FIELDS.setdefault(tool, {})
-    if spec not in per_tool:
-        f = tool_field(tool, spec)
-        per_tool[spec] = DensityField(to_device(f.values, dt), to_device(f.origin, dt), f.spacing)
-    return per_tool[spec]
-
-
-def _sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
+def sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:
     """Arguments of `sdgnet_scores_jit` (float32; the tool's density field cached per tool and spec)."""
     model = model.for_task(task.kind)
     spec = model.feature_spec
     dt = jnp.float32
     s = model.spec
     params = [(to_device(W, dt), to_device(b, dt)) for W, b in model.params]
-    args = (_tool_field(tool, spec, dt), tool.params, task, grasps, params,
+    args = (cached_tool_field(tool, spec, dt), tool.params, task, grasps, params,
             to_device(s["x_mean"], dt), to_device(s["x_std"], dt), to_device(s["y_mean"], dt),
             to_device(s["y_std"], dt), to_device(s["target_scales"], dt), weights.costs(dt),
             weights.heads(model.class_heads, dt))
@@ -204,7 +194,7 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
         model = load_model(model)
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
-    args, kw = _sdgnet_args(tool, task, grasps, model, weights)
+    args, kw = sdgnet_args(tool, task, grasps, model, weights)
     tau, slip, align, grip, total, p = sdgnet_scores_jit(*args, **kw)
     probs = {name: p[:, j] for j, name in enumerate(model.for_task(task.kind).head_names)}
     return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet",
@@ -243,7 +233,7 @@ def best_grasp(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, rea
     """(index, that grasp, all scores) of the lowest total score (`score`'s keywords pass through).
 
     reachable_only: the lowest-scored grasp with which the arm can follow the task's trajectory
-    (closed-form IK, `simulate.reachable`, checked down the ranking 16 at a time, ~0.2 ms a grasp): the
+    (closed-form IK, `sim.arm.reachable`, checked down the ranking 16 at a time, ~0.2 ms a grasp): the
     scorers rank grasps, not the arm's reach, and raw candidates are often unreachable (about half of a
     sample; for the reach task's L-stick SDG-Net's 20 best of 1,000). Raises InputError when none is.
     """
@@ -252,7 +242,7 @@ def best_grasp(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *, rea
     if not reachable_only:
         i = int(np.argmin(total))
         return i, grasps[i], s
-    from itup_jax.planning import first_reachable
+    from itup_jax.sim.arm import first_reachable  # MuJoCo's kinematics: imported only when asked
 
     ranking = np.argsort(total, kind="stable")
     rank, _ = first_reachable(task, grasps, ranking)

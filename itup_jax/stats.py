@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import expit, log_expit
-from scipy.stats import mannwhitneyu, spearmanr
+from scipy.stats import beta, mannwhitneyu, spearmanr
 
 from itup_jax.errors import InputError, is_integer
 
@@ -150,3 +150,12 @@ def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0, level: float = 0
         tail = 100 * (1 - level) / 2
         out["ci"] = [float(np.exp(np.percentile(means, tail))), float(np.exp(np.percentile(means, 100 - tail)))]
     return out
+
+
+def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) binomial interval of a success rate, k successes in n trials, at
+    `level`: the beta quantiles, 0 and 1 at the ends (k = 0, k = n)."""
+    a = 1 - level
+    lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
+    return lo, hi

@@ -26,8 +26,11 @@ import numpy as np
 from itup_jax import robot
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
-from itup_jax.scene import Scene, build_scene
-from itup_jax.simulate import Labels, Randomization, SimConfig, simulate
+from itup_jax.sim.config import SimConfig
+from itup_jax.sim.labels import Labels
+from itup_jax.sim.physics import Randomization
+from itup_jax.sim.rollout import simulate
+from itup_jax.sim.scene import Scene, build_scene
 
 #: N per pad: the bisection's range (the lower end a probe below the gripper's 20 N).
 GRIP_RANGE = (5.0, robot.GRIPPER_MAX_GRIP_FORCE)

@@ -33,10 +33,10 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from itup_jax import families
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grounding import TARGETS
-from itup_jax.tool import Tool, load_tool
+from itup_jax.rotations import axis_angle_matrix_np
+from itup_jax.tools import Tool, families, load_tool
 
 #: m/s, a tool is at rest when every point of it moves slower than this.
 REST_SPEED = 0.005
@@ -82,7 +82,7 @@ class Tabletop:
     rest_speed: float
 
     def to_json(self) -> dict:
-        from itup_jax import parts
+        from itup_jax.tools import parts
 
         return {"seed": self.seed, "clutter": self.clutter, "targets": list(self.targets),
                 "settle_time_s": round(self.settle_time, 3), "rest_speed_m_s": float(self.rest_speed),
@@ -91,27 +91,21 @@ class Tabletop:
                            "parts": [p.name for p in parts.tool_parts(t)]} for i, t in enumerate(self.tools)]}
 
 
-def _rot(axis: Sequence[float], angle: float) -> np.ndarray:
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
-
-
-def _add_tool_body(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> list[str]:
+def add_table_tool(spec: mujoco.MjSpec, i: int, tool: Tool, T: np.ndarray) -> list[str]:
     """A free body 'tool_<i>' at pose T that collides with the table and the other tools
-    (`scene.add_tool_body`). Returns the geom names."""
-    from itup_jax.scene import add_tool_body
-    from itup_jax.simulate import _quat_from_matrix
+    (`sim.scene.add_tool_body`). Returns the geom names."""
+    from itup_jax.rotations import matrix_to_quat_np
+    from itup_jax.sim.scene import add_tool_body
 
-    return add_tool_body(spec, tool, f"tool_{i}", pos=T[:3, 3], quat=_quat_from_matrix(T[:3, :3]), contype=1, conaffinity=1,
+    return add_tool_body(spec, tool, f"tool_{i}", pos=T[:3, 3], quat=matrix_to_quat_np(T[:3, :3]), contype=1, conaffinity=1,
                          friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], condim=6)
 
 
 def _drop_model(tools: Sequence[Tool], poses: np.ndarray) -> mujoco.MjModel:
-    return _tools_spec(tools, poses, DROP_TIMESTEP).compile()
+    return tools_spec(tools, poses, DROP_TIMESTEP).compile()
 
 
-def _tools_spec(tools: Sequence[Tool], poses: np.ndarray, timestep: float) -> mujoco.MjSpec:
+def tools_spec(tools: Sequence[Tool], poses: np.ndarray, timestep: float) -> mujoco.MjSpec:
     """The table and `tools` at `poses` [N, 4, 4], free, with the drop's contact options (step `timestep`)."""
     spec = mujoco.MjSpec()
     spec.option.timestep = timestep
@@ -124,14 +118,14 @@ def _tools_spec(tools: Sequence[Tool], poses: np.ndarray, timestep: float) -> mu
     spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.5, 1.5, 0.01],
                             friction=[TABLE_FRICTION, 0.005, ROLLING_FRICTION], contype=1, conaffinity=1, condim=6)
     for i, (t, T) in enumerate(zip(tools, poses)):
-        _add_tool_body(spec, i, t, T)
+        add_table_tool(spec, i, t, T)
     return spec
 
 
 def _lying_pose(tool: Tool, xy: np.ndarray, yaw: float, roll: float, z_gap: float) -> np.ndarray:
     """A pose with the tool's handle axis (its z) horizontal along yaw, turned by `roll` about it, its
     lowest point z_gap above the table."""
-    R = _rot((0, 0, 1), yaw) @ _rot((0, 1, 0), math.pi / 2) @ _rot((0, 0, 1), roll)
+    R = axis_angle_matrix_np((0, 0, 1), yaw) @ axis_angle_matrix_np((0, 1, 0), math.pi / 2) @ axis_angle_matrix_np((0, 0, 1), roll)
     v = np.asarray(tool.mesh.vertices, float) @ R.T
     centre = 0.5 * (v.min(0) + v.max(0))
     T = np.eye(4)
@@ -233,7 +227,7 @@ def _layout_once(tools: Sequence[Tool], n_apart: int, rng: np.random.Generator) 
     return np.array(poses)
 
 
-def _point_speeds(m: mujoco.MjModel, d: mujoco.MjData, tools: Sequence[Tool]) -> float:
+def point_speeds(m: mujoco.MjModel, d: mujoco.MjData, tools: Sequence[Tool]) -> float:
     """The fastest speed (m/s) of any tool's bounding-box corner."""
     best = 0.0
     for i, t in enumerate(tools):
@@ -257,7 +251,7 @@ def drop(tools: Sequence[Tool], poses: np.ndarray) -> tuple[np.ndarray, float, f
     while t < DROP_MAX_TIME:
         mujoco.mj_step(m, d, nstep=check_every)
         t += check_every * DROP_TIMESTEP
-        speed = _point_speeds(m, d, tools)
+        speed = point_speeds(m, d, tools)
         if t >= DROP_MIN_TIME and speed < REST_SPEED:
             break
     else:
@@ -413,8 +407,8 @@ def _render_model(top: Tabletop, highlight: int | None) -> tuple[mujoco.MjModel,
     import matplotlib.pyplot as plt
 
     from itup_jax import tasks
-    from itup_jax.scene import MJCF_DIR
-    from itup_jax.simulate import _quat_from_matrix
+    from itup_jax.rotations import matrix_to_quat_np
+    from itup_jax.sim.scene import MJCF_DIR
     from itup_jax.task import make_task
 
     spec = mujoco.MjSpec()
@@ -433,7 +427,7 @@ def _render_model(top: Tabletop, highlight: int | None) -> tuple[mujoco.MjModel,
         rgba = list(colours(i % 10))
         if highlight is not None and highlight != i:
             rgba = [0.6 + 0.4 * c for c in rgba[:3]] + [1.0]  # faint: towards white
-        body = spec.worldbody.add_body(name=f"tool_{i}", pos=T[:3, 3], quat=_quat_from_matrix(T[:3, :3]))
+        body = spec.worldbody.add_body(name=f"tool_{i}", pos=T[:3, 3], quat=matrix_to_quat_np(T[:3, :3]))
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"tool_{i}", rgba=rgba)
     labels = {}
     for kind, name in TARGETS.items():
@@ -463,7 +457,7 @@ def _render_model(top: Tabletop, highlight: int | None) -> tuple[mujoco.MjModel,
 def _tool_marks(top: Tabletop) -> list[tuple[dict[str, np.ndarray], np.ndarray]]:
     """The marks both views draw, per tool: its parts' labels ('2a': tool 2's first part) with each
     part's centre, and its grasp part's centre, where its number goes (m, world)."""
-    from itup_jax import parts
+    from itup_jax.tools import parts
 
     out = []
     for i, (t, T) in enumerate(zip(top.tools, top.poses)):

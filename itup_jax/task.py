@@ -29,12 +29,12 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import jaxlie
 import numpy as np
 
 from itup_jax import robot, units
 from itup_jax.errors import InputError
-from itup_jax.tool import Tool
+from itup_jax.rotations import axis_angle_matrix
+from itup_jax.tools import Tool
 from itup_jax.trajectory import Profile, Trajectory, sample_pose_fn
 
 
@@ -187,10 +187,6 @@ def time_grid(steps: int, durations: list[float]) -> tuple[np.ndarray, list[floa
     return t, knots
 
 
-def rot(axis: np.ndarray, angle: jax.Array) -> jax.Array:
-    return jaxlie.SO3.exp(jnp.asarray(axis) * angle).as_matrix()
-
-
 #: The share of the UR5e's joint-speed limit a swing may reach at impact (`swing_pivot_offset`).
 SWING_SPEED_SHARE = 0.9
 #: m, the farthest behind the handle's butt a swing's pivot moves for a short tool: beyond it the arc
@@ -235,7 +231,7 @@ def swing_task(tool: Tool, prm: Any, *, axis: np.ndarray, R_impact: np.ndarray, 
     ] + [(k, prm.follow_through, 0.0, 0.0) for k in knots[4:]])
 
     def pose(tt):
-        R_swing = rot(axis, theta(tt))
+        R_swing = axis_angle_matrix(axis, theta(tt))
         return jnp.asarray(pivot) + R_swing @ jnp.asarray(p_impact - pivot), R_swing @ jnp.asarray(R_impact)
 
     traj = sample_pose_fn(pose, jnp.asarray(t))

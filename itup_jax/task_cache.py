@@ -40,7 +40,7 @@ from itup_jax.atomic import atomic_write
 from itup_jax.shapes import to_device
 from itup_jax.task import Task
 from itup_jax.task import make_task as build_task
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 from itup_jax.trajectory import Trajectory
 
 #: Environment variable naming the folder.

@@ -40,12 +40,15 @@ import numpy as np
 
 from itup_jax.errors import InputError, is_integer
 from itup_jax.grasp import Grasps, validate_grasps
-from itup_jax.objective import get as get_objective
-from itup_jax.scene import Scene, build_scene
 from itup_jax.scoring import Scores, ScoreWeights, score
-from itup_jax.simulate import LABEL_FIELDS, Labels, Randomization, default_backend, reachability_in_order, simulate
+from itup_jax.sdgnet.objective import get as get_objective
+from itup_jax.sim.arm import reachability_in_order
+from itup_jax.sim.labels import LABEL_FIELDS, Labels
+from itup_jax.sim.physics import Randomization
+from itup_jax.sim.rollout import default_backend, simulate
+from itup_jax.sim.scene import Scene, build_scene
 from itup_jax.task import Task
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,7 +127,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     """Score every grasp, roll the k best reachable ones out in MuJoCo, pick the lowest measured total.
 
     The candidates are walked in score order: a grasp whose task trajectory the arm cannot follow
-    (closed-form IK, `simulate.reachable`) is skipped, and a grasp with a rollout that is not valid
+    (closed-form IK, `sim.arm.reachable`) is skipped, and a grasp with a rollout that is not valid
     (diverged) is replaced by the next reachable grasp, until k grasps have valid rollouts or the
     candidates run out.
 

@@ -35,9 +35,9 @@ import urllib.error
 import urllib.request
 from typing import Any
 
-from itup_jax import parts
 from itup_jax.grounding import Grounding, GroundingError, RuleGrounder, scene_targets, scene_tools, validate
 from itup_jax.tasks import names as task_names
+from itup_jax.tools import parts
 
 SYSTEM_PROMPT = (
     "You ground a robot tool-use instruction in a table scene. The picture shows the table: "

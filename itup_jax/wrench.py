@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 
 from itup_jax.task import Task
-from itup_jax.tool import ToolParams
+from itup_jax.tools import ToolParams
 
 
 def normal_impulse(

@@ -29,10 +29,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import itup_jax as itup
-from itup_jax.dataset import vary_tool
 from itup_jax.plotting import plot_grasp_candidates
-from itup_jax.sdgnet import load_model
+from itup_jax.sdgnet.checkpoint import load_model
 from itup_jax.stats import spearman
+from itup_jax.tools.variants import vary_tool
 
 QUICK = os.environ.get("ITUP_QUICK") == "1"
 OUT = os.environ.get("ITUP_NOTEBOOK_OUT", "notebooks/out")

@@ -94,7 +94,7 @@ fig.savefig(f"{OUT}/03_wrench_time_series.png", dpi=90)
 
 # %% [markdown]
 # The raw peak includes the torque of holding the tool still. The comparison's measure is the *full
-# induced* torque: what the motion adds (`simulate.induced`), on all three axes. The shipped SDG-Net was
+# induced* torque: what the motion adds (`sim.labels.induced`), on all three axes. The shipped SDG-Net was
 # trained on its *projected* part (off the jaw's closure axis, C_tau's quantity), and a grasp can make
 # that small by putting the torque on the closure axis, so both are printed and the full one is plotted.
 #

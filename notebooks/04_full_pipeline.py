@@ -28,7 +28,8 @@ matplotlib.use(os.environ.get("MPLBACKEND", "Agg"))
 import numpy as np
 
 import itup_jax as itup
-from itup_jax import grounding, parts, tabletop
+from itup_jax import grounding, tabletop
+from itup_jax.tools import parts
 
 QUICK = os.environ.get("ITUP_QUICK") == "1"
 OUT = os.environ.get("ITUP_NOTEBOOK_OUT", "notebooks/out")

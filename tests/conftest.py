@@ -55,3 +55,31 @@ def user_mallet(tmp_path_factory):
     spec = {"name": "my_mallet", "category": "mallet", "contact_point": [0.045, 0, 0.30], "contact_normal": [1, 0, 0],
             "grasp_region": {"min": [-0.03, -0.03, 0], "max": [0.03, 0.03, 0.2]}}
     return itup.load_tool(str(folder / "mallet.stl"), spec)
+
+
+#: The repository's root (experiments/ and notebooks/ sit there).
+ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+
+def load_experiment(name: str):
+    """An experiment script (experiments/<name>.py) as a module, to test its own functions; what the
+    experiments share lives in the package (`itup_jax.heldout`, `itup_jax.fidelity`, ...)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"experiment_{name}", ROOT / "experiments" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run_experiment(name: str, *argv: str) -> None:
+    """Run experiments/<name>.py as `python experiments/<name>.py ARGV` runs it (its main, in this process)."""
+    import sys
+
+    module = load_experiment(name)
+    saved = sys.argv
+    sys.argv = [f"{name}.py", *argv]
+    try:
+        module.main() if module.main.__code__.co_argcount == 0 else module.main(list(argv))
+    finally:
+        sys.argv = saved

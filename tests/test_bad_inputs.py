@@ -4,6 +4,7 @@ long work starts, with nothing half-written."""
 import dataclasses
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -43,8 +44,8 @@ def test_a_contact_point_a_metre_away(tmp_path, capsys):
 
 
 def _checkpoint_with(tmp_path, fill):
-    from itup_jax import checkpoint
-    from itup_jax.sdgnet import DEFAULT_MODEL
+    from itup_jax.sdgnet import checkpoint
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
 
     layers, spec = checkpoint.load(DEFAULT_MODEL)
     path = str(tmp_path / "bad.npz")
@@ -115,6 +116,7 @@ def test_json_into_a_missing_folder_is_refused_before_planning(tmp_path, capsys,
     assert "does not exist" in _err(capsys)
 
 
+@pytest.mark.slow
 def test_verify_where_no_verified_grasp_does_the_task(tmp_path, capsys, monkeypatch):
     """Every verified rollout misses the task (the sweep's outcome made to fail): no pick, exit 3."""
     from itup_jax import tasks
@@ -138,3 +140,18 @@ def test_verify_where_no_verified_grasp_does_the_task(tmp_path, capsys, monkeypa
 
     validate(res, load_schema("plan"))
     assert os.path.exists(out)
+
+
+@pytest.mark.parametrize("name,content,match", [
+    ("junk.stl", bytes(range(256)) * 12, r"not a readable STL \(binary or ASCII\) file"),
+    ("text.obj", b"hello\nnot a mesh\n", r"\(read as Wavefront OBJ\): mesh is empty"),
+    ("tool.step", b"ISO-10303-21;", r"\.step is not a mesh format read here; give STL"),
+])
+def test_a_mesh_file_that_cannot_be_read_names_the_format(tmp_path, capsys, name, content, match):
+    """The message names the file and the format it was read as, never a library's internal module."""
+    (tmp_path / name).write_bytes(content)
+    args = _hammer_files(tmp_path)
+    args[1] = str(tmp_path / name)
+    assert main(["plan", "--n", "8", *args]) == 2
+    err = _err(capsys)
+    assert re.search(match, err) and name in err and "module" not in err

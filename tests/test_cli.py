@@ -31,7 +31,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     # the pick is the best-scored grasp the arm can reach: here (the reach task's L-stick) the scorer's
     # first ones are not, so it lies further down the ranking, every grasp above it unreachable
     import itup_jax as itup
-    from itup_jax.simulate import reachable
+    from itup_jax.sim.arm import reachable
     from itup_jax.task import DEFAULT_TOOL
 
     tool = itup.load_tool(DEFAULT_TOOL["reach"])
@@ -68,10 +68,11 @@ def test_plan_scores_only_reachable_candidates_by_default(tmp_path, capsys):
     assert "--budget (the most candidates drawn)" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, monkeypatch):
     import importlib
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.arm")
     monkeypatch.setattr(sim, "reachable", lambda task, g: np.zeros(len(g), bool))
     out = tmp_path / "none.json"
     assert main(["plan", "--task", "knock", "--n", "20", "--top", "2", "--sampling", "all", "--json", str(out)]) == 3
@@ -95,6 +96,7 @@ def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, mon
     assert "no pick: none of the 800 drawn candidates is reachable" in text and "<- pick" not in text
 
 
+@pytest.mark.slow
 def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     """--w-* flags weigh the analytic cost (CostParams) or SDG-Net's total (ScoreWeights) and are recorded
     as used; a baseline has no weights, the analytic cost no task term: both refused."""
@@ -122,6 +124,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     assert "w-task" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:.*joint-speed limit")  # a short stick swings faster for the same tip speed
 def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
     out = tmp_path / "v.json"
@@ -173,6 +176,7 @@ def test_plan_with_a_user_mesh_tool(tmp_path):
     assert json.loads(out.read_text())["tool"]["name"] == "stick"
 
 
+@pytest.mark.slow
 def test_bench_costs_prints_one_json_object():
     proc = subprocess.run([sys.executable, "-m", "itup_jax.cli", "bench", "costs", "--n", "500", "--t", "16",
                            "--repeats", "2", "--json"], capture_output=True, text=True, timeout=300)
@@ -185,22 +189,26 @@ def test_bench_costs_prints_one_json_object():
 def test_importing_mjx_prints_nothing_to_stdout():
     """MJX's import reports a missing optional Warp backend on stdout; `import_mjx` keeps stdout clean for
     `itup bench rollout --json` and the other JSON printers."""
-    proc = subprocess.run([sys.executable, "-c", "from itup_jax.simulate import import_mjx; import_mjx()"],
+    proc = subprocess.run([sys.executable, "-c", "from itup_jax.sim.mjx import import_mjx; import_mjx()"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == ""
 
 
 @pytest.mark.parametrize("argv,match", [
-    (["plan", "--task", "hammer", "--n", "0"], "--n must be an integer >= 1"),
+    (["plan", "--task", "hammer", "--n", "0"], "--n must be an integer in 1..100,000, got 0"),
     (["plan", "--top", "0"], "--top must be an integer >= 1"),
-    (["plan", "--verify", "-1"], "--verify must be an integer >= 0"),
+    (["plan", "--verify", "-1"], "--verify K rolls the K best grasps out and must be >= 1, got -1"),
+    (["plan", "--verify", "0"], "leave --verify out to pick by the score alone"),
+    (["plan", "--n", "10000000"], "--n must be an integer in 1..100,000, got 10,000,000"),
+    (["evaluate", "--n", "200000"], "--n must be an integer in 1..100,000"),
+    (["run", "drive the nail", "--samples", "0"], "--samples must be an integer in 1..100,000"),
     (["plan", "--verify", "2", "--verify-draws", "0"], "--verify-draws must be an integer >= 1"),
     (["plan", "--verify-draws", "3"], "give --verify K too"),
     (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics 'random'"),
     (["plan", "--torque-first", "--w-slip", "1"], "cannot be combined with --w-slip"),
     (["plan", "--torque-first", "--scorer", "analytic"], "not the 'analytic' scorer's"),
-    (["bench", "verify", "--draws", "0"], "--draws 0"),
+    (["bench", "verify", "--draws", "0"], "bench verify: --draws must be an integer >= 1, got 0"),
     (["plan", "--n", "5", "--seed", "-1"], "seed must be an integer >= 0, got -1"),
     (["plan", "--tool", "spoon"], "not a built-in tool"),
     (["plan", "--tool-spec", "x.toml"], "--tool-spec needs --tool"),
@@ -246,11 +254,11 @@ def test_cli_defaults_are_the_librarys():
     from itup_jax.dataset import GenerateConfig
     from itup_jax.evaluate import DEFAULT_METHODS
     from itup_jax.planning import DEFAULT_N, DEFAULT_TOP
-    from itup_jax.sdgnet import TrainConfig
+    from itup_jax.sdgnet.config import TrainConfig
 
     p = build_parser()
     plan = p.parse_args(["plan"])
-    assert (plan.n, plan.top, plan.verify, plan.verify_draws, plan.scorer) == (DEFAULT_N, DEFAULT_TOP, 0, 1, "sdgnet")
+    assert (plan.n, plan.top, plan.verify, plan.verify_draws, plan.scorer) == (DEFAULT_N, DEFAULT_TOP, None, 1, "sdgnet")
     assert p.parse_args(["evaluate"]).methods == ",".join(DEFAULT_METHODS)
     gen, cfg = p.parse_args(["generate", "--out", "x"]), GenerateConfig()
     assert (gen.tools_per_task, gen.grasps, gen.seed, gen.variants, gen.contact, gen.weak_grip) == (
@@ -298,6 +306,7 @@ def test_atomic_write_json_is_strict_json(tmp_path):
     assert json.loads(text) == {"a": None, "b": [1.5, None, 3], "c": [None]}
 
 
+@pytest.mark.slow
 def test_bench_sample_reports_both_kernels(capsys):
     assert main(["bench", "sample", "--n", "64", "--repeats", "3", "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
@@ -321,7 +330,7 @@ def test_bench_reachable_reports_each_family_and_task(capsys):
 def test_cli_asks_xla_for_deterministic_gpu_scatters(monkeypatch):
     import os
 
-    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG
+    from itup_jax.sim.mjx import DETERMINISTIC_GPU_FLAG
 
     monkeypatch.setenv("XLA_FLAGS", "")  # restored after the test
     assert main(["plan", "--tool-spec", "x.toml"]) == 2  # a bad input, refused once the flags are set
@@ -337,6 +346,7 @@ def test_importing_the_cli_does_not_start_jax():
     assert out.stdout.strip().splitlines()[-1] == "0"
 
 
+@pytest.mark.slow
 def test_evaluate_says_when_a_verified_method_found_no_grasp_that_works(tmp_path, capsys, monkeypatch):
     """When none of a verified method's rolled-out grasps did the task and held, evaluate says so, records
     it in the JSON and exits 3 (here every check is made to fail)."""
@@ -354,3 +364,30 @@ def test_evaluate_says_when_a_verified_method_found_no_grasp_that_works(tmp_path
     assert res["methods"]["sdgnet_verified"]["verified"]["succeeded"] is False
     assert "verified" not in res["methods"]["force_closure"]
     assert "no verified pick for sdgnet_verified: none of the" in capsys.readouterr().out
+
+
+def test_the_top_level_help_imports_neither_jax_nor_mujoco():
+    """`itup --help` builds only the list of commands: no library import, so it starts in well under a second."""
+    code = ("import sys; from itup_jax.cli import main\n"
+            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "assert 'jax' not in sys.modules and 'mujoco' not in sys.modules, sorted(sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    for command in ("demo", "plan", "run", "evaluate", "generate", "train", "ensemble", "bench", "tools"):
+        assert command in proc.stdout
+
+
+@pytest.mark.parametrize("command", ["demo", "plan", "run", "evaluate", "generate", "train", "ensemble", "bench",
+                                     "tools"])
+def test_each_command_has_its_own_examples_and_shows_its_defaults(command, capsys):
+    from itup_jax.cli_args import EXAMPLES
+
+    with pytest.raises(SystemExit) as e:
+        main([command, "--help"])
+    out = capsys.readouterr().out
+    assert e.value.code == 0 and "examples:" in out
+    own = [line.strip() for line in EXAMPLES[command].splitlines()[1:]]
+    assert own and all(line in out for line in own)  # its own examples, not a shared block
+    assert all(line.split("#")[0].split()[1] == command for line in own)
+    if command not in ("ensemble", "tools", "bench"):  # every flag with a default says it (bench: its benchmarks do)
+        assert "(default" in out

@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from itup_jax import compile_cache
 
 
@@ -31,6 +33,7 @@ def test_the_cli_turns_the_cache_on_unless_told_not_to(monkeypatch):
     assert main(["tools"]) == 0 and len(calls) == 1
 
 
+@pytest.mark.slow
 def test_a_cli_run_writes_compiled_kernels(tmp_path):
     """`itup bench costs` (one jit) in a fresh process leaves cache entries in the cache folder."""
     env = {k: v for k, v in os.environ.items() if k != compile_cache.ENV_SWITCH}

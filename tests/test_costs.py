@@ -215,12 +215,12 @@ def test_second_call_with_the_same_shapes_does_not_recompile(tasks, grasps_by_ki
 def test_wrist_lever_arm_is_the_grasp_lever_arm_85_mm_back_along_the_approach(tasks, grasps_by_kind, kind):
     # the torque about the wrist site of a grasp is the torque about the grasp origin of the same grasp
     # moved back to the wrist: a closed form that a wrong axis, sign or offset breaks
-    from itup_jax.grasp import rotation_matrix
     from itup_jax.robot import FLANGE_TO_GRASP
+    from itup_jax.rotations import quat_to_matrix
 
     tool, task = tasks[kind]
     g = grasps_by_kind[kind]
-    approach = np.asarray(jax.vmap(rotation_matrix)(g.q_tool_grasp))[:, :, 2]
+    approach = np.asarray(jax.vmap(quat_to_matrix)(g.q_tool_grasp))[:, :, 2]
     back = dataclasses.replace(g, p_tool_grasp=jnp.asarray(np.asarray(g.p_tool_grasp) - FLANGE_TO_GRASP * approach))
     for proj in ("full", "perp"):
         wrist = itup.wrench_costs(tool, task, g, CostParams(lever_arm="wrist", torque_projection=proj))
@@ -248,6 +248,7 @@ def test_passed_torque_lies_between_the_perpendicular_and_the_full_torque(tasks,
     assert np.any(some < tau["full"] - 1e-3)  # the cap bites on some grasp here
 
 
+@pytest.mark.slow
 def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
     tool, task = tasks["hammer"]
     R = np.eye(3)[None].repeat(3, 0)
@@ -261,6 +262,7 @@ def test_com_lever_arm_variant_does_not_depend_on_grasp_position(tasks):
     assert np.max(np.asarray(itup.wrench_costs(tool, task, g).tau)) < 1e-9 * np.max(np.asarray(grasp.tau))
 
 
+@pytest.mark.slow
 def test_regimes_of_the_four_tasks(tasks):
     expected = {"hammer": Regime.DYNAMIC, "knock": Regime.DYNAMIC, "sweep": Regime.CLUSTERED, "reach": Regime.QUASI_STATIC}
     for kind, (tool, task) in tasks.items():

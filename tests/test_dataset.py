@@ -13,16 +13,9 @@ import trimesh
 
 import itup_jax as itup
 from itup_jax.cli import main
-from itup_jax.dataset import (
-    MANIFEST,
-    GenerateConfig,
-    generate,
-    load_dataset,
-    load_datasets,
-    load_shard,
-    unit_tool,
-    vary_tool,
-)
+from itup_jax.dataset import GenerateConfig, generate, unit_tool
+from itup_jax.dataset_load import MANIFEST, load_dataset, load_datasets, load_shard
+from itup_jax.tools.variants import vary_tool
 
 SMALL = GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=6, seed=1, contact="point")  # a fixture with 8+ valid rows
 
@@ -77,7 +70,12 @@ def test_corrupted_shard_is_detected_and_regenerated(full_run, tmp_path):
     open(path, "wb").write(bytes(raw))
     with pytest.raises(itup.InputError, match="checksum mismatch"):
         load_shard(copy, manifest["shards"][1])
-    generate(copy, SMALL, progress=False)  # resume: the bad shard is made again
+    with pytest.warns(UserWarning, match=r"shard_\w+\.npz does not match its checksum .* making it again"):
+        generate(copy, SMALL, progress=False)  # resume: the bad shard is made again, and it says so
+    assert _files(copy) == _files(out)
+    os.remove(path)
+    with pytest.warns(UserWarning, match="listed in manifest.json but missing; making it again"):
+        generate(copy, SMALL, progress=False)
     assert _files(copy) == _files(out)
 
 
@@ -85,8 +83,10 @@ def test_another_config_in_the_same_folder_is_refused(full_run, tmp_path):
     out, _ = full_run
     copy = str(tmp_path / "copy2")
     shutil.copytree(out, copy)
-    with pytest.raises(itup.InputError, match="another config"):
+    with pytest.raises(itup.InputError, match="another config") as e:
         generate(copy, GenerateConfig(tasks=("reach",), tools_per_task=3, grasps=7, seed=1, contact="point"), progress=False)
+    # the message names the setting that differs, its value there and its value now, and only that one
+    assert "(grasps 6 there, 7 now)" in str(e.value) and "resuming would mix" in str(e.value)
 
 
 def test_resuming_a_dataset_of_another_label_version_is_refused(full_run, tmp_path):
@@ -156,8 +156,8 @@ def _prism_mass(prim, density, sections=48):
 def test_part_variants_vary_the_head_against_the_handle():
     """The part-wise family builds each part at its material's density (the head's times its factor), and,
     unlike the stretch family, changes the head's mass against the handle's."""
-    from itup_jax.dataset import PART_RANGES, part_variant
-    from itup_jax.priors import MATERIAL_DENSITY
+    from itup_jax.tools.priors import MATERIAL_DENSITY
+    from itup_jax.tools.variants import PART_RANGES, part_variant
 
     base = itup.load_tool("hammer")
     ratios, factors = {"stretch": [], "parts": []}, []
@@ -187,6 +187,7 @@ def test_part_variants_vary_the_head_against_the_handle():
         part_variant("drill", 1)
 
 
+@pytest.mark.slow
 def test_the_variant_family_is_recorded_and_the_default_reads_as_before(tmp_path, capsys):
     """A "parts" dataset records its family; the default ("stretch") is left out of the config, so the
     manifests of every dataset made before the option read the same and resume."""
@@ -209,7 +210,8 @@ def test_the_contact_model_is_recorded_and_reaches_the_grasps(tmp_path, capsys):
     as `sample_grasps(..., SamplerConfig(contact="flat"))` with the shard's seed) and the manifest records
     it; the point-contact model is left out of the config, so every manifest made before code 0.6.0 reads
     as before."""
-    from itup_jax.dataset import _unit_seed, read_manifest
+    from itup_jax.dataset import _unit_seed
+    from itup_jax.dataset_load import read_manifest
     from itup_jax.grasp_sampler import SamplerConfig
 
     point = GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=4, seed=1, contact="point")
@@ -238,11 +240,12 @@ def test_generate_cli(tmp_path, capsys):
     assert main(["generate", "--out", out, "--tasks", "drill", "--quiet"]) == 2
 
 
+@pytest.mark.slow
 def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys):
     """`--timestep` reaches the simulation: the shard's labels are those of a scene built at that step
     (and differ from the 2 ms ones), and a bad step is refused before anything is written."""
     from itup_jax.dataset import unit_tool
-    from itup_jax.scene import build_scene
+    from itup_jax.sim.scene import build_scene
 
     out = str(tmp_path / "fine")
     assert main(["generate", "--out", out, "--tasks", "knock", "--tools-per-task", "1", "--grasps", "6",
@@ -282,7 +285,7 @@ def test_a_dataset_at_another_timestep_holds_that_steps_labels(tmp_path, capsys)
         load_datasets([out, mixed + ":knok"])
     ckpt = str(tmp_path / "m.npz")
     assert main(["train", "--data", out, mixed + ":reach", "--out", ckpt, "--epochs", "1", "--hidden", "4", "--quiet"]) == 0
-    from itup_jax.checkpoint import load
+    from itup_jax.sdgnet.checkpoint import load
 
     assert [d["tasks"] for d in load(ckpt)[1]["datasets"]] == [None, ["reach"]]
     assert main(["train", "--data", mixed + ":nail", "--out", ckpt, "--quiet"]) == 2
@@ -311,8 +314,9 @@ def test_config_round_trips_through_the_manifest_and_rebuilds_a_shards_tool(full
     np.testing.assert_allclose(np.asarray(itup.wrench_costs(tool, task, g).tau), a["analytic_tau"], rtol=1e-5)
 
 
+@pytest.mark.slow
 def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
-    from itup_jax.checkpoint import load
+    from itup_jax.sdgnet.checkpoint import load
 
     out, manifest = full_run
     other = str(tmp_path / "seed2")
@@ -419,7 +423,7 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     assert load(student)[1]["teacher"]["file"] == os.path.abspath(ckpt)
     layers, tspec = load(ckpt)
     tspec["feature_spec"] = {**tspec["feature_spec"], "grid": 5}
-    from itup_jax.checkpoint import save
+    from itup_jax.sdgnet.checkpoint import save
 
     save(str(tmp_path / "odd_teacher.npz"), layers, tspec)
     assert main(["train", "--data", out, "--out", student, "--teacher", str(tmp_path / "odd_teacher.npz"), "--quiet"]) == 2
@@ -427,7 +431,8 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     # distilled while adapting (`--init M --teacher E`): every output trained towards the teacher's predictions,
     # so the adapted network predicts closer to the teacher than the checkpoint it started from and than the
     # same adaptation to the labels
-    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import predict_costs
 
     adapted, to_labels = str(tmp_path / "adapted.npz"), str(tmp_path / "to_labels.npz")
     for path, extra in ((adapted, ["--teacher", student]), (to_labels, [])):
@@ -453,6 +458,7 @@ def test_several_datasets_load_and_train_as_one(full_run, tmp_path, capsys):
     assert "its features were made with" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_processes_run_one_after_another_make_the_single_process_dataset(full_run, tmp_path):
     """Process i of n makes the shards i, i + n, ...; each resumes its own after a kill, and once all have
     run the folder is the single process's, byte for byte."""
@@ -476,6 +482,7 @@ def test_processes_run_one_after_another_make_the_single_process_dataset(full_ru
     assert generate(split, SMALL, progress=False, process_index=1, process_count=2) == manifest
 
 
+@pytest.mark.slow
 def test_concurrent_processes_make_the_single_process_dataset(full_run, tmp_path):
     """Two `itup generate` processes at once on one folder, one stepping thread each (the fixture used
     every core): the file lock keeps both processes' shards in the manifest, and the folder equals the
@@ -508,6 +515,7 @@ def test_bad_process_arguments_are_refused(tmp_path, capsys):
     assert not os.path.exists(os.path.join(tmp_path, "bad", MANIFEST))
 
 
+@pytest.mark.slow
 def test_the_manifest_lock_excludes_another_process(tmp_path):
     """While one process holds the manifest's lock, another cannot take it; once it lets go, it can."""
     import fcntl
@@ -533,7 +541,7 @@ def test_the_manifest_lock_excludes_another_process(tmp_path):
 
 
 def test_deterministic_gpu_flag_is_added_once_and_a_users_choice_stands():
-    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG, request_deterministic_gpu
+    from itup_jax.sim.mjx import DETERMINISTIC_GPU_FLAG, request_deterministic_gpu
 
     env = {}
     assert request_deterministic_gpu(env) and env["XLA_FLAGS"] == DETERMINISTIC_GPU_FLAG
@@ -550,7 +558,7 @@ def test_deterministic_gpu_flag_is_added_once_and_a_users_choice_stands():
 
 
 def test_gpu_determinism_reads_the_flags_value():
-    from itup_jax.simulate import gpu_determinism
+    from itup_jax.sim.mjx import gpu_determinism
 
     assert gpu_determinism({}) is None and gpu_determinism({"XLA_FLAGS": "--xla_dump_to=/tmp"}) is None
     assert gpu_determinism({"XLA_FLAGS": "--xla_gpu_deterministic_ops=true"}) is True
@@ -563,7 +571,7 @@ def test_generate_warns_when_gpu_mjx_labels_would_not_be_reproducible(monkeypatc
     import jax
 
     from itup_jax.dataset import gpu_determinism_warning
-    from itup_jax.simulate import DETERMINISTIC_GPU_FLAG
+    from itup_jax.sim.mjx import DETERMINISTIC_GPU_FLAG
 
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")  # None resolves to MJX there
     monkeypatch.setenv("XLA_FLAGS", "")
@@ -578,6 +586,7 @@ def test_generate_warns_when_gpu_mjx_labels_would_not_be_reproducible(monkeypatc
     assert gpu_determinism_warning("mjx") is None
 
 
+@pytest.mark.slow
 def test_weak_grip_rollouts_label_the_same_candidates_on_the_same_physics_draw(full_run, tmp_path):
     """Every candidate is rolled out a second time at `WEAK_GRIP` N per pad (`label_weak_*`): the rows
     infeasible by the default rollout are not stepped at the weak grip either; a row's weak-grip labels
@@ -587,7 +596,9 @@ def test_weak_grip_rollouts_label_the_same_candidates_on_the_same_physics_draw(f
     import dataclasses
 
     from itup_jax.dataset import WEAK_FIELDS, WEAK_GRIP, shard_candidates
-    from itup_jax.simulate import Randomization, SimConfig, simulate
+    from itup_jax.sim.config import SimConfig
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.sim.rollout import simulate
 
     out, manifest = full_run
     assert manifest["label_fields"][-len(WEAK_FIELDS):] == [f"weak_{f}" for f in WEAK_FIELDS]
@@ -621,7 +632,7 @@ def test_weak_grip_rollouts_label_the_same_candidates_on_the_same_physics_draw(f
             np.testing.assert_array_equal(b[k], a[k])
     # below the gripper's 20 N (a probe) the grip actuator is opened, so the rollout gets the force asked for
     from itup_jax.dataset import weak_rollouts
-    from itup_jax.scene import build_scene
+    from itup_jax.sim.scene import build_scene
     from itup_jax.stress import probe_scene
 
     probe = dataclasses.replace(SMALL, weak_grip=15.0)

@@ -45,3 +45,60 @@ def test_the_readme_is_short_and_gives_the_ci_command():
     for link in re.findall(r"\]\(([^)#]+)\)", readme):
         if not link.startswith("http"):
             assert (REPO / link).exists(), link
+
+
+def test_the_schemas_readme_lists_every_schema_with_the_version_the_code_writes():
+    """Each schema file's `$id` is the version its `schema` field holds and the README's table names it."""
+    import json
+
+    folder = REPO / "itup_jax" / "schemas"
+    readme = (folder / "README.md").read_text()
+    files = sorted(folder.glob("*.schema.json"))
+    assert files
+    for f in files:
+        doc = json.loads(f.read_text())
+        assert doc["$id"] == doc["properties"]["schema"]["const"], f.name
+        assert f"`{f.name}` (`{doc['$id']}`)" in readme, f.name
+    listed = set(re.findall(r"`([a-z_0-9]+\.schema\.json)`", readme))
+    assert listed == {f.name for f in files}
+
+
+def test_the_design_doc_matches_the_code():
+    """design.md's tool spec names the fields, units and categories `tools.mesh` and `tools.priors` take,
+    and every module path it names exists."""
+    from itup_jax.tools import mesh, priors
+
+    design = (REPO / "docs" / "design.md").read_text()
+    spec = design.split("## Your own tool", 1)[1].split("\n## ", 1)[0]
+    for field in sorted(mesh._SPEC_REQUIRED | mesh._SPEC_OPTIONAL):
+        assert f"`{field}`" in spec, field
+    for unit in mesh.SPEC_UNITS:
+        assert f'"{unit}"' in spec, unit
+    for category in priors.CATEGORY_PRIORS:
+        assert f"`{category}`" in spec, category
+    for path in set(re.findall(r"`(itup_jax/[\w/]+\.py|experiments/\w+\.py|mjcf/[\w/]+\.xml)`", design)):
+        assert (REPO / path).exists(), path
+
+
+def test_the_docs_state_the_present():
+    """README, the docs and the model card speak of the code as it is: no machine-local paths, no history
+    of earlier checkpoints (git and CHANGELOG.md hold it)."""
+    docs = [REPO / "README.md", REPO / "itup_jax" / "models" / "MODEL_CARD.md", *sorted((REPO / "docs").glob("*.md"))]
+    stale = re.compile(r"/tmp/|\bprevious (?:checkpoint|network|shipped)|\bsessions?\b", re.IGNORECASE)
+    hits = [f"{p.relative_to(REPO)}: {m.group(0)}" for p in docs for m in stale.finditer(p.read_text())]
+    assert not hits, hits
+
+
+def test_every_experiment_documents_a_command_on_data_the_docs_make():
+    """Each experiment's docstring gives its command; the datasets it reads (`data/...`) are ones
+    docs/results.md's "Data" makes with `itup generate`."""
+    import ast
+
+    results = (REPO / "docs" / "results.md").read_text()
+    made = set(re.findall(r"itup generate --out (data/[\w/]+)", results.split("## Data", 1)[1].split("\n## ", 1)[0]))
+    made |= {"data/families/" + f for f in ("screwdriver", "spanner", "pry_bar", "hatchet", "squeegee")}
+    for script in sorted((REPO / "experiments").glob("*.py")):
+        doc = ast.get_docstring(ast.parse(script.read_text())) or ""
+        assert f"python experiments/{script.name}" in doc, script.name
+        for folder in re.findall(r"\b(data/[\w/]+)", doc):
+            assert folder.rstrip("/") in made or folder.startswith("data/train_"), (script.name, folder)

@@ -3,12 +3,11 @@ use them, the experiments' quick modes, and every JSON output against its docume
 
 import json
 import os
-import runpy
-import sys
 
 import jsonschema
 import numpy as np
 import pytest
+from conftest import load_experiment, run_experiment
 
 import itup_jax as itup
 from itup_jax.baselines import ferrari_canny, force_closure_scores, geometric_scores, static_scores
@@ -95,17 +94,42 @@ def small_eval(tasks):
     return evaluate(tool, task, ("sdgnet", "force_closure", "random"), n=8, seeds=2, seed=0)
 
 
-def test_every_method_picks_from_the_same_candidates(small_eval):
+def test_every_method_picks_from_the_same_candidates(small_eval, tasks):
+    """Each method's pick is its scorer's best among the one candidate set (rebuilt here), each pick is
+    rolled out on the same physics draws, and the summaries are those of its valid rollouts."""
+    from itup_jax.evaluate import feasible_candidates
+
     r = small_eval
-    assert r["candidates"]["used"] <= 8 and set(r["methods"]) == {"sdgnet", "force_closure", "random"}
-    for m in r["methods"].values():
-        assert 0 <= m["index"] < r["candidates"]["used"]
-        assert len(m["rollouts"]["peak_torque"]) == 2
-        assert m["valid_rollouts"] == 0 or m["measured"]["peak_torque"]["mean"] > 0
+    tool, task = tasks["hammer"]
+    cands, counts = feasible_candidates(tool, task, 8, seed=0)
+    assert counts == r["candidates"] and set(r["methods"]) == {"sdgnet", "force_closure", "random"}
+    for name, m in r["methods"].items():
+        i = int(np.argmin(np.asarray(itup.score(tool, task, cands, model=name, seed=0).total, float)))
+        assert m["index"] == i, name
+        np.testing.assert_allclose(m["grasp"]["p_tool_grasp_m"], np.asarray(cands.p_tool_grasp)[i], atol=1e-6)
+        assert len(m["rollouts"]["peak_torque"]) == 2 and m["valid_rollouts"] >= 1, name
+        for f, summary in m["measured"].items():
+            v = np.array([np.nan if x is None else x for x in m["rollouts"][f]], float)
+            assert summary["mean"] == pytest.approx(np.nanmean(v)), (name, f)
+        assert m["measured"]["peak_torque_induced"]["mean"] > 0
+    # the same physics draws: a pick that two methods share measures the same in every rollout
+    shared = [(a, b) for a in r["methods"] for b in r["methods"] if a < b
+              and r["methods"][a]["index"] == r["methods"][b]["index"]]
+    for a, b in shared:
+        assert r["methods"][a]["rollouts"] == r["methods"][b]["rollouts"]
     # the shipped SDG-Net predicts whether its pick does the task; the baselines do not
     assert 0 <= r["methods"]["sdgnet"]["p_success"] <= 1 and r["methods"]["random"]["p_success"] is None
     assert 0 <= r["methods"]["sdgnet"]["p_failed"] <= 1 and r["methods"]["random"]["p_failed"] is None
     jsonschema.validate({"schema": "itup.evaluate/1", **r}, load_schema("evaluate"))
+
+
+def test_every_method_rolls_out_on_the_same_physics_draws(tasks):
+    """With one candidate every method picks it, and draw k is the same physics for each: the same labels."""
+    tool, task = tasks["hammer"]
+    r = evaluate(tool, task, ("force_closure", "geometric"), n=1, seeds=2, seed=3)
+    a, b = (r["methods"][m] for m in ("force_closure", "geometric"))
+    assert a["index"] == b["index"] == 0 and a["valid_rollouts"] == 2
+    assert a["rollouts"] == b["rollouts"] and a["rollouts"]["peak_torque"][0] != a["rollouts"]["peak_torque"][1]
 
 
 def test_evaluate_refuses_unknown_methods(tasks):
@@ -172,11 +196,11 @@ def test_cli_demo_refuses_a_file_as_out_folder(tmp_path, capsys):
 
 # ------------------------------------------------------------------ experiments (quick modes)
 def _run_experiment(name, argv, monkeypatch):
-    monkeypatch.setattr(sys, "argv", [name] + argv)
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    runpy.run_path(os.path.join(ROOT, "experiments", name), run_name="__main__")
+    run_experiment(name.removesuffix(".py"), *argv)
 
 
+@pytest.mark.slow
 def test_table1_quick(tmp_path, monkeypatch):
     _run_experiment("table1.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "table1.json").read_text())
@@ -199,18 +223,48 @@ def test_table1_quick(tmp_path, monkeypatch):
     assert len(tor["verified"]["tried"]) > len(ver["verified"]["tried"])
 
 
+@pytest.mark.slow
 def test_objective_selection_quick(tmp_path, monkeypatch):
-    """Every method picks among the same rolled-out candidates; the rule chooses among the qualifying
-    scorers, and the fidelity of the SDG-Net checkpoint is a Spearman rho per tool."""
+    """Every method picks among the same rolled-out candidates of a tool (each pick rebuilt here from the
+    dataset: the baselines' argmin, its row's labels), and the rule's score and choice follow from the
+    picks: the mean over tasks of log(full induced torque ratio) + log(grip demand ratio) against the
+    per-tool better baseline, the lowest qualifying one chosen."""
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.dataset_load import load_dataset, read_manifest
+    from itup_jax.heldout import dataset_grasps, quick_dataset, unit_rows
+
     _run_experiment("objective_selection.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "objective.json").read_text())
     assert doc["per_tool"] and all(set(t["picks"]) == set(doc["methods"]) for t in doc["per_tool"])
-    for t in doc["per_tool"]:
-        for p in t["picks"].values():  # a pick is one of the tool's own rolled-out rows
-            assert doc["per_tool"][0]["candidates"] >= 2 and p["row"] >= 0
-    assert {"force_closure", "geometric", "analytic/paper", "analytic/wrench", "sdgnet/shipped"} <= set(doc["methods"]) or \
-        any(m.startswith("sdgnet/shipped/") for m in doc["methods"])
-    assert doc["chosen"] is None or doc["chosen"] in doc["verdict"]
+    assert {"force_closure", "geometric", "analytic/paper", "analytic/wrench"} <= set(doc["methods"])
+    assert any(m.startswith("sdgnet/shipped/") for m in doc["methods"])
+    with quick_dataset("objective_test_") as data_dir:  # the run's dataset, made again (deterministic)
+        data = load_dataset(data_dir)  # the valid rows, as the experiment reads them
+        config = GenerateConfig.from_json(read_manifest(data_dir)["config"])
+        for t in doc["per_tool"]:
+            rows = unit_rows(data, t["task"], t["variant"])
+            assert t["candidates"] == len(rows) >= 2
+            tool, task = unit_tool(config, t["task"], t["variant"])
+            for b in ("force_closure", "geometric"):
+                i = int(np.argmin(np.asarray(itup.score(tool, task, dataset_grasps(data, rows), b).total)))
+                pick = t["picks"][b]
+                assert pick["row"] == int(rows[i]), b
+                assert pick["peak_torque_induced"] == pytest.approx(data["label_peak_torque_induced"][rows[i]])
+                assert pick["grip_demand"] == pytest.approx(data["label_grip_demand"][rows[i]])
+            for name, pick in t["picks"].items():  # every pick is one of the tool's own rolled-out rows
+                assert pick["row"] in rows and pick["success"] == bool(data["label_success"][pick["row"]]), name
+    # the score of every qualifying setting, from the picks: one task here, geometric means over its tools
+    tools = doc["per_tool"]
+    better = {m: np.minimum(*[np.array([t["picks"][b][m] for t in tools]) for b in ("force_closure", "geometric")])
+              for m in ("peak_torque_induced", "grip_demand")}
+    for name, v in doc["verdict"].items():
+        if isinstance(v, str):
+            continue
+        expect = sum(np.log(np.exp(np.mean(np.log(np.array([t["picks"][name][m] for t in tools]) / better[m]))))
+                     for m in better)
+        assert v == pytest.approx(expect, rel=1e-6), name
+    qualifying = {k: v for k, v in doc["verdict"].items() if not isinstance(v, str)}
+    assert doc["chosen"] == (min(qualifying, key=qualifying.get) if qualifying else None)
     fid = doc["fidelity"]["shipped"]
     assert all(-1 <= v["all"] <= 1 for k, v in fid.items() if k != "p_failed_weak_auc")
     # the shipped network has the weak-grip head and the quick dataset the weak rollouts: its AUC per tool
@@ -224,17 +278,17 @@ def test_objective_selection_quick(tmp_path, monkeypatch):
 def test_objective_selection_corner_counts():
     """A candidate counts in the corner when it did the task, held, and lies within both bounds of the
     better baseline pick's labels (each measure's better baseline taken on its own)."""
-    mod = runpy.run_path(os.path.join(ROOT, "experiments", "objective_selection.py"))
+    mod = load_experiment("objective_selection")
     data = {"label_success": np.array([1, 1, 1, 1, 0, 1]), "label_failed": np.array([0, 0, 0, 1, 0, 0]),
             "label_peak_torque_induced": np.array([0.8, 0.9, 0.5, 0.1, 0.1, 0.82]),
             "label_grip_demand": np.array([70.0, 10.0, 80.0, 10.0, 10.0, 75.0])}
     picks = {"force_closure": {"peak_torque_induced": 1.0, "grip_demand": 200.0},
              "geometric": {"peak_torque_induced": 2.0, "grip_demand": 100.0}}
-    c = mod["corner_counts"](data, np.arange(6), picks)
+    c = mod.corner_counts(data, np.arange(6), picks)
     # bounds 0.824 N m and 75 N; rows 3 (failed) and 4 (missed) do not count
     assert c == {"held": 4, "peak_torque_induced": 3, "grip_demand": 3, "both": 2}
     per_tool = [{"task": "hammer", "corner": c}, {"task": "hammer", "corner": {**c, "both": 0}}, {"task": "reach"}]
-    s = mod["corner_summary"](per_tool)
+    s = mod.corner_summary(per_tool)
     assert list(s) == ["hammer"] and s["hammer"]["tools"] == 2 and s["hammer"]["tools_with_both"] == 1
 
 
@@ -242,13 +296,13 @@ def test_objective_selection_holds_the_weights_it_is_set(tmp_path, monkeypatch, 
     """`--set` fixes other ScoreWeights for every network setting of the grid (the joint choice of
     w_align and w_weak, weight_by_stress.py); an unknown or non-numeric one is refused before any work."""
     from itup_jax.scoring import ScoreWeights
-    from itup_jax.sdgnet import DEFAULT_MODEL
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
 
-    mod = runpy.run_path(os.path.join(ROOT, "experiments", "objective_selection.py"))
-    settings = mod["settings_of"]({"w": DEFAULT_MODEL}, {"w_align": 300.0, "w_weak": 3.0})
+    mod = load_experiment("objective_selection")
+    settings = mod.settings_of({"w": DEFAULT_MODEL}, {"w_align": 300.0, "w_weak": 3.0})
     nets = {k: w for k, (scorer, w) in settings.items() if k.startswith("sdgnet/")}
-    assert len(nets) == len(mod["GRID"]) and all(w.w_align == 300.0 and w.w_weak == 3.0 for w in nets.values())
-    assert {(w.w_tau, w.w_grip) for w in nets.values()} == set(mod["GRID"])
+    assert len(nets) == len(mod.GRID) and all(w.w_align == 300.0 and w.w_weak == 3.0 for w in nets.values())
+    assert {(w.w_tau, w.w_grip) for w in nets.values()} == set(mod.GRID)
     assert all(w.w_slip == ScoreWeights().w_slip for w in nets.values())  # the rest shipped
     for bad in ("w_align", "w_tau=2", "w_align=x", "nope=1"):
         with pytest.raises(SystemExit) as e:
@@ -257,6 +311,7 @@ def test_objective_selection_holds_the_weights_it_is_set(tmp_path, monkeypatch, 
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     _run_experiment("sdgnet_fidelity.py", ["--quick", "--verify-draws", "2", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "fidelity.json").read_text())
@@ -264,8 +319,9 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
     rows = doc["per_tool"]
     assert doc["objective"] == "wrench"
     # the pooled ranking over the held-out tools, rebuilt here from the shards and the trained model
-    from itup_jax.dataset import load_shard
-    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.dataset_load import load_shard
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import spearman
 
     net, pred, meas, grip, demand = load_model(str(tmp_path / "model.npz")), [], [], [], []
@@ -334,14 +390,14 @@ def test_sdgnet_fidelity_quick(tmp_path, monkeypatch):
         assert (t is not None and np.isfinite(t) and t >= 0) if r["success_verified_tau"] else (t is None or np.isnan(t))
     # the redraws were kept: a second run on the same test set reads them instead of simulating again
     assert (tmp_path / "redraws.npz").exists()
-    fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))
-    from itup_jax.sdgnet import load_model
+    from itup_jax.fidelity import fidelity
+    from itup_jax.sdgnet.checkpoint import load_model
 
-    again = fid["evaluate"](load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
+    again = fidelity(load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
                             cache=str(tmp_path / "redraws.npz"))
     assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
     (tmp_path / "redraws.npz").write_bytes(b"not an npz")  # a damaged cache is ignored and rebuilt
-    again = fid["evaluate"](load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
+    again = fidelity(load_model(str(tmp_path / "model.npz")), str(tmp_path / "test"), 1,
                             cache=str(tmp_path / "redraws.npz"))
     assert [r["success_draws_total"] for r in again["rows"]] == [r["success_draws_total"] for r in rows]
 
@@ -351,19 +407,20 @@ def test_redraw_cache_names_the_torque_it_holds(tmp_path):
     the projected torque was written) is not read back; one with this run's key is."""
     import hashlib
 
+    from itup_jax import heldout as fid
     from itup_jax.dataset import GenerateConfig
 
-    fid = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))
     (tmp_path / "manifest.json").write_text(json.dumps({"config": GenerateConfig().to_json(), "shards": []}))
     digest = hashlib.sha256((tmp_path / "manifest.json").read_bytes()).hexdigest()
-    cached = {f"hammer_1/{f}": np.zeros((1, 3)) for f in fid["REDRAWN"]}
-    for key, read in ((f"{digest}:1:{','.join(fid['REDRAWN'])}", False),
-                      (f"{digest}:1:{','.join(fid['REDRAWN'])}:{fid['HEADLINE']}", True)):
+    cached = {f"hammer_1/{f}": np.zeros((1, 3)) for f in fid.REDRAWN}
+    for key, read in ((f"{digest}:1:{','.join(fid.REDRAWN)}", False),
+                      (f"{digest}:1:{','.join(fid.REDRAWN)}:{fid.HEADLINE}", True)):
         np.savez(tmp_path / "redraws.npz", key=np.array(key), **cached)
-        got = fid["cached_redraws"](str(tmp_path), 1, str(tmp_path / "redraws.npz"))
+        got = fid.cached_redraws(str(tmp_path), 1, str(tmp_path / "redraws.npz"))
         assert (list(got) == ["hammer_1"]) is read, key
 
 
+@pytest.mark.slow
 def test_candidate_count_quick(tmp_path, monkeypatch):
     _run_experiment("candidate_count.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "candidates.json").read_text())
@@ -381,13 +438,13 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
     assert paired["n"] == 1 and paired["ratio"] == pytest.approx(row["fresh"]["32"]["tau"]["torque"] / row["fresh"]["16"]["tau"]["torque"])
     # each pick is SDG-Net's argmin among the reachable fresh candidates, rebuilt here independently, and the
     # torque recorded for it is that grasp's (measured again under the same draws)
-    from itup_jax.dataset import GenerateConfig, dataset_timesteps, read_manifest, unit_tool
-    from itup_jax.simulate import reachable
-
-    cc = runpy.run_path(os.path.join(ROOT, "experiments", "candidate_count.py"))
+    from itup_jax import heldout
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.dataset_load import dataset_timesteps, read_manifest
+    from itup_jax.sim.arm import reachable
     manifest = read_manifest(str(tmp_path / "test"))
     tool, task = unit_tool(GenerateConfig.from_json(manifest["config"]), row["task"], row["variant"])
-    g = itup.sample_grasps(tool, 16, seed=cc["SAMPLE_SEED"] + row["variant"])
+    g = itup.sample_grasps(tool, 16, seed=heldout.SAMPLE_SEED + row["variant"])
     g = g[np.nonzero(reachable(task, g))[0]]
     s = itup.score(tool, task, g)
     fresh = row["fresh"]["16"]
@@ -396,13 +453,14 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
     assert 0 <= fresh["verified"]["index"] < fresh["reachable"]
     scene = itup.build_scene(tool, task, timestep=dataset_timesteps(manifest)[row["task"]])
     for rule in ("tau", "total"):
-        again = cc["_measure"](tool, task, scene, g, fresh[rule]["index"], doc["draws"])
+        again = heldout.measure_pick(tool, task, scene, g, fresh[rule]["index"], doc["draws"])
         assert again["torque"] == pytest.approx(fresh[rule]["torque"], rel=1e-9)
     # the headline torque is the full induced peak label, the raw and projected ones beside it
-    from itup_jax.simulate import Randomization, simulate
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.sim.rollout import simulate
 
     i = fresh["total"]["index"]
-    L = simulate(tool, task, g[np.full(doc["draws"], i)], seed=cc["ROLLOUT_SEED"], scene=scene,
+    L = simulate(tool, task, g[np.full(doc["draws"], i)], seed=heldout.ROLLOUT_SEED, scene=scene,
                  randomize=Randomization()).labels
     v = np.asarray(L.valid, bool)
     for key, label in (("torque", L.peak_torque_induced), ("torque_raw", L.peak_torque),
@@ -410,6 +468,7 @@ def test_candidate_count_quick(tmp_path, monkeypatch):
         assert fresh["total"][key] == pytest.approx(float(np.mean(np.asarray(label)[v])), rel=1e-9), key
 
 
+@pytest.mark.slow
 def test_mjx_vs_native_quick(tmp_path, monkeypatch):
     """Both backends on 3 hammer grasps (2 ms steps; one MJX compile, ~40 s on the 2-core CPU)."""
     _run_experiment("mjx_vs_native.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
@@ -439,9 +498,9 @@ def test_mjx_vs_native_quick(tmp_path, monkeypatch):
 
 
 def test_mjx_vs_native_compare_measures_what_it_says():
-    from itup_jax.simulate import Labels
+    from itup_jax.sim.labels import Labels
 
-    mvn = runpy.run_path(os.path.join(ROOT, "experiments", "mjx_vs_native.py"))
+    mvn = load_experiment("mjx_vs_native")
     a, b = Labels.unmeasured(6).as_dict(), Labels.unmeasured(6).as_dict()
     a["valid"][:] = [True, True, True, True, True, False]
     b["valid"][:] = [True, True, True, True, False, True]
@@ -451,7 +510,7 @@ def test_mjx_vs_native_compare_measures_what_it_says():
     a["alignment_drift"][:], b["alignment_drift"][:] = 0.1, 0.1
     a["task_metric"][:], b["task_metric"][:] = [1, 2, 3, 4, 5, 6], [4, 3, 2, 1, 5, 6]
     a["failed"][:], b["failed"][:] = [True, False, False, False, False, False], False
-    out = mvn["compare"](Labels(**a), Labels(**b))
+    out = mvn.compare(Labels(**a), Labels(**b))
     assert (out["valid_both"], out["valid_native_only"], out["valid_mjx_only"]) == (4, 1, 1)
     assert out["torque_rel_median"] == pytest.approx(0.05) and out["torque_spearman"] == pytest.approx(1.0)
     assert out["torque_rel_p90"] == pytest.approx(np.quantile([0.1, 0, 0, 1], 0.9))
@@ -460,6 +519,7 @@ def test_mjx_vs_native_compare_measures_what_it_says():
     assert out["failed_agree"] == 0.75 and (out["failed_native"], out["failed_mjx"]) == (1, 0)
 
 
+@pytest.mark.slow
 def test_score_weights_quick(tmp_path, monkeypatch):
     _run_experiment("score_weights.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "weights.json").read_text())
@@ -468,19 +528,20 @@ def test_score_weights_quick(tmp_path, monkeypatch):
     assert set(doc["settings"]) == {doc["shipped"], f"slip0_align{align}_task10_fail10"} and doc["n"] == 48
     row = doc["per_tool"][0]
     # every pick is the argmin of its setting's total, recomputed here with ScoreWeights from the scorer
-    from itup_jax.dataset import GenerateConfig, read_manifest, unit_tool
-    from itup_jax.simulate import reachable
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.dataset_load import read_manifest
+    from itup_jax.sim.arm import reachable
 
-    sw = runpy.run_path(os.path.join(ROOT, "experiments", "score_weights.py"))
-    cc = runpy.run_path(os.path.join(ROOT, "experiments", "candidate_count.py"))
+    sw = load_experiment("score_weights")
+    from itup_jax import heldout
     tool, task = unit_tool(GenerateConfig.from_json(read_manifest(str(tmp_path / "data"))["config"]), row["task"], row["variant"])
-    g = itup.sample_grasps(tool, doc["n"], seed=cc["SAMPLE_SEED"] + row["variant"])
+    g = itup.sample_grasps(tool, doc["n"], seed=heldout.SAMPLE_SEED + row["variant"])
     g = g[np.nonzero(reachable(task, g))[0]]
     assert len(g.width) == row["reachable"] > 2
     for key, w in doc["settings"].items():
         s = itup.score(tool, task, g, weights=itup.ScoreWeights(**w))  # the scorer's own total under those weights
         assert row["picks"][key]["index"] == int(np.argmin(np.asarray(s.total)))
-        np.testing.assert_allclose(sw["weighted_total"](s, itup.ScoreWeights(**w)), np.asarray(s.total), rtol=1e-5, atol=1e-5)
+        np.testing.assert_allclose(sw.weighted_total(s, itup.ScoreWeights(**w)), np.asarray(s.total), rtol=1e-5, atol=1e-5)
     # one setting's picks measured over one tool: the summary is that tool's pick
     shipped = doc["summary"][doc["shipped"]]
     assert shipped["geo_mean_torque"] == pytest.approx(row["picks"][doc["shipped"]]["torque"])
@@ -492,7 +553,7 @@ def test_score_weights_quick(tmp_path, monkeypatch):
 
 
 def test_fidelity_pick_stats_closed_form():
-    pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["pick_stats"]
+    from itup_jax.fidelity import pick_stats
     y = np.array([4.0, 1.0, 2.0, 8.0, 3.0, 5.0, 6.0, 7.0, 9.0, 10.0])
     s = pick_stats(y, np.array([0.5, 0.9, 0.8, 0.7, 0.6, 0.4, 0.95, 0.99, 0.3, 0.97]))  # picks y = 9
     assert s["regret"] == pytest.approx(8.0) and s["percentile"] == pytest.approx(0.8)
@@ -502,7 +563,7 @@ def test_fidelity_pick_stats_closed_form():
 
 
 def test_fidelity_best_gap_stats_closed_form():
-    best_gap_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["best_gap_stats"]
+    from itup_jax.fidelity import best_gap_stats
     # unsorted: the best is 1.0, the second 1.04 and the third 1.049 (within the 5 % goal), then 1.06
     s = best_gap_stats(np.array([1.06, 1.04, 3.0, 1.0, 1.049]))
     assert s["best_gap"] == pytest.approx(0.04) and s["within_goal"] == 3
@@ -511,7 +572,7 @@ def test_fidelity_best_gap_stats_closed_form():
 
 
 def test_fidelity_task_pick_stats_closed_form():
-    task_pick_stats = runpy.run_path(os.path.join(ROOT, "experiments", "sdgnet_fidelity.py"))["task_pick_stats"]
+    from itup_jax.fidelity import task_pick_stats
     y = np.array([0.1, 2.0, 3.0, 0.5, 4.0])
     ok = np.array([False, True, True, False, True])  # the two lowest torques did not do the task
     s = task_pick_stats(y, ok, np.array([5.0, 4.0, 1.0, 3.0, 2.0]))  # picks y = 3, the best that did it is 2
@@ -520,6 +581,7 @@ def test_fidelity_task_pick_stats_closed_form():
     assert miss["success"] == 0.0 and np.isnan(miss["task_regret"])
 
 
+@pytest.mark.slow
 def test_torque_failure_quick(tmp_path, monkeypatch):
     _run_experiment("torque_failure.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "torque_failure.json").read_text())
@@ -530,17 +592,18 @@ def test_torque_failure_quick(tmp_path, monkeypatch):
     assert sum(doc["binned_all"]["n"]) == doc["rollouts"]
     assert {r["baseline"] for r in doc["suppression"]} == {"force_closure"}
     # the headline reduction is of the full induced peak torque (the raw peak and projected part beside it)
-    tf = runpy.run_path(os.path.join(ROOT, "experiments", "torque_failure.py"))
+    tf = load_experiment("torque_failure")
     table = {"table": {"hammer": {m: {k: {"mean": v} for k, v in c.items()} for m, c in {
         "sdgnet": {"peak_torque_induced": 1.0, "peak_torque": 3.0, "peak_torque_projected": 4.0, "failed": 0.1},
         "force_closure": {"peak_torque_induced": 2.0, "peak_torque": 3.0, "peak_torque_projected": 1.0,
                           "failed": 0.2}}.items()}}}
-    (row,) = tf["suppression"](table)
+    (row,) = tf.suppression(table)
     assert (row["torque_reduction_pct"], row["raw_torque_reduction_pct"], row["projected_torque_reduction_pct"],
             row["failure_reduction_pct"]) == pytest.approx((50.0, 0.0, -300.0, 50.0))
     assert (tmp_path / "torque_failure.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_analytic_vs_measured_quick(tmp_path, monkeypatch):
     _run_experiment("analytic_vs_measured.py", ["--quick", "--model", "sdgnet", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "analytic_vs_measured.json").read_text())
@@ -555,10 +618,11 @@ def test_analytic_vs_measured_quick(tmp_path, monkeypatch):
     assert (tmp_path / "analytic_vs_measured.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_wrist_features_quick(tmp_path, monkeypatch):
     """Both inputs trained on the same rows (the datasets' features made again, checked against the stored
     ones inside), each judged on a family it never saw."""
-    from itup_jax.sdgnet import load_model
+    from itup_jax.sdgnet.checkpoint import load_model
 
     _run_experiment("wrist_features.py", ["--quick", "--seeds", "0", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "wrist_features.json").read_text())
@@ -583,6 +647,7 @@ def test_experiments_refuse_a_missing_dataset(tmp_path, monkeypatch, capsys):
         assert e.value.code == 2 and words in capsys.readouterr().err and not (tmp_path / "s").exists()
 
 
+@pytest.mark.slow
 def test_sdgnet_scaling_quick(tmp_path, monkeypatch):
     _run_experiment("sdgnet_scaling.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "scaling.json").read_text())
@@ -600,22 +665,19 @@ def test_sdgnet_scaling_quick(tmp_path, monkeypatch):
 def test_scaling_fidelity_headlines_the_full_induced_torque(monkeypatch):
     """`fidelity` reads the per-tool rho against the full induced torque as the headline (raw and
     projected beside it), skips the seen tool, and takes the pooled rho over the held-out tools."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("sdgnet_scaling", os.path.join(ROOT, "experiments", "sdgnet_scaling.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_experiment("sdgnet_scaling")
     rows = [{"task": t, "held_out": h, "rho_sdgnet_induced": i, "rho_sdgnet_raw": r, "rho_sdgnet_projected": p}
             for t, h, i, r, p in (("hammer", False, -1.0, -1.0, -1.0), ("hammer", True, 0.5, 0.2, 0.9),
                                   ("hammer", True, 0.7, 0.4, 0.8), ("sweep", True, 0.9, 0.6, 0.1))]
     pooled = {"hammer": 0.55, "sweep": 0.85, "all": 0.66}
-    monkeypatch.setattr(mod, "evaluate", lambda model, test: {"rows": rows, "rho_pooled_held_out": pooled})
+    monkeypatch.setattr(mod.fid, "fidelity", lambda model, test: {"rows": rows, "rho_pooled_held_out": pooled})
     f = mod.fidelity(None, "test")
     assert (f["median_rho"], f["median_rho_raw"], f["median_rho_projected"]) == pytest.approx((0.7, 0.4, 0.8))
     assert f["by_task"] == pytest.approx({"hammer": 0.6, "sweep": 0.9})
     assert f["rho_pooled"] == 0.66 and f["pooled_by_task"] == {"hammer": 0.55, "sweep": 0.85}
 
 
+@pytest.mark.slow
 def test_label_smoothness_quick(tmp_path, monkeypatch):
     """A zero move must give the grasps' own labels back (rho 1 on every tool: same inputs, same
     rollout); a real move is reported per tool and validated against the schema."""
@@ -628,8 +690,10 @@ def test_label_smoothness_quick(tmp_path, monkeypatch):
     assert [r["rho_moved"] for r in still["per_tool"]] == pytest.approx([1.0, 1.0], abs=1e-12)
     assert [r["rho_moved_projected"] for r in still["per_tool"]] == pytest.approx([1.0, 1.0], abs=1e-12)
     # the headline is the full induced peak torque: SDG-Net's rho recomputed from a nominal rollout
-    from itup_jax.dataset import GenerateConfig, load_shard, read_manifest, unit_tool
-    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.dataset_load import load_shard, read_manifest
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import spearman
 
     data = str(tmp_path / "data")
@@ -650,6 +714,7 @@ def test_label_smoothness_quick(tmp_path, monkeypatch):
     assert e.value.code == 2 and not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_timestep_convergence_quick(tmp_path, monkeypatch):
     """The finest step agrees with itself, and the 2 ms column is a plain simulation's at 2 ms: SDG-Net's
     rank correlation with it equals the one recomputed here from a `simulate` call."""
@@ -661,8 +726,10 @@ def test_timestep_convergence_quick(tmp_path, monkeypatch):
     coarse, finest = tool_row["timesteps"]
     assert finest["rho_vs_finest"] == pytest.approx(1.0, abs=1e-12) and finest["ratio_vs_finest"] == 1.0
     assert finest["success_agree"] == 1.0 and coarse["n"] >= 3
-    from itup_jax.dataset import GenerateConfig, load_shard, read_manifest, unit_tool
-    from itup_jax.sdgnet import load_model, predict_costs
+    from itup_jax.dataset import GenerateConfig, unit_tool
+    from itup_jax.dataset_load import load_shard, read_manifest
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import spearman
 
     data = str(tmp_path / "data")
@@ -685,13 +752,9 @@ def test_timestep_convergence_quick(tmp_path, monkeypatch):
 def test_timestep_rows_judge_the_full_induced_torque(monkeypatch):
     """`tool_rows` ranks by the full induced peak torque (the projected part beside it), against the
     finest step, over the grasps valid at both: synthetic labels whose two torques rank differently."""
-    import importlib.util
     import types
 
-    sys.path.insert(0, os.path.join(ROOT, "experiments"))
-    spec = importlib.util.spec_from_file_location("timestep_convergence", os.path.join(ROOT, "experiments", "timestep_convergence.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_experiment("timestep_convergence")
     induced = {0.002: [1.0, 2.0, 3.0, 4.0, 5.0], 0.001: [1.0, 2.0, 3.0, 5.0, 4.0]}  # then 5 moved copies
     projected = {0.002: [5.0, 4.0, 3.0, 2.0, 1.0], 0.001: [5.0, 4.0, 3.0, 2.0, 1.0]}
 
@@ -712,16 +775,14 @@ def test_timestep_rows_judge_the_full_induced_torque(monkeypatch):
 
 
 def test_label_smoothness_moves_across_the_jaw_axis_and_turns_about_it():
-    import importlib.util
+    from itup_jax.heldout import moved
+    from itup_jax.rotations import quat_to_matrix
 
-    spec = importlib.util.spec_from_file_location("label_smoothness", os.path.join(ROOT, "experiments", "label_smoothness.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
     rng = np.random.default_rng(3)
     q = rng.normal(size=(50, 4))
-    R = np.stack([np.asarray(itup.grasp.rotation_matrix(v / np.linalg.norm(v))) for v in q])
+    R = np.stack([np.asarray(quat_to_matrix(v / np.linalg.norm(v))) for v in q])
     p = rng.normal(size=(50, 3))
-    p1, R1 = mod.moved(p, R, 0.002, np.radians(2.0), np.random.default_rng(0))
+    p1, R1 = moved(p, R, 0.002, np.radians(2.0), np.random.default_rng(0))
     step = p1 - p
     np.testing.assert_allclose(np.linalg.norm(step, axis=1), 0.002, rtol=1e-12)
     np.testing.assert_allclose(np.einsum("ni,ni->n", step, R[:, :, 1]), 0.0, atol=1e-15)  # across the jaw axis
@@ -732,11 +793,7 @@ def test_label_smoothness_moves_across_the_jaw_axis_and_turns_about_it():
 
 
 def test_scaling_subsets_and_fit():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("sdgnet_scaling", os.path.join(ROOT, "experiments", "sdgnet_scaling.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_experiment("sdgnet_scaling")
     data = {"task": np.array(["a"] * 6 + ["b"] * 4), "tool_id": np.array([0, 0, 1, 2, 2, 3, 0, 1, 5, 5])}
     np.testing.assert_array_equal(mod.first_tools(data, 2), [1, 1, 1, 0, 0, 0, 1, 1, 0, 0])
     assert mod.first_tools(data, None).all() and mod.tools_by_task(data) == {"a": 4, "b": 3}
@@ -758,6 +815,7 @@ def test_scaling_subsets_and_fit():
     assert mod.measured_past_goal([32, 128], [0.8, 0.85], None, 0.9) == []
 
 
+@pytest.mark.slow
 def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkeypatch, tasks):
     """The experiment's rows are the shard's valid rows. Its overlap at step 0 is the squeeze s on a grasp
     square across the handle. With the closure axis tilted phi off the handle's cross-section and the
@@ -766,8 +824,10 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
     _run_experiment("initial_grip.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "initial_grip.json").read_text())
     jsonschema.validate(doc, load_schema("initial_grip"))
-    from itup_jax.dataset import load_shard, read_manifest
-    from itup_jax.simulate import INITIAL_SQUEEZE, initial_pad_overlap, plan, sample_physics
+    from itup_jax.dataset_load import load_shard, read_manifest
+    from itup_jax.sim.arm import INITIAL_SQUEEZE, plan
+    from itup_jax.sim.labels import initial_pad_overlap
+    from itup_jax.sim.physics import sample_physics
 
     data = str(tmp_path / "data")
     valid = sum(int(load_shard(data, e)["label_valid"].sum()) for e in read_manifest(data)["shards"])
@@ -788,6 +848,7 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
     assert e.value.code == 2 and not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_ood_guard_quick(tmp_path, monkeypatch):
     """A built-in family and a held-out one, a calibration and a test tool each: every row measured, the
     threshold calibrated by the rule, the picks judged."""
@@ -806,6 +867,7 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
     assert held["verified"] == held["guard_fired"] and held["status"] in ("ok", "no_verified_success")
 
 
+@pytest.mark.slow
 def test_guard_shortlist_quick(tmp_path, monkeypatch):
     """One held-out tool: every rule's shortlist of 5 distinct candidates, its pick among them (or none),
     and the selection by the rule written in the experiment."""
@@ -826,6 +888,7 @@ def test_guard_shortlist_quick(tmp_path, monkeypatch):
     assert choose(tie)["rule"] == "mixed" and choose([{"ok": dict.fromkeys(counts, True)}])["rule"] == "sdgnet"
 
 
+@pytest.mark.slow
 def test_leave_family_out_quick(tmp_path, monkeypatch):
     """Two tiny families: the shipped checkpoint adapted on both and on each alone, every model judged on
     the same rollouts of each family's tools, each adapted checkpoint written with its guard reference."""
@@ -842,6 +905,7 @@ def test_leave_family_out_quick(tmp_path, monkeypatch):
     assert held["tools"] == 1 and 0 <= held["verified_ok"] <= 1
 
 
+@pytest.mark.slow
 def test_headroom_quick(tmp_path, monkeypatch):
     """A tiny dataset: the oracle picks the lowest measured torque among the candidates that did the task and
     held, every pick is re-measured on fresh draws, and the paired ratios compare those."""

@@ -8,7 +8,8 @@ import pytest
 
 import itup_jax as itup
 from itup_jax import robot
-from itup_jax.grasp import GRASPNET_DEPTH, gripper_boxes, make_grasps, rotation_matrix
+from itup_jax.grasp import GRASPNET_DEPTH, gripper_boxes, make_grasps
+from itup_jax.rotations import quat_to_matrix
 
 # Rotation round trips in float64: a few ulps of the matrix entries.
 ROT_ATOL = 1e-12
@@ -16,7 +17,7 @@ ROT_ATOL = 1e-12
 
 def _random_rotations(rng, n):
     q = rng.normal(size=(n, 4))
-    return np.asarray(rotation_matrix(jnp.asarray(q / np.linalg.norm(q, axis=1, keepdims=True))))
+    return np.asarray(quat_to_matrix(jnp.asarray(q / np.linalg.norm(q, axis=1, keepdims=True))))
 
 
 def test_frame_convention_pads_on_closure_axis_and_right_handed(rng):

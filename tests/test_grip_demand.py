@@ -6,7 +6,7 @@ import pytest
 
 from itup_jax.grip_demand import MIN_COUPLE_WIDTH, grip_demand, torque_about_grasp
 from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION, PAD_WIDTH
-from itup_jax.simulate import induced
+from itup_jax.sim.labels import induced
 
 Z3 = np.zeros(3)
 
@@ -59,8 +59,8 @@ def test_a_force_through_the_grasp_centre_has_no_torque_there():
 
 def test_the_label_is_the_peak_demand_of_the_rollouts_induced_wrist_wrench(tasks):
     import itup_jax as itup
-    from itup_jax.scene import build_scene
-    from itup_jax.simulate import simulate
+    from itup_jax.sim.rollout import simulate
+    from itup_jax.sim.scene import build_scene
 
     tool, task = tasks["hammer"]
     scene = build_scene(tool, task)

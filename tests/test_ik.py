@@ -6,7 +6,7 @@ import pytest
 
 import itup_jax as itup
 from itup_jax import ik
-from itup_jax.scene import build_scene
+from itup_jax.sim.scene import build_scene
 
 # FK is the same product of transforms in both: float64 rounding only.
 FK_ATOL = 1e-12
@@ -49,7 +49,8 @@ def test_inverse_kinematics_recovers_the_pose_and_the_joints(rng):
 def test_track_is_continuous_and_stays_above_the_table(tasks):
     tool, task = tasks["sweep"]
     g = itup.sample_grasps(tool, 16, seed=0)
-    from itup_jax.simulate import plan, sample_physics
+    from itup_jax.sim.arm import plan
+    from itup_jax.sim.physics import sample_physics
     p = plan(build_scene(tool, task), task, g, sample_physics(tool, 16, spread=None))
     q = p.q_traj[~p.infeasible]
     assert len(q) > 0

@@ -9,7 +9,7 @@ import pytest
 import itup_jax as itup
 from itup_jax.dataset import GenerateConfig, generate
 from itup_jax.mcap_log import SCHEMAS, read_rollout_mcap, write_rollout_mcap
-from itup_jax.scene import build_scene
+from itup_jax.sim.scene import build_scene
 
 
 @pytest.fixture(scope="module")
@@ -68,6 +68,7 @@ def test_a_result_without_traces_is_refused(tasks, tmp_path):
     assert not os.listdir(tmp_path)
 
 
+@pytest.mark.slow
 def test_generate_logs_mcap_without_changing_the_shards(tmp_path):
     cfg = GenerateConfig(tasks=("reach",), tools_per_task=1, grasps=6, seed=1)
     a = generate(str(tmp_path / "a"), cfg, progress=False)
@@ -144,14 +145,16 @@ def test_a_mesh_geom_is_drawn_as_its_triangles():
 
 
 def test_a_users_mesh_tool_is_drawn_in_the_task_log(user_mallet):
-    """A mesh tool has no primitives: the task log's tool entity carries its mesh, in the tool frame."""
+    """A mesh tool collides by its convex pieces, but the task log's tool entity carries its mesh itself,
+    in the tool frame (no cube or cylinder stands in for it)."""
     from itup_jax.mcap_log import _scene_update
 
     tool = user_mallet
-    assert not tool.primitives
+    assert tool.primitives and all(p[0] == "hull" for p in tool.primitives)
     task = itup.make_task("knock", tool)
     (ent,) = [e for e in _scene_update(build_scene(tool, task), task, 0.03)["entities"] if e["id"] == "tool"]
     (tri,) = ent["triangles"]
     pts = np.array([[p["x"], p["y"], p["z"]] for p in tri["points"]])
     np.testing.assert_allclose(pts, tool.mesh.vertices)
     assert len(tri["indices"]) == 3 * len(tool.mesh.faces) and ent["frame_id"] == "tool"
+    assert not ent["cubes"] and not ent["cylinders"]

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from itup_jax.mjx_cholesky import cho_factor, cho_solve, cholesky_lower, jax_cholesky
-from itup_jax.simulate import import_mjx
+from itup_jax.sim.mjx import import_mjx
+from itup_jax.sim.mjx_cholesky import cho_factor, cho_solve, cholesky_lower, jax_cholesky
 
 
 def _spd(rng, shape, n):
@@ -59,6 +59,7 @@ def test_solve_reads_only_its_triangle(rng):
         np.testing.assert_allclose(np.asarray(cho_solve(c, b)), np.linalg.solve(a, b), rtol=1e-10)
 
 
+@pytest.mark.slow
 def test_gradient_matches_finite_differences(rng):
     a0 = _spd(rng, (), 5)
     b = rng.normal(size=5)
@@ -89,6 +90,7 @@ def test_block_swaps_and_restores():
     assert (jax.scipy.linalg.cho_factor, jax.scipy.linalg.cho_solve) == old
 
 
+@pytest.mark.slow
 def test_mjx_step_unchanged():
     """A three-link arm and a free capsule resting on a box (the mass matrix and the Newton solver's
     Hessian are both factored): one MJX step with plain-JAX Cholesky equals MJX's stock step, and both
@@ -118,19 +120,21 @@ def test_mjx_step_unchanged():
     np.testing.assert_allclose(np.asarray(ours.qpos), d.qpos, rtol=0, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_cpu_rollout_program_has_no_lapack_call(tasks):
     """The program `simulate` runs on this CPU calls no LAPACK kernel; the program it would trace for a GPU
     is MJX's stock one, which does (so the check reads the right thing). The two are traced one after the
     other from the same rollout function: each platform keeps its own trace, where JAX's trace cache,
     keyed by the function, would hand the second the first one's."""
-    from itup_jax.scene import build_scene
+    from itup_jax.sim.scene import build_scene
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.mjx")
+    phys = importlib.import_module("itup_jax.sim.physics")
     tool, task = tasks["hammer"]
     scene = build_scene(tool, task, timestep=0.002)
-    fn = sim._mjx_rollout_fn(scene, float64=True)
-    physics = sim.sample_physics(tool, 2, 0)
-    args = [a.astype(fn.dtype) for a in sim.mjx_model_fields(scene, physics)]
+    fn = sim.mjx_rollout_fn(scene, float64=True)
+    physics = phys.sample_physics(tool, 2, 0)
+    args = [a.astype(fn.dtype) for a in phys.mjx_model_fields(scene, physics)]
     args += [np.tile(scene.model.qpos0, (2, 1)).astype(fn.dtype), np.zeros((2, 2, scene.model.nu), fn.dtype)]
     args = [jax.device_put(a, jax.devices("cpu")[0]) for a in args]
     ours = fn.lower(*args).as_text()

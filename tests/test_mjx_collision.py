@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from itup_jax.mjx_collision import CLIP_SLACK, capsule_box_collider, clip_segment_to_box, native_capsule_box
-from itup_jax.simulate import import_mjx
+from itup_jax.sim.mjx import import_mjx
+from itup_jax.sim.mjx_collision import CLIP_SLACK, capsule_box_collider, clip_segment_to_box, native_capsule_box
 
 PAD_HALF = np.array([0.011, 0.004, 0.01875])  # the pad's half sizes (m), as in mjcf/parallel_gripper
 RADIUS, HALF_LEN = 0.006, 0.219  # the L-stick's long capsule (m)
@@ -72,6 +72,7 @@ def test_clip_segment_to_box_closed_forms():
     assert not bool(hit)  # beyond x = 1 at both ends
 
 
+@pytest.mark.slow
 def test_long_tilted_capsule_on_a_pad_matches_native_where_stock_mjx_picks_the_far_face(pair):
     """The reach's L-stick on the pad, as in the first step of a reach rollout that MJX 3.17.0 lost (session
     18): axis 3.4 degrees from the pad's face, the pad 0.18 m from the capsule's centre. Native MuJoCo: 1.4 mm
@@ -103,6 +104,7 @@ def _random_poses(n, rng, max_tilt_deg, depth_range, reach=1.0):
     return np.array(qs)
 
 
+@pytest.mark.slow
 def test_grip_contacts_match_native(pair):
     """200 grips (the capsule across the pad's face, tilted up to 5 degrees towards it, up to 3 mm deep):
     the collider's deepest contact is within 0.2 mm of native MuJoCo's (median 20 um; near the face's
@@ -119,6 +121,7 @@ def test_grip_contacts_match_native(pair):
     assert np.sum(np.abs(s - n)[pen] > 0.01) > 0  # the stock routine's far-face picks, for the record
 
 
+@pytest.mark.slow
 def test_no_false_penetration_over_the_pads_edges(pair):
     """Capsules also over the face's edges (feet up to 1.3x its half sizes) and tilted up to 15 degrees:
     where native MuJoCo sees no penetration, neither does the collider. (Over an edge both MJX routines
@@ -130,6 +133,7 @@ def test_no_false_penetration_over_the_pads_edges(pair):
     assert np.all(f[n >= 0] > -1e-6)
 
 
+@pytest.mark.slow
 def test_separated_pair_reports_no_contact(pair):
     """The capsule 1-5 cm off the face: no penetration from either, and the collider puts it at least 1 cm
     away (MJX's routine inside the clip box, at least CLIP_SLACK = 1 cm outside it)."""

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import checkpoint, mlp
-from itup_jax.optim import AdamConfig, adam_init, adam_update, learning_rate
+from itup_jax.sdgnet import checkpoint, mlp
+from itup_jax.sdgnet.optim import AdamConfig, adam_init, adam_update, learning_rate
 
 # float64 throughout (conftest): the NumPy re-implementation differs by rounding only.
 FWD_RTOL = 1e-12
@@ -70,11 +70,12 @@ def test_loss_gradient_matches_finite_differences(rng):
     np.testing.assert_allclose(g, fd, rtol=FD_RTOL, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_sdgnet_loss_is_sse_plus_weighted_cross_entropy_and_its_gradient_matches_fd(rng):
     """sdgnet.training_loss: with a network whose outputs are known (zero last-layer weights, biases
     b), SSE = sum (b_k - y_k)^2 and each binary head adds its weight x -log sigma(+-b_{3+k}); its gradient
     (float64) matches central finite differences in every first-layer weight."""
-    from itup_jax.sdgnet import training_loss
+    from itup_jax.sdgnet.training import training_loss
 
     params = mlp.init(jax.random.key(3), [4, 8, 5])
     x, y = jnp.asarray(rng.normal(size=(6, 4))), jnp.asarray(rng.normal(size=(6, 3)))
@@ -167,12 +168,13 @@ def test_pickled_truncated_and_foreign_files_are_refused(tmp_path):
         checkpoint.load(str(plain))
 
 
+@pytest.mark.slow
 def test_listwise_loss_is_the_kl_of_top1_distributions_and_its_gradient_matches_fd(rng):
     """sdgnet.listwise_loss on two grasps: q1 = sigmoid((t2 - t1) / T), p1 = sigmoid((a2 - a1) / T) and
     the loss is KL(q || p); it vanishes when the predictions are the targets plus a constant (the offset
     between tools is ignored), a padded entry changes nothing, and the float64 gradient, padding
     included, matches central finite differences."""
-    from itup_jax.sdgnet import listwise_loss
+    from itup_jax.sdgnet.training import listwise_loss
 
     T = 0.3
     a, t = np.array([0.2, -0.5]), np.array([-0.1, 0.4])

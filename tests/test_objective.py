@@ -1,4 +1,4 @@
-"""Objectives: what SDG-Net regresses and how its outputs make the scorer's costs (`itup_jax.objective`)."""
+"""Objectives: what SDG-Net regresses and how its outputs make the scorer's costs (`itup_jax.sdgnet.objective`)."""
 
 import dataclasses
 
@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax import objective
-from itup_jax.sdgnet import CLASS_TARGETS, TrainConfig, load_model, predict_costs, save_model, train
+from itup_jax.sdgnet import objective
+from itup_jax.sdgnet.checkpoint import load_model, save_model
+from itup_jax.sdgnet.config import CLASS_TARGETS, TrainConfig
+from itup_jax.sdgnet.model import predict_costs
+from itup_jax.sdgnet.training import train
 
 
 def test_the_wrench_objective_recomposes_the_full_torque_and_keeps_the_grip_demand():
@@ -52,6 +55,7 @@ def _synthetic_wrench(n=400, f=10, seed=0):
     return data
 
 
+@pytest.mark.slow
 def test_a_wrench_model_trains_saves_loads_and_scores_its_own_targets(tmp_path, tasks):
     data = _synthetic_wrench()
     model = train(data, TrainConfig(objective="wrench", hidden=(32,), epochs=40, patience=40), progress=False,
@@ -76,7 +80,7 @@ def test_a_wrench_model_trains_saves_loads_and_scores_its_own_targets(tmp_path, 
 def test_adapting_a_wrench_checkpoint_keeps_its_own_outputs(tmp_path):
     """`--keep` names the checkpoint's own outputs: a wrench model's torque components pass the check (the
     run then stops at the missing data), the paper objective's tau, which it does not regress, does not."""
-    from itup_jax.training import adapt_on_datasets
+    from itup_jax.sdgnet.recipes import adapt_on_datasets
 
     model = train(_synthetic_wrench(), TrainConfig(objective="wrench", hidden=(8,), epochs=2), progress=False,
                   log=lambda *a: None)
@@ -90,8 +94,9 @@ def test_adapting_a_wrench_checkpoint_keeps_its_own_outputs(tmp_path):
     assert "keep" not in str(exc.value) and "no_data" in str(exc.value)
 
 
+@pytest.mark.slow
 def test_an_old_checkpoint_without_an_objective_reads_as_the_papers(tmp_path):
-    from itup_jax.sdgnet import TARGETS
+    from itup_jax.sdgnet.config import TARGETS
 
     rng = np.random.default_rng(1)
     X = rng.normal(size=(200, 6))

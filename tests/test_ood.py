@@ -14,7 +14,8 @@ import pytest
 import itup_jax as itup
 from itup_jax import ood
 from itup_jax.cli import main
-from itup_jax.sdgnet import load_model, predict_from_features
+from itup_jax.sdgnet.checkpoint import load_model
+from itup_jax.sdgnet.model import predict_from_features
 from itup_jax.task import DEFAULT_TOOL
 
 
@@ -63,8 +64,8 @@ def test_knn_distance_closed_form():
 
 
 def test_a_trained_checkpoint_carries_its_reference_and_one_without_has_no_guard(tmp_path):
-    from itup_jax.sdgnet import load_model as load
-    from itup_jax.sdgnet import save_model
+    from itup_jax.sdgnet.checkpoint import load_model as load
+    from itup_jax.sdgnet.checkpoint import save_model
 
     feats = np.arange(24, dtype=np.float32).reshape(6, 4)
     ref = ood.sample_reference(feats, np.array(["hammer"] * 4 + ["knock"] * 2), rows=3)
@@ -118,8 +119,8 @@ def test_plan_switches_to_verified_picking_when_the_guard_fires(tmp_path, capsys
 def test_the_guards_shortlist_mixes_in_the_analytic_costs_best(far_tool):
     """When the guard fired, the verified grasps are SDG-Net's 3 best and the analytic wrench cost's 2 best
     of the others (`planning.guard_order`), in that order; the pick is the lowest measured total."""
-    from itup_jax.objective import OBJECTIVES
     from itup_jax.planning import guard_order, plan_grasp
+    from itup_jax.sdgnet.objective import OBJECTIVES
 
     task = itup.make_task("knock", far_tool)
     plan = plan_grasp(far_tool, task, n=24)

@@ -10,6 +10,9 @@ from pathlib import Path
 
 import pytest
 
+#: Slow tier (`-m slow`): a wheel is built and installed in a fresh environment.
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parent.parent
 
 
@@ -49,7 +52,7 @@ def test_the_installed_wheel_runs_the_demo_from_another_folder(wheel, tmp_path):
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "ITUP_MJCF_DIR")}
     env["ITUP_COMPILE_CACHE"] = "0"
-    where = subprocess.run([str(py), "-c", "import itup_jax, itup_jax.scene as s; print(itup_jax.__file__); "
+    where = subprocess.run([str(py), "-c", "import itup_jax, itup_jax.sim.scene as s; print(itup_jax.__file__); "
                             "print(s.MJCF_DIR)"], check=True, capture_output=True, text=True, cwd=work, env=env)
     pkg, mjcf = where.stdout.split()
     assert pkg.startswith(site) and mjcf.startswith(site), where.stdout

@@ -5,9 +5,8 @@ import pytest
 from jsonschema import validate
 
 import itup_jax as itup
-from itup_jax.planning import first_reachable
 from itup_jax.schemas import load_schema
-from itup_jax.simulate import reachable
+from itup_jax.sim.arm import first_reachable, reachable
 
 
 def test_the_pick_is_the_best_scored_reachable_candidate(tasks):
@@ -28,7 +27,7 @@ def test_the_pick_is_the_best_scored_reachable_candidate(tasks):
 def test_first_reachable_reports_none_when_nothing_is(tasks, monkeypatch):
     import importlib
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.arm")
 
     tool, task = tasks["knock"]
     g = itup.sample_grasps(tool, 20, seed=0)

@@ -8,6 +8,7 @@ the float64 reference; HIGHEST put them 7.6e-6 from it (docs/benchmarks.md, "GPU
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import itup_jax as itup
 from itup_jax.precision import full_precision
@@ -33,15 +34,16 @@ def test_full_precision_sets_highest_and_the_default_does_not():
 
 def test_costs_features_scoring_and_prediction_trace_float32_products(tasks):
     from itup_jax.costs import CostParams, wrench_costs_jit
-    from itup_jax.features import batched_features
-    from itup_jax.scoring import ScoreWeights, _sdgnet_args, sdgnet_scores_jit
-    from itup_jax.sdgnet import load_model, predict
+    from itup_jax.scoring import ScoreWeights, sdgnet_args, sdgnet_scores_jit
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.features import batched_features
+    from itup_jax.sdgnet.model import predict
     from itup_jax.wrench import task_loads
 
     tool, task = tasks["hammer"]
     grasps = itup.sample_grasps(tool, 8, seed=0)
     assert_full_precision(wrench_costs_jit.lower(tool.params, task, grasps, CostParams()))
-    args, kw = _sdgnet_args(tool, task, grasps, load_model(None), ScoreWeights())
+    args, kw = sdgnet_args(tool, task, grasps, load_model(None), ScoreWeights())
     assert_full_precision(sdgnet_scores_jit.lower(*args, **kw))
     field, params, stats = args[0], args[4], args[5:10]
     assert_full_precision(batched_features.lower(field, task_loads(tool.params, task), tool.params, grasps, spec=kw["spec"]))
@@ -49,17 +51,19 @@ def test_costs_features_scoring_and_prediction_trace_float32_products(tasks):
     assert_full_precision(predict.lower(params, *stats, feats))
 
 
+@pytest.mark.slow
 def test_mjx_rollout_traces_float32_products(tasks):
     import importlib
 
-    from itup_jax.scene import build_scene
+    from itup_jax.sim.scene import build_scene
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.mjx")
+    phys = importlib.import_module("itup_jax.sim.physics")
     tool, task = tasks["hammer"]
     scene = build_scene(tool, task, timestep=0.002)
-    fn = sim._mjx_rollout_fn(scene, float64=False)  # the float32 program, where a GPU would use TF32
-    physics = sim.sample_physics(tool, 2, 0)
-    fields = [a.astype(fn.dtype) for a in sim.mjx_model_fields(scene, physics)]
+    fn = sim.mjx_rollout_fn(scene, float64=False)  # the float32 program, where a GPU would use TF32
+    physics = phys.sample_physics(tool, 2, 0)
+    fields = [a.astype(fn.dtype) for a in phys.mjx_model_fields(scene, physics)]
     qpos0 = np.tile(scene.model.qpos0, (2, 1)).astype(fn.dtype)
     ctrl = np.zeros((2, 2, scene.model.nu), fn.dtype)
     assert fn.dtype == np.float32

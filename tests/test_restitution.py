@@ -1,12 +1,12 @@
-"""The restitution MuJoCo delivers: a free rod dropped on a plane (`itup_jax.restitution`)."""
+"""The restitution MuJoCo delivers: a free rod dropped on a plane (`itup_jax.sim.restitution`)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from itup_jax.restitution import calibrated_dampratio, delivered_restitution, textbook_dampratio
-from itup_jax.scene import build_scene, restitution_solref
+from itup_jax.sim.restitution import calibrated_dampratio, delivered_restitution, textbook_dampratio
+from itup_jax.sim.scene import build_scene, restitution_solref
 
 
 @pytest.mark.parametrize("timestep", [0.0005, 0.002])

@@ -9,10 +9,11 @@ import trimesh
 
 import itup_jax as itup
 from itup_jax import tasks as registry
-from itup_jax.restitution import delivered_restitution, textbook_dampratio
 from itup_jax.robot import ARM_JOINTS, JOINT_TORQUE_LIMITS
-from itup_jax.scene import CONTACT_MIN_TIMECONST, build_scene, restitution_solref, scene_xml, target_solref
-from itup_jax.simulate import mjx_model_fields, plan, randomized_model, sample_physics
+from itup_jax.sim.arm import plan
+from itup_jax.sim.physics import mjx_model_fields, randomized_model, sample_physics
+from itup_jax.sim.restitution import delivered_restitution, textbook_dampratio
+from itup_jax.sim.scene import CONTACT_MIN_TIMECONST, build_scene, restitution_solref, scene_xml, target_solref
 from itup_jax.tasks.hammer import NAIL_DEPTH_SUCCESS
 from itup_jax.tasks.knock import TOPPLE_SUCCESS, TOWER_STANDING
 
@@ -30,7 +31,7 @@ def scenes(tasks):
 
 @pytest.mark.parametrize("kind", itup.TASK_KINDS)
 def test_scene_compiles_with_the_tools_physics_in_mujoco_and_mjx(scenes, tasks, kind):
-    from itup_jax.simulate import import_mjx
+    from itup_jax.sim.mjx import import_mjx
 
     mjx = import_mjx()
     sc = scenes[kind]

@@ -9,7 +9,10 @@ import pytest
 import itup_jax as itup
 from itup_jax import sdgnet
 from itup_jax.scoring import sdgnet_scores_jit
-from itup_jax.sdgnet import CLASS_TARGETS, SUCCESS_TARGET, TARGETS, load_model, save_model, train
+from itup_jax.sdgnet import training as sdgnet_train
+from itup_jax.sdgnet.checkpoint import load_model, save_model
+from itup_jax.sdgnet.config import CLASS_TARGETS, SUCCESS_TARGET, TARGETS
+from itup_jax.sdgnet.training import train
 
 
 def TrainConfig(**kw):  # noqa: N802
@@ -40,6 +43,7 @@ def test_training_lowers_the_loss_tenfold_and_holds_out_tools():
     assert model.spec["n_val"] % 50 == 0  # whole tools (50 examples each) went to validation
 
 
+@pytest.mark.slow
 def test_weight_average_is_the_moving_average_of_the_steps():
     """`TrainConfig.ema`: the weights validated and kept are the exponential moving average of the steps'
     weights, started at the initial ones. One epoch of one full-batch step from scratch keeps
@@ -47,7 +51,7 @@ def test_weight_average_is_the_moving_average_of_the_steps():
     after the step (the same run with ema 0)."""
     import jax
 
-    from itup_jax import mlp
+    from itup_jax.sdgnet import mlp
 
     data = _synthetic(n=200)
     quiet = dict(progress=False, log=lambda *_: None)
@@ -78,6 +82,7 @@ def test_checkpoint_carries_the_spec_and_predicts_the_same(tmp_path):
         assert np.array_equal(W, W2) and np.array_equal(b, b2)
 
 
+@pytest.mark.slow
 def test_checkpoint_gives_back_its_training_recipe(tmp_path):
     cfg = TrainConfig(hidden=(16, 8), epochs=3, lr=1e-3, weight_decay=0.05, seed=4, finetune_epochs=2)
     model = train(_synthetic(), cfg, feature_spec={"num_points": 8}, progress=False, log=lambda *a: None)
@@ -111,10 +116,10 @@ def test_default_model_scores_in_one_jit_without_recompiling(tasks):
 def test_best_grasp_reachable_only_walks_the_ranking_to_the_first_reachable(tasks):
     """For the reach task's L-stick the seeded random scorer's best-scored raw candidate is unreachable
     for the arm (a scorer whose ranking has no ties and does not move when the shipped checkpoint is
-    retrained): reachable_only returns the best-scored grasp that `simulate.reachable` accepts, and
+    retrained): reachable_only returns the best-scored grasp that `sim.arm.reachable` accepts, and
     refuses a set with none."""
     from itup_jax.errors import InputError
-    from itup_jax.simulate import reachable
+    from itup_jax.sim.arm import reachable
 
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 40, seed=0)
@@ -132,7 +137,8 @@ def test_best_grasp_reachable_only_walks_the_ranking_to_the_first_reachable(task
 def test_predictions_are_decoded_with_the_checkpoints_own_target_scales(tasks, tmp_path):
     """A checkpoint trained with other log1p(y / scale) scales is decoded with its own (the spec's), by
     both `predict_costs` and the scorer: scales x (2, 3, 5) give exactly those multiples of the costs."""
-    from itup_jax.sdgnet import PAPER_MODEL, predict_costs
+    from itup_jax.sdgnet.config import PAPER_MODEL
+    from itup_jax.sdgnet.model import predict_costs
 
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 16, seed=0)
@@ -152,6 +158,7 @@ def test_predictions_are_decoded_with_the_checkpoints_own_target_scales(tasks, t
         load_model(path)
 
 
+@pytest.mark.slow
 def test_torque_scale_sets_the_target_and_travels_with_the_checkpoint(tmp_path):
     """TrainConfig.torque_scale: the torque target is log1p(tau / scale), the checkpoint stores the scale,
     and the predictions come back in N m either way (a scale of 0 is refused)."""
@@ -160,7 +167,7 @@ def test_torque_scale_sets_the_target_and_travels_with_the_checkpoint(tmp_path):
     models = {k: train(data, dataclasses.replace(cfg, torque_scale=k), progress=False, log=lambda *a: None) for k in (1.0, 0.02)}
     assert models[0.02].spec["target_scales"][0] == 0.02 and models[1.0].spec["target_scales"][0] == 1.0
     assert models[0.02].spec["y_mean"][0] > models[1.0].spec["y_mean"][0] + 2  # log1p(tau / 0.02) is ~log(50) larger
-    from itup_jax.sdgnet import predict_costs
+    from itup_jax.sdgnet.model import predict_costs
 
     tau = data[TARGETS[0]]
     for m in models.values():  # both decode to torques of the data's size (N m), not off by the scale ratio
@@ -199,7 +206,7 @@ def test_per_task_model_keeps_one_network_per_task(tmp_path):
     save_model(str(tmp_path / "m.npz"), model)
     back = load_model(str(tmp_path / "m.npz"))
     assert back.tasks == model.tasks and back.spec["by_task"]["reach"]["layers"] == [2, 4]
-    from itup_jax.sdgnet import predict_costs
+    from itup_jax.sdgnet.model import predict_costs
 
     with pytest.raises(itup.InputError, match="per task"):
         predict_costs(back, a["features"][:5])  # which task's network? it must be said
@@ -209,10 +216,11 @@ def test_per_task_model_keeps_one_network_per_task(tmp_path):
     assert np.asarray(out["tau"]).shape == (5,)
 
 
+@pytest.mark.slow
 def test_bench_score_takes_a_checkpoint_path(tmp_path):
     """`itup bench score --model PATH` times that checkpoint (it used to pass the path on as a Model)."""
     from itup_jax.bench import bench_score
-    from itup_jax.features import FeatureSpec
+    from itup_jax.sdgnet.features import FeatureSpec
 
     spec = FeatureSpec()
     data = _synthetic(f=spec.size)
@@ -237,12 +245,13 @@ def test_a_feature_constant_in_training_is_not_blown_up():
     assert all(s > 0.5 for i, s in enumerate(model.spec["x_std"]) if i != 5)  # the others are scaled by their spread
 
 
+@pytest.mark.slow
 def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(tasks, tmp_path):
     """Outputs 4, 5 and 6 learn P(success), P(failed) and P(failed at the weak grip) (held-out AUC on
     separable synthetic labels), travel with the checkpoint, and the scorer's total is the costs'
     weighted sum plus w_task x (1 - p_success) + w_fail x p_failed + w_weak x p_failed_weak."""
     from itup_jax.scoring import ScoreWeights
-    from itup_jax.sdgnet import predict_costs
+    from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import roc_auc
 
     data = _synthetic(n=800)
@@ -271,6 +280,7 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
                       progress=False, log=lambda *a: None)
     assert only_fail.class_heads == ["label_failed"] and not only_fail.has_success_head
     # a checkpoint that predates the weak-grip head: its recipe (what `adapt` continues) has none either
+
     def predating(m):
         return dataclasses.replace(m, spec=dict(m.spec, config={k: v for k, v in m.spec["config"].items()
                                                                 if k != "weak_failure_weight"}))
@@ -296,7 +306,7 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     assert train(no_weak, TrainConfig(hidden=(8,), epochs=2, weak_failure_weight=0.0), progress=False,
                  log=lambda *a: None).class_heads == list(CLASS_TARGETS[:2])
     # the scorer (on a real tool, with the shipped features): total = w . costs + w_task (1 - p_s) + w_fail p_f
-    from itup_jax.features import FeatureSpec
+    from itup_jax.sdgnet.features import FeatureSpec
 
     spec = FeatureSpec()
     real = train(_synthetic(f=spec.size), TrainConfig(hidden=(16,), epochs=5), feature_spec=spec.to_dict(),
@@ -324,11 +334,10 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
                                + w.w_align * np.asarray(s1.align), rtol=1e-5, atol=1e-5)
 
 
+@pytest.mark.slow
 def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_worse():
     import jax
     import jax.numpy as jnp
-
-    from itup_jax import sdgnet
 
     a, b = _synthetic(seed=1), _synthetic(seed=2)
     b["task"] = np.array(["reach"] * len(b["task"]))
@@ -344,17 +353,17 @@ def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_w
         assert model.spec["by_task"][kind]["x_mean"] == shared.spec["x_mean"]
         assert model.spec["by_task"][kind]["y_std"] == shared.spec["y_std"]
     assert sum(e["n_val"] for e in model.spec["by_task"].values()) == shared.spec["n_val"]
-    val = sdgnet._val_tools(data, cfg.val_fraction, cfg.seed)
-    names = sdgnet._tool_names(data)
+    val = sdgnet_train._val_tools(data, cfg.val_fraction, cfg.seed)
+    names = sdgnet_train._tool_names(data)
     gains = []
     for kind in model.tasks:
         rows = (data["task"] == kind) & np.isin(names, list(val))
         x = (data["features"][rows] - np.array(shared.spec["x_mean"])) / np.array(shared.spec["x_std"])
         y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
         y = (y - np.array(shared.spec["y_mean"])) / np.array(shared.spec["y_std"])
-        s = np.stack([sdgnet.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1)  # NaN: not measured
+        s = np.stack([sdgnet_train.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1)  # NaN: not measured
         f32 = lambda v: jnp.asarray(v, jnp.float32)  # noqa: E731
-        loss = lambda params: float(sdgnet.training_loss(jax.tree_util.tree_map(f32, params), f32(x), f32(y), f32(s),  # noqa: E731
+        loss = lambda params: float(sdgnet_train.training_loss(jax.tree_util.tree_map(f32, params), f32(x), f32(y), f32(s),  # noqa: E731
                                                           f32(list(cfg.class_weights.values()))))
         before, after = loss(shared.params), loss(model.for_task(kind).params)
         assert after <= before + 1e-5
@@ -367,6 +376,7 @@ def test_finetuning_starts_from_the_shared_network_on_its_split_and_never_does_w
         TrainConfig(finetune_epochs=-1)
 
 
+@pytest.mark.slow
 def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage():
     """With rank_weight > 0 the recorded validation loss is the paper's loss plus rank_weight x the
     listwise loss of every held-out tool's grasps as one group (recomputed here from the network it
@@ -383,19 +393,19 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
                       rank_group=8)
     model = train(data, cfg, progress=False, log=lambda *_: None)
     sp = model.spec
-    rows = np.isin(sdgnet._tool_names(data), list(sdgnet._val_tools(data, cfg.val_fraction, cfg.seed)))
+    rows = np.isin(sdgnet_train._tool_names(data), list(sdgnet_train._val_tools(data, cfg.val_fraction, cfg.seed)))
     f32 = lambda v: jnp.asarray(v, jnp.float32)  # noqa: E731
     x = f32((data["features"][rows] - np.array(sp["x_mean"])) / np.array(sp["x_std"]))
     y = np.log1p(np.stack([data[t][rows] for t in TARGETS], 1) / np.array(cfg.target_scales))
     y = f32((y - np.array(sp["y_mean"])) / np.array(sp["y_std"]))
-    s = f32(np.stack([sdgnet.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1))
+    s = f32(np.stack([sdgnet_train.head_labels(data, t)[rows] for t in CLASS_TARGETS], 1))
     params = jax.tree_util.tree_map(f32, model.params)
-    plain = float(sdgnet.training_loss(params, x, y, s, f32(list(cfg.class_weights.values()))))
+    plain = float(sdgnet_train.training_loss(params, x, y, s, f32(list(cfg.class_weights.values()))))
     pred = np.asarray(jax.vmap(sdgnet.mlp.apply, in_axes=(None, 0))(params, x))[:, 0]
     tools = data["tool_id"][rows]
     groups = [np.flatnonzero(tools == t) for t in np.unique(tools)]
     assert len(groups) == 3
-    rank = np.mean([float(sdgnet.listwise_loss(f32(pred[g][None]), y[g, 0][None], cfg.rank_temperature))
+    rank = np.mean([float(sdgnet_train.listwise_loss(f32(pred[g][None]), y[g, 0][None], cfg.rank_temperature))
                     for g in groups])
     assert rank > 0 and sp["best_val_loss"] == pytest.approx(plain + 2.0 * rank, rel=1e-4)
     tuned = train(data, dataclasses.replace(cfg, finetune_epochs=2), progress=False, log=lambda *_: None)
@@ -403,8 +413,8 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
     assert tuned.spec["shared"]["best_val_loss"] == alone.spec["best_val_loss"]
     # the groups a step draws: each holds rows of one tool only, and every row of a tool can be drawn
     names = np.array(["b", "a", "c", "a", "b", "a", "c", "c", "b", "a"])
-    order, starts, counts = (jnp.asarray(v) for v in sdgnet._tool_groups(names))
-    gi = np.asarray(sdgnet._draw_groups(jax.random.key(0), order, starts, counts, 200, 16))
+    order, starts, counts = (jnp.asarray(v) for v in sdgnet_train._tool_groups(names))
+    gi = np.asarray(sdgnet_train._draw_groups(jax.random.key(0), order, starts, counts, 200, 16))
     assert gi.shape == (200, 16) and all(len(set(names[row])) == 1 for row in gi)
     assert set(gi.ravel()) == set(range(len(names)))
     for bad in (dict(rank_weight=-1.0), dict(rank_temperature=0.0), dict(rank_group=1), dict(rank_tools=0)):
@@ -412,15 +422,16 @@ def test_rank_term_is_in_the_validation_loss_and_only_in_the_fine_tuning_stage()
             TrainConfig(**bad)
 
 
+@pytest.mark.slow
 def test_ensemble_averages_its_members_log_costs_and_probabilities(tasks, tmp_path, capsys):
-    """`sdgnet.ensemble` of two seeds: predictions (from features and through the scorer's one jit) are
+    """`sdgnet.model.ensemble` of two seeds: predictions (from features and through the scorer's one jit) are
     scale x expm1 of the members' mean log1p(y / scale) and the mean of their probabilities; the
     checkpoint round-trips bit for bit; mismatched or too few members are refused; `itup ensemble`
     writes it and `itup bench score --model` runs it."""
     from itup_jax.bench import bench_score
     from itup_jax.cli import main
-    from itup_jax.features import FeatureSpec
-    from itup_jax.sdgnet import ensemble, predict_costs
+    from itup_jax.sdgnet.features import FeatureSpec
+    from itup_jax.sdgnet.model import ensemble, predict_costs
 
     spec = FeatureSpec()
     data = _synthetic(f=spec.size)
@@ -442,7 +453,7 @@ def test_ensemble_averages_its_members_log_costs_and_probabilities(tasks, tmp_pa
         np.testing.assert_allclose(np.asarray(got[n]), v, rtol=1e-5, atol=1e-9, err_msg=n)
     assert not np.allclose(want["tau"], np.asarray(predict_costs(members[0], X, "reach")["tau"]))  # the members differ
     # through the scorer (float32, features and networks in one jit): the ensemble's float64 predictions
-    from itup_jax.features import batched_features, tool_field
+    from itup_jax.sdgnet.features import batched_features, tool_field
     from itup_jax.wrench import task_loads
 
     tool, task = tasks["hammer"]
@@ -481,6 +492,7 @@ def test_ensemble_averages_its_members_log_costs_and_probabilities(tasks, tmp_pa
     assert res["ensemble_size"] == 2 and res["hidden"] == [16] and res["warm_ms"] > 0
 
 
+@pytest.mark.slow
 def test_teacher_targets_are_the_teachers_predictions_and_soft_labels_are_learnt_exactly(tasks):
     """Distillation: `teacher_targets` replaces the cost targets and the binary labels by the teacher's
     predictions of each row, by task, and copies nothing else; the cross-entropy with a soft label s is
@@ -488,7 +500,8 @@ def test_teacher_targets_are_the_teachers_predictions_and_soft_labels_are_learnt
     import jax
     import jax.numpy as jnp
 
-    from itup_jax.sdgnet import predict_costs, teacher_targets, training_loss
+    from itup_jax.sdgnet.model import predict_costs
+    from itup_jax.sdgnet.training import teacher_targets, training_loss
 
     data = _synthetic()
     data["task"] = np.where(data["tool_id"] % 2 == 0, "hammer", "reach")
@@ -518,11 +531,12 @@ def test_teacher_targets_are_the_teachers_predictions_and_soft_labels_are_learnt
     assert np.all(np.asarray(g2)[3:] > 0)  # a larger logit than the teacher's probability is pushed back
 
 
+@pytest.mark.slow
 def test_adapt_continues_each_network_on_new_data_and_keeps_the_rest(tmp_path, capsys):
     """`adapt` starts every network from the checkpoint (its normalisation kept), only keeps an epoch
     that beats the start on the new data's held-out tools, learns a shifted family, and leaves the
     networks of tasks the new data lacks bit for bit."""
-    from itup_jax.sdgnet import adapt
+    from itup_jax.sdgnet.training import adapt
 
     a, b = _synthetic(seed=1), _synthetic(seed=2)
     b["task"] = np.array(["reach"] * len(b["task"]))
@@ -564,12 +578,14 @@ def test_train_init_refuses_to_change_the_recipe(tmp_path, capsys):
     assert "the recipe is the checkpoint's own; --val-fraction" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_adapting_with_held_outputs_learns_the_changed_label_and_holds_the_rest(tmp_path, capsys):
     """`teacher_targets(outputs=...)` swaps only the named outputs for the checkpoint's own predictions.
     Adapting on them (`itup train --init M --keep tau,align`) learns a changed slip label while the
     torque output stays where it was, closer than an adaptation to the labels leaves it."""
     from itup_jax.cli import main
-    from itup_jax.sdgnet import adapt, predict_costs, teacher_targets
+    from itup_jax.sdgnet.model import predict_costs
+    from itup_jax.sdgnet.training import adapt, teacher_targets
 
     quiet = dict(progress=False, log=lambda *_: None)
     model = train(_synthetic(seed=1), TrainConfig(hidden=(16,), epochs=40, patience=40, lr=3e-3), **quiet)

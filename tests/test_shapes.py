@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import itup_jax
-from itup_jax import features, grasp_sampler
+from itup_jax import grasp_sampler
 from itup_jax.errors import InputError
-from itup_jax.grasp import rotation_matrix
+from itup_jax.rotations import quat_to_matrix
+from itup_jax.sdgnet import features
 from itup_jax.shapes import bucket, pad_rows_repeating, pad_zeros_high
 from itup_jax.wrench import task_loads
 
@@ -80,15 +81,16 @@ def test_sampler_kernels_compile_once_per_bucket(rng):
     """Two point counts in one bucket (4549 and 4600 -> 4608) share one executable of each kernel."""
     R = np.broadcast_to(np.eye(3), (5, 3, 3))
     p = rng.normal(scale=0.01, size=(5, 3))
-    before = (grasp_sampler._pad_span_batch._cache_size(), grasp_sampler._gripper_hits_batch._cache_size())
+    before = (grasp_sampler.pad_span_batch._cache_size(), grasp_sampler.gripper_hits_batch._cache_size())
     for s in (4549, 4600):
         pts = rng.normal(scale=0.02, size=(s, 3))
         grasp_sampler.pad_span(pts, R, p)
         grasp_sampler.gripper_collides(pts, R, p, np.full(5, 0.03))
-    after = (grasp_sampler._pad_span_batch._cache_size(), grasp_sampler._gripper_hits_batch._cache_size())
+    after = (grasp_sampler.pad_span_batch._cache_size(), grasp_sampler.gripper_hits_batch._cache_size())
     assert after[0] - before[0] <= 1 and after[1] - before[1] <= 1
 
 
+@pytest.mark.slow
 def test_field_padding_changes_no_feature(tasks, monkeypatch):
     """The features from the zero-padded density field equal those from the unpadded one, bit for bit,
     and two fields in one size bucket share one compile of the batched features."""
@@ -108,7 +110,7 @@ def test_field_padding_changes_no_feature(tasks, monkeypatch):
     # reads that straddle the unpadded grid's high corner, where the padding lies: zeros as map_coordinates'
     # cval gives beyond the grid (the grasps above read the tool's middle, far from any edge)
     corner = plain.origin + plain.spacing * (np.array(plain.values.shape) - 1)
-    for R in (np.eye(3), rotation_matrix(jnp.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))):
+    for R in (np.eye(3), quat_to_matrix(jnp.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))):
         occ = [np.asarray(features.occupancy(f, corner, jnp.asarray(R), spec)) for f in (padded, plain)]
         np.testing.assert_array_equal(occ[0], occ[1])
     # a second field in padded's bucket (the same values, cut by one voxel per axis, padded again)

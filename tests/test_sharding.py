@@ -22,8 +22,8 @@ SCRIPT = textwrap.dedent("""
     jax.config.update("jax_compilation_cache_dir", sys.argv[1])
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
     import itup_jax as itup
-    from itup_jax.scene import build_scene
-    from itup_jax.simulate import LABEL_FIELDS
+    from itup_jax.sim.scene import build_scene
+    from itup_jax.sim.labels import LABEL_FIELDS
     assert jax.device_count() == 2, jax.devices()
     tool = itup.load_tool("hammer")
     task = itup.make_task("hammer", tool)
@@ -39,6 +39,7 @@ SCRIPT = textwrap.dedent("""
 RTOL = 1e-5
 
 
+@pytest.mark.slow
 def test_sharded_mjx_labels_equal_unsharded():
     env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu")
     proc = subprocess.run([sys.executable, "-c", SCRIPT, str(ROOT / ".jax_cache")], env=env, cwd=ROOT,
@@ -63,7 +64,7 @@ def test_cpu_mjx_batches_are_chunked_not_hung(n, monkeypatch):
 
     import numpy as np
 
-    sim = importlib.import_module("itup_jax.simulate")  # the module (itup_jax.simulate is also a function name)
+    sim = importlib.import_module("itup_jax.sim.mjx")
 
     seen = []
 
@@ -78,7 +79,7 @@ def test_cpu_mjx_batches_are_chunked_not_hung(n, monkeypatch):
         qpos0 = np.zeros((n, 3))
         ctrl = np.zeros((n, 5, 2))
 
-    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene, float64=None: fake_fn)
+    monkeypatch.setattr(sim, "mjx_rollout_fn", lambda scene, float64=None: fake_fn)
     monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.arange(n, dtype=float)[:, None],))
     import jax
 
@@ -94,7 +95,7 @@ def test_accelerator_batches_are_padded_to_a_power_of_two(n, batch, monkeypatch)
 
     import numpy as np
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.mjx")
     seen = []
 
     def fake_fn(*args, mesh=None):
@@ -111,7 +112,7 @@ def test_accelerator_batches_are_padded_to_a_power_of_two(n, batch, monkeypatch)
     class GPU:
         platform, id = "gpu", 0
 
-    monkeypatch.setattr(sim, "_mjx_rollout_fn", lambda scene, float64=None: fake_fn)
+    monkeypatch.setattr(sim, "mjx_rollout_fn", lambda scene, float64=None: fake_fn)
     monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.arange(n, dtype=float)[:, None],))
     monkeypatch.setattr(sim.jax, "device_put", lambda a, place: a)
     qv, sens = sim.rollout_mjx(None, P, None, devices=[GPU()])
@@ -128,7 +129,7 @@ def test_mjx_rolls_out_in_float64_unless_told_whatever_the_process_says(monkeypa
     import jax
     import numpy as np
 
-    sim = importlib.import_module("itup_jax.simulate")
+    sim = importlib.import_module("itup_jax.sim.mjx")
     seen = []
 
     def fake_rollout_fn(scene, float64=None):
@@ -144,7 +145,7 @@ def test_mjx_rolls_out_in_float64_unless_told_whatever_the_process_says(monkeypa
         qpos0 = np.zeros((3, 3))
         ctrl = np.zeros((3, 5, 2))
 
-    monkeypatch.setattr(sim, "_mjx_rollout_fn", fake_rollout_fn)
+    monkeypatch.setattr(sim, "mjx_rollout_fn", fake_rollout_fn)
     monkeypatch.setattr(sim, "mjx_model_fields", lambda scene, physics: (np.zeros((3, 1)),))
     with jax.enable_x64(False):
         sim.rollout_mjx(None, P, None, devices=jax.devices()[:1])

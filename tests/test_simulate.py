@@ -6,8 +6,11 @@ import pytest
 
 import itup_jax as itup
 from itup_jax.grasp import make_grasps
-from itup_jax.scene import build_scene
-from itup_jax.simulate import LABEL_FIELDS, Randomization, plan, reachable, sample_physics, simulate
+from itup_jax.sim.arm import plan, reachable
+from itup_jax.sim.labels import LABEL_FIELDS
+from itup_jax.sim.physics import Randomization, sample_physics
+from itup_jax.sim.rollout import simulate
+from itup_jax.sim.scene import build_scene
 
 # Static holding torque: the settled arm still creeps (servo residuals, pad creep): 1 %.
 STATIC_RTOL = 0.01
@@ -53,7 +56,7 @@ def test_the_grasp_frame_components_recompose_the_induced_peak(hammer_native, rn
     """At the step of its peak norm, the induced torque's three grasp-frame components recompose the
     full induced peak; a torque purely about the jaw's closure axis has no projected part and a full
     closure component."""
-    from itup_jax.simulate import induced_components_at_peak
+    from itup_jax.sim.labels import induced_components_at_peak
 
     _, res = hammer_native
     L = res.labels
@@ -78,7 +81,8 @@ def test_induced_is_the_motion_minus_the_settles_last_window(hammer, hammer_nati
     """`induced` on a synthetic trace: the static value is the mean over the settle's last
     `static_window` s only (earlier settle steps do not count), and the motion's part is the trace minus
     it. On a real rollout its (x, z) norm peaks at the label `peak_torque_projected`."""
-    from itup_jax.simulate import SimConfig, induced
+    from itup_jax.sim.config import SimConfig
+    from itup_jax.sim.labels import induced
     tool, task, scene = hammer
     g, res = hammer_native
     p = res.plan
@@ -104,7 +108,7 @@ def test_reachability_in_order_checks_chunks_lazily_in_the_given_order(hammer, h
     beyond the one the caller stops in; a bad chunk size is refused at the call."""
     import importlib
 
-    sim = importlib.import_module("itup_jax.simulate")  # the package's `simulate` is the function
+    sim = importlib.import_module("itup_jax.sim.arm")
     task, g = hammer[1], hammer_native[0]
     order = np.arange(len(g))[::-1]
     walked = list(sim.reachability_in_order(task, g, order, chunk=5))
@@ -233,6 +237,7 @@ def test_bad_backend_is_refused(hammer):
             itup.build_scene(tool, task, timestep=bad)
 
 
+@pytest.mark.slow
 def test_mjx_agrees_with_native_mujoco(hammer):
     """One small MJX compile in the default run (docs/design.md: MJX on this CPU is slow; batch << 128)."""
     tool, task, scene = hammer
@@ -263,6 +268,7 @@ REACH_TILTED = (
 )
 
 
+@pytest.mark.slow
 def test_mjx_holds_a_long_handle_as_native_mujoco_does(tasks):
     """One more small MJX compile (the reach scene, 2 ms, 3 rollouts padded to 4): the rollout path traces
     MJX with the fixed capsule-box collider, and the tool stays in the pads as in native MuJoCo."""
@@ -285,7 +291,7 @@ def test_reachable_in_chunks_equals_one_call_on_the_whole_batch(hammer):
     `arm_trajectory` on the whole batch, over a batch of several chunks and a partial last one."""
     import sys
 
-    sim = sys.modules["itup_jax.simulate"]
+    sim = sys.modules["itup_jax.sim.arm"]
     tool, task, _ = hammer
     g = itup.sample_grasps(tool, 2 * sim.REACHABLE_CHUNK + 37, seed=3)
     ok = reachable(task, g)
@@ -297,29 +303,29 @@ def test_host_quaternion_matrix_equals_the_jax_one(rng):
     """The planner's float64 host conversion is the grasp module's rotation (x64 in the tests)."""
     import sys
 
-    from itup_jax.grasp import rotation_matrix
+    from itup_jax.rotations import quat_to_matrix
 
     q = rng.normal(size=(40, 4))
-    R = sys.modules["itup_jax.simulate"]._quat_to_matrix(q)
-    np.testing.assert_allclose(R, np.asarray(rotation_matrix(q)), atol=1e-14)
+    R = sys.modules["itup_jax.rotations"].quat_to_matrix_np(q)
+    np.testing.assert_allclose(R, np.asarray(quat_to_matrix(q)), atol=1e-14)
     np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
 
 
 def test_mjx_path_labels_infeasible_rows_like_the_native_path(hammer, hammer_native, monkeypatch):
     """The MJX branch steps and labels only the feasible rows, as the native path does: with its stepping
     replaced by native MuJoCo (no MJX compile here), its labels equal the native path's, NaN included."""
-    import sys
+    from itup_jax.sim import native, rollout
+    from itup_jax.sim import physics as physics_mod
 
-    sim = sys.modules["itup_jax.simulate"]
     (tool, task, scene), (g, res) = hammer, hammer_native
 
     def stepped_natively(scene, p, physics, devices=None, float64=None):
         assert not p.infeasible.any() and len(p.qpos0) == len(physics.mu)  # unreachable rows are not stepped
-        models = [sim.randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
-        qv, sd = sim._step(scene, p.qpos0, p.ctrl, p.nstep, models, 2)
+        models = [physics_mod.randomized_model(scene, physics, i) for i in range(len(p.qpos0))]
+        qv, sd = native.step_native(scene, p.qpos0, p.ctrl, p.nstep, models, 2)
         return np.repeat(qv[:, None], p.nstep, axis=1), sd  # MJX reports the peak per step
 
-    monkeypatch.setattr(sim, "rollout_mjx", stepped_natively)
+    monkeypatch.setattr(rollout, "rollout_mjx", stepped_natively)
     out = simulate(tool, task, g, scene=scene, randomize=None, backend="mjx", traces=True)
     assert out.labels.infeasible.any()
     for f in LABEL_FIELDS:
@@ -337,7 +343,8 @@ def test_slip_is_measured_at_the_grasp_centre_in_closed_form(rng):
     """`grasp_point_slip`: a tool turning about the grasp centre slides 0 there however far its frame's
     origin swings; turning by theta about a pivot at distance r (perpendicular to the axis) slides
     2 r sin(theta / 2); a translation d slides |d|."""
-    from itup_jax.simulate import _quat_from_matrix, grasp_point_slip
+    from itup_jax.rotations import matrix_to_quat_np
+    from itup_jax.sim.labels import grasp_point_slip
 
     p0, R0 = np.array([0.02, -0.01, -0.25]), _axis_angle_matrix(rng.normal(size=3), 0.7)  # tool origin 25 cm off
     axis, angles = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.05, 0.2, 0.4])
@@ -347,7 +354,7 @@ def test_slip_is_measured_at_the_grasp_centre_in_closed_form(rng):
     def traces(pivot, shift):
         Rs = [_axis_angle_matrix(axis, a) for a in angles]
         pos = np.stack([pivot + R @ (p0 - pivot) + s * shift for R, s in zip(Rs, angles / angles[-1])])
-        quat = np.stack([_quat_from_matrix(R @ R0) for R in Rs])
+        quat = np.stack([matrix_to_quat_np(R @ R0) for R in Rs])
         return pos[None], quat[None]
 
     pos, quat = traces(np.zeros(3), np.zeros(3))
@@ -357,7 +364,7 @@ def test_slip_is_measured_at_the_grasp_centre_in_closed_form(rng):
     np.testing.assert_allclose(grasp_point_slip(pos, quat, 0)[0], 2 * 0.05 * np.sin(angles / 2), rtol=1e-9)
     # measured from a later step: the distance from where the point was then
     np.testing.assert_allclose(grasp_point_slip(pos, quat, 1)[0, -1], 2 * 0.05 * np.sin((angles[-1] - angles[1]) / 2), rtol=1e-9)
-    quat = np.broadcast_to(_quat_from_matrix(R0), (1, 4, 4))
+    quat = np.broadcast_to(matrix_to_quat_np(R0), (1, 4, 4))
     pos = (p0 + np.outer(angles / angles[-1], d))[None]
     np.testing.assert_allclose(grasp_point_slip(pos, quat, 0)[0], angles / angles[-1] * np.linalg.norm(d), rtol=1e-12)
 
@@ -371,7 +378,7 @@ def test_slip_labels_do_not_depend_on_where_the_tools_mesh_has_its_origin(tasks)
 
     from transforms import move_tool_frame
 
-    from itup_jax.tool import Box
+    from itup_jax.tools import Box
 
     tool, task = tasks["reach"]
     shift = np.array([0.0, 0.0, -0.2])

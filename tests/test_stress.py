@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from conftest import load_experiment, run_experiment
 
 import itup_jax as itup
 from itup_jax import robot, stress
@@ -45,7 +46,7 @@ def test_rollouts_at_a_fixed_grip_share_draws_and_weaker_grips_fail_more(tasks):
     assert weak.valid.all() and strong.valid.all()
     # the probe's squeeze is its own, not the gripper's 20 N floor: the physics keeps 8 N, and the pads
     # press less on average than at 20 N (their peaks include the strike's own contact forces)
-    from itup_jax.simulate import Randomization, sample_physics
+    from itup_jax.sim.physics import Randomization, sample_physics
 
     np.testing.assert_array_equal(sample_physics(tool, 3, spread=Randomization(grip_force=0.0), grip_force=8.0).grip_force, 8.0)
     assert weak.peak_pad_force.mean() < floor.peak_pad_force.mean()
@@ -61,19 +62,15 @@ def test_rollouts_at_a_fixed_grip_share_draws_and_weaker_grips_fail_more(tasks):
         stress.rollouts_at_grip(tool, task, cands, 0.0)
 
 
+@pytest.mark.slow
 def test_grip_stress_quick(tmp_path, monkeypatch):
     import json
-    import os
-    import runpy
-    import sys
 
     import jsonschema
 
     from itup_jax.schemas import load_schema
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    monkeypatch.setattr(sys, "argv", ["grip_stress.py", "--quick", "--out", str(tmp_path)])
-    runpy.run_path(os.path.join(root, "experiments", "grip_stress.py"), run_name="__main__")
+    run_experiment("grip_stress", "--quick", "--out", str(tmp_path))
     doc = json.loads((tmp_path / "grip_stress.json").read_text())
     jsonschema.validate(doc, load_schema("grip_stress"))
     assert {r["method"] for r in doc["rows"]} == {"sdgnet", "sdgnet_paper", "force_closure", "geometric"}
@@ -83,21 +80,17 @@ def test_grip_stress_quick(tmp_path, monkeypatch):
     assert (tmp_path / "grip_stress.png").stat().st_size > 5_000
 
 
+@pytest.mark.slow
 def test_weight_by_stress_quick(tmp_path, monkeypatch):
     """The built-in hammer, two weights: every method's pick stressed once (shared picks share rollouts),
     the rule's checks computed from those rows, and the choice made by the rule."""
     import json
-    import os
-    import runpy
-    import sys
 
     import jsonschema
 
     from itup_jax.schemas import load_schema
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    monkeypatch.setattr(sys, "argv", ["weight_by_stress.py", "--quick", "--reference", "geometric", "--out", str(tmp_path)])
-    runpy.run_path(os.path.join(root, "experiments", "weight_by_stress.py"), run_name="__main__")
+    run_experiment("weight_by_stress", "--quick", "--reference", "geometric", "--out", str(tmp_path))
     doc = json.loads((tmp_path / "weight_by_stress.json").read_text())
     jsonschema.validate(doc, load_schema("weight_by_stress"))
     methods = {r["method"] for r in doc["rows"]}
@@ -114,15 +107,17 @@ def test_weight_by_stress_quick(tmp_path, monkeypatch):
                                and check["median_min_holding_grip_N"] <= check["better_baseline_median_N"])
 
 
+@pytest.mark.slow
 def test_weight_by_stress_rule_and_methods(tmp_path):
     """The rule: the smallest weight passing every check, else the most checks (ties to the smaller);
     a weighted method parses into the shipped scorer's weights, and a bad one is named."""
     import os
     import sys
 
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments"))
-    from grip_stress import method_scorer
-    from weight_by_stress import choose, method_name
+    from itup_jax.evaluate import method_scorer
+
+    wbs = load_experiment("weight_by_stress")
+    choose, method_name = wbs.choose, wbs.method_name
 
     ok = {"S1": True, "S2": True, "T": True}
     bad = {"S1": False, "S2": True, "T": True}
@@ -155,21 +150,17 @@ def test_weight_by_stress_rule_and_methods(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_weak_grip_quick(tmp_path, monkeypatch):
     """The built-in mallet's knock: every candidate at the default grip and twice at a weak one; the rates
     and the repeatability follow from the rollouts, and every quantity is ranked against the failures."""
     import json
-    import os
-    import runpy
-    import sys
 
     import jsonschema
 
     from itup_jax.schemas import load_schema
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    monkeypatch.setattr(sys, "argv", ["weak_grip.py", "--quick", "--out", str(tmp_path)])
-    runpy.run_path(os.path.join(root, "experiments", "weak_grip.py"), run_name="__main__")
+    run_experiment("weak_grip", "--quick", "--out", str(tmp_path))
     doc = json.loads((tmp_path / "weak_grip.json").read_text())
     jsonschema.validate(doc, load_schema("weak_grip"))
     (row,) = doc["tasks"]["knock"]["tools"]
@@ -185,12 +176,7 @@ def test_weak_grip_quick(tmp_path, monkeypatch):
 
 
 def test_weak_grip_rejects_a_grip_outside_the_gripper(tmp_path, monkeypatch):
-    import os
-    import runpy
-    import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    monkeypatch.setattr(sys, "argv", ["weak_grip.py", "--quick", "--weak", "0", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit) as e:
-        runpy.run_path(os.path.join(root, "experiments", "weak_grip.py"), run_name="__main__")
+        run_experiment("weak_grip", "--quick", "--weak", "0", "--out", str(tmp_path / "x"))
     assert e.value.code == 2 and not (tmp_path / "x").exists()

@@ -127,13 +127,14 @@ def test_reach_block_height_is_the_scene_block():
     """The height `make_task('reach')` checks the hook's contact point against is the MJCF block's."""
     import mujoco
 
-    from itup_jax.scene import scene_xml
+    from itup_jax.sim.scene import scene_xml
     from itup_jax.tasks.reach import BLOCK_HEIGHT as REACH_BLOCK_HEIGHT
     spec = mujoco.MjSpec.from_file(str(scene_xml("reach")))
     body, geom = spec.body("block"), spec.geom("block")
     assert body.pos[2] - geom.size[2] == pytest.approx(0.0) and 2 * geom.size[2] == pytest.approx(REACH_BLOCK_HEIGHT)
 
 
+@pytest.mark.slow
 def test_overrides_change_the_trajectory(tools):
     fast = itup.make_task("hammer", tools["hammer"], impact_speed=1.0, steps=80)
     assert fast.num_steps == 80

@@ -15,7 +15,7 @@ def test_the_built_in_kinds_are_registered_in_order():
     for name in tasks.names():
         kind = tasks.get(name)
         assert kind.name == name and dataclasses.is_dataclass(kind.params)
-        assert kind.default_tool in itup.tool.BUILTIN_TOOLS
+        assert kind.default_tool in itup.tools.BUILTIN_TOOLS
         assert kind.summary
     with pytest.raises(itup.InputError, match="task kind 'drill': unknown; known: hammer, sweep"):
         tasks.get("drill")
@@ -57,7 +57,7 @@ def test_a_fifth_kind_is_one_registration(tap, tools):
     scene = itup.build_scene(tool, task)
     assert scene.kind == "tap" and scene.model.opt.timestep == 0.0005
     grasps = itup.sample_grasps(tool, 64, seed=0)
-    from itup_jax.simulate import reachable
+    from itup_jax.sim.arm import reachable
     ok = np.nonzero(reachable(task, grasps))[0][:2]
     labels = itup.simulate(tool, task, grasps[ok], seed=0, backend="native").labels
     assert labels.valid.all() and labels.success.all()  # a 0.3 m/s tap does not drive the nail

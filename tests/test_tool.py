@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 import itup_jax as itup
-from itup_jax import priors
-from itup_jax.tool import combine_mass_properties, mesh_mass_properties
+from itup_jax.tools import priors
+from itup_jax.tools.tool import combine_mass_properties, mesh_mass_properties
 
 # A 48-facet prism has 0.29 % less cross-section than its cylinder (n sin(2 pi / n) / (2 pi)); the
 # second moments differ by ~0.6 %. Compare built-in (48-facet) parts to true cylinders at 1 %.
@@ -284,3 +284,28 @@ def test_a_tool_turned_with_its_frame_stated_plans_the_same_grasps(tmp_path):
     c_ref, c = itup.wrench_costs(ref, task_ref, g_ref), itup.wrench_costs(tool, task, g_ref)
     np.testing.assert_allclose(np.asarray(c.total), np.asarray(c_ref.total), rtol=1e-4, atol=1e-6)
     assert int(np.argmin(np.asarray(c.total))) == int(np.argmin(np.asarray(c_ref.total)))
+
+
+def test_a_mesh_tool_collides_by_convex_pieces_that_follow_its_shape(user_mallet):
+    """A mesh tool's collision shape is its slabs' convex hulls: they lie inside the mesh's bounds, their
+    volume is near the mesh's (a handle's slab is its own hull), where the one hull of the whole T-headed
+    tool is more than twice it; every piece is a closed, outward-wound convex mesh."""
+    import trimesh
+
+    from itup_jax.sim.scene import build_scene
+    from itup_jax.tools.mesh import COLLISION_SLAB
+
+    tool = user_mallet
+    pieces = [p for p in tool.primitives if p[0] == "hull"]
+    assert len(pieces) == len(tool.primitives) >= int(np.ptp(tool.mesh.vertices[:, 2]) / COLLISION_SLAB)
+    lo, hi = tool.mesh.bounds
+    volume = 0.0
+    for _, verts, faces in pieces:
+        assert np.all(verts >= lo - 1e-9) and np.all(verts <= hi + 1e-9)
+        m = trimesh.Trimesh(verts, faces, process=False)
+        assert m.is_watertight and m.volume > 0  # outward: a positive signed volume
+        volume += m.volume
+    assert tool.mesh.volume <= volume < 1.1 * tool.mesh.volume
+    assert tool.mesh.convex_hull.volume > 2 * tool.mesh.volume
+    scene = build_scene(tool, itup.make_task("knock", tool))  # one pad-tool pair per piece
+    assert len(scene.pad_tool_pairs) == 2 * len(pieces)

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import itup_jax as itup
-from itup_jax.scene import build_scene
 from itup_jax.scoring import Scores, ScoreWeights, sdgnet_total
-from itup_jax.simulate import Labels, reachable
+from itup_jax.sim.arm import reachable
+from itup_jax.sim.labels import Labels
+from itup_jax.sim.scene import build_scene
 from itup_jax.verify import best_grasp_verified, measured_total
 
 

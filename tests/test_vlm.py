@@ -133,6 +133,7 @@ def test_timeout_unreachable_and_the_rule_fallback(stub, table):
             VLMGrounder(**{"model": "m", **bad})
 
 
+@pytest.mark.slow
 def test_the_whole_chain_takes_the_vlm_grounding(stub, table):
     stub.mode, stub.answer = "ok", {"task": "knock", "tool": 3, "work_part": "head", "grasp_part": "handle"}
     r = itup.run("knock over the tower", tabletop=table, samples=256,

@@ -8,7 +8,7 @@ import itup_jax as itup
 from itup_jax.costs import CostParams, grasp_cost_trace
 from itup_jax.grasp import make_grasps
 from itup_jax.task import custom_task
-from itup_jax.tool import make_tool_params
+from itup_jax.tools import make_tool_params
 from itup_jax.trajectory import sample_pose_fn
 from itup_jax.wrench import drag_force, normal_impulse, task_loads
 
@@ -96,6 +96,7 @@ def test_known_lever_arm_gives_the_known_torque():
     assert float(c.slip[0]) == pytest.approx(F - 2 * 0.6 * grip, rel=1e-10)
 
 
+@pytest.mark.slow
 def test_uniform_acceleration_loads_the_grasp_with_m_a_about_the_com():
     m, a = 0.4, np.array([2.0, 0.0, -1.0])
     tool = rod(m)
@@ -109,6 +110,7 @@ def test_uniform_acceleration_loads_the_grasp_with_m_a_about_the_com():
     np.testing.assert_allclose(np.asarray(trace.tau), np.linalg.norm(np.cross(-p, m * a)), rtol=CLOSED_RTOL)
 
 
+@pytest.mark.slow
 def test_static_tool_with_gravity_needs_the_holding_torque():
     """At rest, the grasp holds m g at the com's lever arm: |tau| = m g |(c_com - p) x z|."""
     m = 0.4
@@ -123,6 +125,7 @@ def test_static_tool_with_gravity_needs_the_holding_torque():
     assert float(without.tau[0]) == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_spinning_about_a_principal_axis_needs_no_torque_but_an_off_axis_spin_does():
     It, Ia = 2e-3, 5e-4
     tool = make_tool_params(mass=0.3, com=[0, 0, 0], inertia=np.diag([It, It, Ia]), restitution=0.5, mu=0.5,

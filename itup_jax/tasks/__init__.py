@@ -6,8 +6,8 @@
 
 A task kind is its parameters and trajectory (`build`, used by `itup_jax.task.make_task`), its scene
 (the environment's MJCF under `mjcf/scenes/`, the target geoms the tool may touch, where the targets are
-placed: `scene.build_scene`), its integration step, and its success measure (`outcome`, used by
-`simulate.compute_labels`). To add a fifth task, write one module here that defines a `TaskKind` and
+placed: `sim.scene.build_scene`), its integration step, and its success measure (`outcome`, used by
+`sim.labels.compute_labels`). To add a fifth task, write one module here that defines a `TaskKind` and
 calls `register`, add its MJCF to `mjcf/scenes/`, and import the module at the end of this file: the
 CLI, datasets, scenes and labels read the registry, not a list of names.
 """
@@ -19,14 +19,12 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from itup_jax.errors import InputError
 
-if TYPE_CHECKING:  # types only: the kind modules import `task`, and `scene` imports this module
+if TYPE_CHECKING:  # types only: the kind modules import `task` (the registry's one circle)
     import mujoco
     import numpy as np
 
-    from itup_jax.scene import Scene
-    from itup_jax.simulate import Plan
     from itup_jax.task import Task
-    from itup_jax.tool import Tool
+    from itup_jax.tools import Tool
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,15 +35,16 @@ class TaskKind:
       name: the kind's name (`Task.kind`, the CLI's `--task`).
       params: frozen dataclass of the kind's parameters with their defaults (SI units).
       build: (tool, params) -> Task: the contacts, schedules and trajectory (host side).
-      default_tool: the built-in tool the kind uses when none is given (`tool.BUILTIN_TOOLS`).
+      default_tool: the built-in tool the kind uses when none is given (`tools.BUILTIN_TOOLS`).
       timestep: s, the scene's default integration step.
       target_geoms: the environment's geoms the tool may touch (explicit contact pairs).
       target_bodies: the task objects whose world pose is recorded (sensors `target/<body>_pos`, `_quat`).
       place: (spec, task) -> None: moves the environment's bodies so the targets sit where the task
         expects them (raises InputError when they cannot).
-      outcome: (scene, task, sensordata [N, S, nsensordata], plan) -> (metric [N], success [N] bool).
+      outcome: (scene, task, sensordata [N, S, nsensordata], plan) -> (metric [N], success [N] bool), from
+        a `sim.scene.Scene` and a `sim.arm.Plan` (not imported here: the simulator reads this registry).
       plastic_target: the target gives way under the blow: the tool-target contact is critically damped
-        whatever the tool's restitution (`scene.target_solref`).
+        whatever the tool's restitution (`sim.scene.target_solref`).
       works_on_table: the tool touches the table while working (a tool-table contact pair).
       validate: optional (params) -> None for checks beyond the generic ones of `make_task`.
       summary: one line for `itup --help` and the docs.
@@ -60,7 +59,7 @@ class TaskKind:
     target_geoms: tuple[str, ...]
     target_bodies: tuple[str, ...]
     place: Callable[["mujoco.MjSpec", "Task"], None]
-    outcome: Callable[["Scene", "Task", "np.ndarray", "Plan"], tuple["np.ndarray", "np.ndarray"]]
+    outcome: Callable[[Any, "Task", "np.ndarray", Any], tuple["np.ndarray", "np.ndarray"]]
     plastic_target: bool = False
     works_on_table: bool = False
     validate: Callable[[Any], None] | None = None

@@ -17,7 +17,8 @@ import numpy as np
 
 from itup_jax import units
 from itup_jax.errors import InputError
-from itup_jax.task import assemble, rot, time_grid
+from itup_jax.rotations import axis_angle_matrix
+from itup_jax.task import assemble, time_grid
 from itup_jax.tasks import TaskKind, register
 from itup_jax.trajectory import Profile, sample_pose_fn
 
@@ -51,7 +52,7 @@ class SweepParams:
 
 def build(tool, prm: SweepParams):
     """The sweep's `Task` for `tool` (host side)."""
-    R0 = np.asarray(rot(np.array([1.0, 0.0, 0.0]), prm.tilt))  # lean the handle back (towards -y)
+    R0 = np.asarray(axis_angle_matrix(np.array([1.0, 0.0, 0.0]), prm.tilt))  # lean the handle back (towards -y)
     d = np.array([0.0, 1.0, 0.0])
     p0 = np.asarray(prm.start, float) - R0 @ tool.contact_points[0]
     t, (k0, k1, k2, k3) = time_grid(prm.steps, [prm.t_rest, prm.t_stroke, prm.t_rest])

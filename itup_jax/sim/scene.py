@@ -15,7 +15,7 @@ Physics of the tool's contacts, from the tool's priors:
     duration, timeconst = dt_c sqrt(1 - zeta_0^2) / (pi zeta_0), zeta_0 = -ln e / sqrt(pi^2 + ln^2 e),
     floored at CONTACT_MIN_TIMECONST = 4 ms at any step (the 2 timesteps MuJoCo clamps to at 2 ms; one
     contact model at every step, so that steps compare: experiments/timestep_convergence.py), and
-    whose damping ratio is calibrated so that MuJoCo delivers the restitution e (`restitution.py`).
+    whose damping ratio is calibrated so that MuJoCo delivers the restitution e (`sim/restitution.py`).
 
 Everything kind-specific (the environment's MJCF, its targets, where they are placed, the integration
 step) comes from the task registry, `itup_jax.tasks`. Each kind's step is 0.5 ms, the coarsest of 2, 1
@@ -38,10 +38,10 @@ import numpy as np
 
 from itup_jax import tasks
 from itup_jax.errors import InputError
-from itup_jax.restitution import calibrated_dampratio, textbook_dampratio
 from itup_jax.robot import ARM_JOINTS, PAD_TORSION
+from itup_jax.sim.restitution import calibrated_dampratio, textbook_dampratio
 from itup_jax.task import Task
-from itup_jax.tool import Tool
+from itup_jax.tools import Tool
 
 
 def _mjcf_dir() -> Path:
@@ -53,7 +53,7 @@ def _mjcf_dir() -> Path:
     packaged = importlib.resources.files("itup_jax") / "mjcf"
     if packaged.is_dir():
         return Path(str(packaged))
-    return Path(__file__).resolve().parent.parent / "mjcf"
+    return Path(__file__).resolve().parents[2] / "mjcf"
 
 
 MJCF_DIR = _mjcf_dir()
@@ -159,9 +159,10 @@ class Scene:
 def add_tool_body(spec: mujoco.MjSpec, tool: Tool, name: str = "tool", *, pos=(0.0, 0.0, 1.0), quat=None,
                   **geom_kw) -> list[str]:
     """Add `tool` as a free body `name` (free joint `name`) at `pos`, `quat` (wxyz) with the tool's mass
-    properties and collision geoms `<name>_<k>`: its primitives, or for a user's mesh its convex hull
-    (mesh `<name>_hull`; MuJoCo and MJX collide convex meshes). `geom_kw` overrides the geoms' defaults
-    (no collision by type: the scenes collide by explicit pairs). Returns the geom names."""
+    properties and its collision primitives as geoms `<name>_<k>` (capsules, boxes, and a mesh tool's
+    convex pieces as meshes `<name>_hull<k>`; MuJoCo and MJX collide convex meshes). `geom_kw` overrides
+    the geoms' defaults (no collision by type: the scenes collide by explicit pairs). Returns the geom
+    names."""
     body = spec.worldbody.add_body(name=name, pos=list(pos), **({} if quat is None else {"quat": list(quat)}))
     body.add_freejoint(name=name)
     p = tool.params
@@ -173,22 +174,22 @@ def add_tool_body(spec: mujoco.MjSpec, tool: Tool, name: str = "tool", *, pos=(0
     names = []
     kw = dict(contype=0, conaffinity=0, rgba=[0.55, 0.35, 0.2, 1.0], density=0.0)
     kw.update(geom_kw)
-    if tool.primitives:
-        for i, prim in enumerate(tool.primitives):
-            gname = f"{name}_{i}"
-            if prim[0] == "capsule":
-                _, a, b, r = prim
-                body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
-            else:
-                _, lo, hi = prim
-                body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
-            names.append(gname)
-    else:
-        hull = tool.mesh.convex_hull
-        spec.add_mesh(name=f"{name}_hull", uservert=np.asarray(hull.vertices, float).ravel(),
-                      userface=np.asarray(hull.faces, np.int32).ravel())
-        body.add_geom(name=f"{name}_0", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_hull", **kw)
-        names.append(f"{name}_0")
+    for i, prim in enumerate(tool.primitives):
+        gname = f"{name}_{i}"
+        if prim[0] == "capsule":
+            _, a, b, r = prim
+            body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=np.r_[a, b], size=[r, 0, 0], **kw)
+        elif prim[0] == "box":
+            _, lo, hi = prim
+            body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_BOX, pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
+        else:
+            _, verts, faces = prim
+            spec.add_mesh(name=f"{name}_hull{i}", uservert=np.asarray(verts, float).ravel(),
+                          userface=np.asarray(faces, np.int32).ravel())
+            body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_hull{i}", **kw)
+        names.append(gname)
+    if not names:
+        raise InputError(f"tool {tool.name!r}: no collision primitives (a mesh tool gets its convex pieces when loaded)")
     return names
 
 

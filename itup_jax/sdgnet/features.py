@@ -33,19 +33,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import weakref
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import trimesh
 
-from itup_jax.costs import _SQRT_TINY, _TINY, _passed_torque_sq
-from itup_jax.grasp import Grasps, rotation_matrix
+from itup_jax import robot
+from itup_jax.costs import SQRT_TINY, TINY, passed_torque_sq
+from itup_jax.grasp import Grasps
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
 from itup_jax.robot import FLANGE_TO_GRASP
+from itup_jax.rotations import quat_to_matrix
 from itup_jax.shapes import pad_zeros_high, to_device
-from itup_jax.tool import Tool, ToolParams
+from itup_jax.tools import Tool, ToolParams
 from itup_jax.wrench import Loads
 
 
@@ -74,10 +77,10 @@ class FeatureSpec:
 
 
 #: Size of the optional wrist block, its torque scale (N m, SDG-Net's `TrainConfig.torque_scale`) and
-#: the squeeze per pad (N, `simulate.SimConfig.grip_force`) at which the pads' torsional cap is taken.
+#: the squeeze per pad (N, `sim.config.SimConfig.grip_force`) at which the pads' torsional cap is taken.
 WRIST_SIZE = 6
 WRIST_TORQUE_SCALE = 0.02
-WRIST_GRIP_FORCE = 100.0
+WRIST_GRIP_FORCE = robot.GRIP_FORCE
 
 
 def surface_sample(tool: Tool, spec: FeatureSpec) -> jax.Array:
@@ -158,7 +161,7 @@ def exact_occupancy(points_tool: jax.Array, p: jax.Array, R: jax.Array, spec: Fe
 def grasp_features(field: DensityField, loads: Loads, tool: ToolParams, grasp: Grasps,
                    spec: FeatureSpec) -> jax.Array:
     """[spec.size] features of ONE grasp. Pure; vmap over grasps, jit outside."""
-    R = rotation_matrix(grasp.q_tool_grasp)
+    R = quat_to_matrix(grasp.q_tool_grasp)
     p = grasp.p_tool_grasp
 
     def to_grasp(v):
@@ -198,17 +201,30 @@ def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -
     full_sq = tw[0] ** 2 + tw[1] ** 2 + tw[2] ** 2
     # `costs`' 'passed' form: the part off the closure axis (y) from its two components, the part about it
     # capped by the pads' torsional friction at WRIST_GRIP_FORCE
-    passed_sq = _passed_torque_sq(tw[0] ** 2 + tw[2] ** 2, tw[1], mu, WRIST_GRIP_FORCE)
+    passed_sq = passed_torque_sq(tw[0] ** 2 + tw[2] ** 2, tw[1], mu, WRIST_GRIP_FORCE)
     grip_sq = grip_demand_sq(F.T, tau.T, mu, width, xp=jnp)
     peaks = jnp.stack([full_sq.max(), passed_sq.max(), grip_sq.max()])
-    peaks = jnp.sqrt(peaks + _TINY) - _SQRT_TINY  # a finite gradient where a load is zero (as `costs`)
+    peaks = jnp.sqrt(peaks + TINY) - SQRT_TINY  # a finite gradient where a load is zero (as `costs`)
     s = WRIST_TORQUE_SCALE
     return jnp.concatenate([jnp.log1p(jnp.abs(tw).max(1) / s), jnp.log1p(peaks[:2] / s), jnp.log1p(peaks[2:])])
 
 
-def _batched(field, loads, tool, grasps, spec):
+def batched(field, loads, tool, grasps, spec):
     return jax.vmap(lambda g: grasp_features(field, loads, tool, g, spec))(grasps)
 
 
 #: The outer call for a batch of grasps: one jit, `spec` static (recompiles only for new shapes/specs).
-batched_features = jax.jit(full_precision(_batched), static_argnames=("spec",))
+batched_features = jax.jit(full_precision(batched), static_argnames=("spec",))
+
+
+_FIELDS: "weakref.WeakKeyDictionary[Tool, dict]" = weakref.WeakKeyDictionary()  # tool -> {spec: DensityField}
+
+
+def cached_tool_field(tool: Tool, spec, dt) -> DensityField:
+    """The tool's density field for a feature spec in dtype `dt`, cached per tool and spec (no
+    conversion per call)."""
+    per_tool = _FIELDS.setdefault(tool, {})
+    if spec not in per_tool:
+        f = tool_field(tool, spec)
+        per_tool[spec] = DensityField(to_device(f.values, dt), to_device(f.origin, dt), f.spacing)
+    return per_tool[spec]

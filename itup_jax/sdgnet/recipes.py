@@ -8,7 +8,7 @@ from a checkpoint, and ensembles. `itup train` and `itup ensemble` are these fun
 
 Each returned model's spec records the datasets it saw (`spec["datasets"]`) and, when there was one,
 its teacher and the checkpoint it was adapted from. Host-side orchestration: the training steps jit
-themselves (`sdgnet.train`, `sdgnet.adapt`).
+themselves (`training.train`, `training.adapt`).
 """
 
 from __future__ import annotations
@@ -20,16 +20,16 @@ from itup_jax.errors import InputError
 
 
 def load_training_data(paths: Sequence[str]) -> tuple[dict, list[dict]]:
-    """The rows of the datasets in `paths` as one table, and their manifests (`dataset.load_datasets`;
+    """The rows of the datasets in `paths` as one table, and their manifests (`dataset_load.load_datasets`;
     a folder may be `DIR:TASK,TASK` to take only those tasks' rows)."""
-    from itup_jax.dataset import load_datasets
+    from itup_jax.dataset_load import load_datasets
 
     return load_datasets(list(paths))
 
 
 def datasets_record(paths: Sequence[str], manifests: list[dict]) -> list[dict]:
     """What a checkpoint records of the datasets it was trained on."""
-    from itup_jax.dataset import dataset_timesteps, split_dataset_arg
+    from itup_jax.dataset_load import dataset_timesteps, split_dataset_arg
 
     split = [split_dataset_arg(a) for a in paths]
     return [{"folder": os.path.abspath(d), "tasks": list(t) if t else None, "config": m["config"],
@@ -38,10 +38,10 @@ def datasets_record(paths: Sequence[str], manifests: list[dict]) -> list[dict]:
 
 
 def predicted_targets(what: str, model, data: dict, feature_spec: dict, outputs=None) -> dict:
-    """`data` with `model`'s predictions of the rows as the targets (`sdgnet.teacher_targets`, all outputs
+    """`data` with `model`'s predictions of the rows as the targets (`sdgnet.training.teacher_targets`, all outputs
     or `outputs`), after refusing a checkpoint whose features were made with another `FeatureSpec` than
     the datasets' (`what` names it in the message)."""
-    from itup_jax.sdgnet import teacher_targets
+    from itup_jax.sdgnet.training import teacher_targets
 
     if model.spec["feature_spec"] != feature_spec:
         raise InputError(f"{what}: its features were made with {model.spec['feature_spec']}, "
@@ -56,12 +56,13 @@ def _teacher_record(path: str, teacher) -> dict:
 
 def train_on_datasets(paths: Sequence[str], config, *, teacher: str | None = None, progress: bool = False,
                       command: str | None = None, guard_reference: str | None = None):
-    """A new SDG-Net trained on the datasets' rows with `config` (`sdgnet.TrainConfig`); with `teacher`
+    """A new SDG-Net trained on the datasets' rows with `config` (`sdgnet.config.TrainConfig`); with `teacher`
     (a checkpoint, e.g. an ensemble), on its predictions of the rows instead of their labels. The
     teacher is loaded, and so checked, before any data is read. With `guard_reference` (a path,
     `ood.reference_path` of the checkpoint), the out-of-distribution guard's reference of the rows is
     written there (`write_guard_reference`)."""
-    from itup_jax.sdgnet import load_model, train
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.training import train
 
     teacher_model = load_model(teacher) if teacher is not None else None
     data, manifests = load_training_data(paths)
@@ -82,7 +83,7 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
                       seed: int = 0, patience: int = 25, ema: float | None = None,
                       keep: Sequence[str] | None = None, teacher: str | None = None, progress: bool = False,
                       command: str | None = None, guard_reference: str | None = None):
-    """The checkpoint `init` adapted to the datasets' rows (`sdgnet.adapt`): each of its networks continues
+    """The checkpoint `init` adapted to the datasets' rows (`training.adapt`): each of its networks continues
     from its weights and normalisation for `epochs` (default: its recipe's fine-tuning epochs, or 60)
     and is kept unless an epoch beats it on the data's held-out tools.
 
@@ -93,7 +94,8 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
     guard_reference: a path: the out-of-distribution guard's reference of the new rows, with `init`'s
       reference rows when it has one, is written there (`write_guard_reference`).
     """
-    from itup_jax.sdgnet import adapt, load_model
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.training import adapt
 
     model = load_model(init)  # checked before any data is read
     if teacher is not None and keep is not None:
@@ -127,9 +129,10 @@ def adapt_on_datasets(init: str, paths: Sequence[str], *, epochs: int | None = N
 
 
 def ensemble_of(paths: Sequence[str], *, command: str | None = None):
-    """One checkpoint that averages the checkpoints in `paths` (`sdgnet.ensemble`: their log costs and
+    """One checkpoint that averages the checkpoints in `paths` (`sdgnet.model.ensemble`: their log costs and
     probabilities), recording their files."""
-    from itup_jax.sdgnet import ensemble, load_model
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.model import ensemble
 
     model = ensemble([load_model(m) for m in paths])
     model.spec["ensemble"]["files"] = [os.path.abspath(m) for m in paths]

@@ -1,13 +1,14 @@
 """Physical priors: materials and the per-category prior table.
 
 Every number carries its unit and either a source or the reason it was chosen. The table is data,
-read by `itup_jax.tool` when a tool is built or loaded; domain randomisation (simulation issue) draws
+read by `tools.builtin` and `tools.mesh` when a tool is built or loaded; domain randomisation (simulation issue) draws
 around these values.
 
 Categories are the tool kinds iTuP knows: the four the built-in tools belong to (hammer -> hammer task,
 broom -> sweep, mallet -> knock, l_stick -> reach) and the further procedural families of
-`itup_jax.families` (screwdriver, spanner, pry_bar, hatchet, squeegee). A user's mesh names one of them
-in its spec and takes its defaults from here.
+`tools.families` (screwdriver, spanner, pry_bar, hatchet, squeegee). A user's mesh names one of them
+in its spec and takes its defaults from here. Each category also fixes its tool frame
+(`CATEGORY_CONTACT_NORMAL`).
 """
 
 from __future__ import annotations
@@ -201,3 +202,13 @@ def category_prior(category: str, *, what: str = "category") -> CategoryPrior:
     except (KeyError, TypeError):
         known = ", ".join(sorted(CATEGORY_PRIORS))
         raise InputError(f"{what}: unknown tool category {category!r}; known: {known}") from None
+
+
+#: The tool frame of each category: the contact normal's direction in it. Every category has the handle
+#: along z; hammer, mallet, hatchet, spanner and screwdriver strike with a face (or side) whose normal is
+#: +x, the broom and the squeegee push with their head's +y side (the head is wide along x), the L-stick
+#: and the pry bar pull with the hook's inner face, which faces back along the handle (-z; the hook itself
+#: extends along +x).
+CATEGORY_CONTACT_NORMAL = {"hammer": (1.0, 0.0, 0.0), "mallet": (1.0, 0.0, 0.0), "broom": (0.0, 1.0, 0.0),
+                           "l_stick": (0.0, 0.0, -1.0), "screwdriver": (1.0, 0.0, 0.0), "spanner": (1.0, 0.0, 0.0),
+                           "pry_bar": (0.0, 0.0, -1.0), "hatchet": (1.0, 0.0, 0.0), "squeegee": (0.0, 1.0, 0.0)}

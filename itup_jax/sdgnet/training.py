@@ -1,248 +1,30 @@
-"""SDG-Net: training on label datasets and scoring grasp candidates.
-
-The network (`mlp.py`) maps a grasp's features (`features.py`) to the MuJoCo-measured counterparts of
-the three costs — C_tau: peak wrist torque perpendicular to the jaw axis (N m), C_s: slip of the tool in
-the grasp (m), C_alpha: alignment drift (rad) — trained with the sum of squared errors on normalised
-targets (the paper's loss), plus binary heads trained with cross-entropy (`CLASS_TARGETS`; each present
-when its `TrainConfig` weight is > 0, both by default): the logit of the probability that the rollout
-achieves the task (the labels' `success`: nail driven, debris past the line, tower knocked, block
-moved) and of the probability that the grasp fails (`failed`: slip over 1 cm, a turn in the grip over
-10 degrees, or the tool lost). A cost of torque alone is lowest for grasps that do not do the task (a
-mallet that misses the tower carries no impact torque); the scorer penalises both predicted
-probabilities (`scoring.ScoreWeights.w_task`, `w_fail`).
-Train/validation split by tool (held-out tools), our own AdamW, minibatches scanned inside one jitted
-epoch, early stopping on the validation loss. Optionally (`TrainConfig.rank_weight`, off by default) a
-within-tool listwise term on the torque output (`listwise_loss`) for the top-1 pick of each tool.
+"""Training SDG-Net on label datasets: from scratch (`train`), continued (`adapt`), distilled (`teacher_targets`).
 
     model = train(load_dataset("data/"), TrainConfig())        # -> Model (params + spec)
-    save_model("model.npz", model); model = load_model("model.npz")
-    costs = itup.score(tool, task, grasps, model=None)         # None: the shipped default checkpoint
+
+The loss is the paper's: the sum of squared errors on normalised targets, plus each binary head's
+cross-entropy (`TrainConfig` weights; a head whose weight is 0 is left out), and optionally
+(`TrainConfig.rank_weight`, off by default) a within-tool listwise term on the torque output
+(`listwise_loss`) for the top-1 pick of each tool. The split is by tool (held-out tools); the optimiser
+is our own AdamW (`optim.py`); minibatches are scanned inside one jitted epoch (the outer call), with
+early stopping on the validation loss.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib.resources
 import time
-from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from itup_jax import checkpoint, mlp, objective
-from itup_jax.errors import InputError, check_seed, is_integer
-from itup_jax.features import FeatureSpec
-from itup_jax.optim import AdamConfig, adam_init, adam_update
+from itup_jax.errors import InputError, is_integer
 from itup_jax.precision import full_precision
-
-#: The paper objective's targets (`objective.PAPER`; the wrench objective's: `objective.WRENCH`).
-TARGETS = objective.PAPER.targets
-#: Targets are learned as log1p(y / scale): slip is heavy-tailed (a lost tool "slips" metres), torque
-#: spans decades; the scales (`objective.Objective.scales`) are 0.02 N m (`TrainConfig.torque_scale`),
-#: 1 mm, 0.1 rad, and the wrench objective's grip demand 1 N. They are stored in the checkpoint and its
-#: predictions are mapped back with them by scale * expm1.
-#: The labels of the binary heads (bool per rollout; `simulate.Labels.success` / `.failed`, and `.failed`
-#: of the weak-grip rollout, `dataset.weak_rollouts`), in the order of their outputs after the costs, and
-#: the names their probabilities go by.
-CLASS_TARGETS = ("label_success", "label_failed", "label_weak_failed")
-CLASS_NAMES = ("p_success", "p_failed", "p_failed_weak")
-SUCCESS_TARGET = CLASS_TARGETS[0]
-WEAK_TARGET = CLASS_TARGETS[2]
-#: The shipped checkpoint, inside the installed package (model card: `itup_jax/models/MODEL_CARD.md`).
-DEFAULT_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_default.npz")
-#: The paper objective's checkpoint, trained on the same data (`itup train --objective paper`): the
-#: paper's model reproduced, one option away (scorer "sdgnet_paper").
-PAPER_MODEL = str(importlib.resources.files("itup_jax") / "models" / "sdgnet_paper.npz")
-
-
-@dataclasses.dataclass(frozen=True)
-class TrainConfig:
-    hidden: tuple = (128, 128, 128)
-    epochs: int = 200
-    batch: int = 128
-    lr: float = 2e-3
-    weight_decay: float = 0.1  # decoupled (AdamW); width, depth and decay chosen by validation loss (models/MODEL_CARD.md)
-    patience: int = 25
-    val_fraction: float = 0.25  # of the tools (task x variant), held out
-    seed: int = 0
-    per_task: bool = False  # one MLP per task, each trained (and early-stopped) on its task's rows alone
-    # > 0: after the shared network, a copy per task trained on that task's rows for this many more
-    # epochs (same held-out tools, same normalisation, AdamW at `finetune_lr`, kept only where it lowers
-    # that task's validation loss). The shipped checkpoint uses 60 (`itup train
-    # --finetune-epochs 60`: Spearman +0.02 to +0.03 on held-out tools over the shared network alone on the same
-    # data; models/MODEL_CARD.md); the default stays 0, one network for every task, the paper's model
-    finetune_epochs: int = 0
-    finetune_lr: float = 5e-4
-    # N m: the torque target is log1p(tau / torque_scale). 0.02 (about the smallest peaks measured) ranks
-    # held-out grasps better than 1 N m (Spearman +0.02); its picks need the success head
-    torque_scale: float = 0.02
-    # weights of the binary heads' cross-entropy in the loss (task success, grasp failure); 0: no such
-    # head (both 0: 3 outputs, the paper's loss alone, as the oldest checkpoints). 0.3 ranks
-    # torque better than 1.0 at the same success AUC
-    success_weight: float = 0.3
-    failure_weight: float = 0.3
-    # the weak-grip failure head's (label_weak_failed: fails in the grip at `dataset.WEAK_GRIP` N per
-    # pad); its rows are those whose weak-grip rollout is valid. Data without weak-grip rollouts (labels
-    # before 0.11.0, `itup generate --weak-grip 0`) trains with it at 0
-    weak_failure_weight: float = 0.3
-    # > 0: adds rank_weight x the within-tool listwise loss (`listwise_loss`) of the torque output to the
-    # loss of the network(s) that score: the per-task fine-tuning when finetune_epochs > 0 (the shared
-    # network before it keeps the paper's loss: the term there too measured 2.6x slower and no better,
-    # models/MODEL_CARD.md), else the one network (or each per_task one). Each step also draws `rank_tools`
-    # training tools and `rank_group` of each one's grasps and adds the KL divergence between the top-1
-    # distributions softmax(-log torque / rank_temperature) of their labels and of their predictions:
-    # the network is spent on which grasp of a tool is lowest (the top-1 regret) rather than on the
-    # offsets between tools. 0 (default): the paper's loss alone
-    rank_weight: float = 0.0
-    rank_temperature: float = 0.3  # on the normalised log-torque scale (1 = the training rows' spread)
-    rank_tools: int = 8
-    rank_group: int = 32
-    # what the network regresses (`objective.OBJECTIVES`): 'wrench' (the induced torque's three
-    # grasp-frame components, the grip demand, slip, drift; the default, chosen on validation tools,
-    # experiments/objective_selection.py) or 'paper' (projected torque, slip, drift)
-    objective: str = "wrench"
-    # in [0, 1): > 0 keeps an exponential moving average of the weights, updated after every Adam step
-    # (w_avg <- ema w_avg + (1 - ema) w, starting from the first weights), and validates, early-stops and
-    # stores the average instead of the last step's weights: Polyak averaging, a cheap ensemble over the
-    # end of training at one network's scoring cost. 0 (default): the last step's weights
-    ema: float = 0.0
-
-    def __post_init__(self):
-        def integer(v):
-            return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-        if not (isinstance(self.hidden, tuple) and all(integer(h) and h >= 1 for h in self.hidden)):
-            raise InputError(f"train: hidden must be a tuple of layer widths >= 1 (() for a linear model), "
-                             f"got {self.hidden!r}")
-        for name in ("epochs", "batch", "patience"):
-            if not (integer(getattr(self, name)) and getattr(self, name) >= 1):
-                raise InputError(f"train: {name} must be an integer >= 1, got {getattr(self, name)!r}")
-        if not (np.isfinite(self.lr) and self.lr > 0):
-            raise InputError(f"train: lr must be a finite number > 0, got {self.lr!r}")
-        if not (np.isfinite(self.weight_decay) and self.weight_decay >= 0):
-            raise InputError(f"train: weight_decay must be a finite number >= 0, got {self.weight_decay!r}")
-        if not 0 < self.val_fraction < 1:
-            raise InputError(f"train: val_fraction (the share of tools held out) must be in (0, 1), "
-                             f"got {self.val_fraction!r}")
-        check_seed(self.seed, "train")
-        if not self.torque_scale > 0:
-            raise InputError(f"train: torque_scale must be > 0 N m, got {self.torque_scale!r}")
-        for name in ("success_weight", "failure_weight", "weak_failure_weight"):
-            if not getattr(self, name) >= 0:
-                raise InputError(f"train: {name} must be >= 0, got {getattr(self, name)!r}")
-        if not (isinstance(self.finetune_epochs, int) and self.finetune_epochs >= 0):
-            raise InputError(f"train: finetune_epochs must be an integer >= 0, got {self.finetune_epochs!r}")
-        if not self.finetune_lr > 0:
-            raise InputError(f"train: finetune_lr must be > 0, got {self.finetune_lr!r}")
-        if not (np.isfinite(self.rank_weight) and self.rank_weight >= 0):
-            raise InputError(f"train: rank_weight must be a finite number >= 0, got {self.rank_weight!r}")
-        if not (np.isfinite(self.rank_temperature) and self.rank_temperature > 0):
-            raise InputError(f"train: rank_temperature must be a finite number > 0, got {self.rank_temperature!r}")
-        for name, least in (("rank_tools", 1), ("rank_group", 2)):  # a group of one grasp ranks nothing
-            if not (integer(getattr(self, name)) and getattr(self, name) >= least):
-                raise InputError(f"train: {name} must be an integer >= {least}, got {getattr(self, name)!r}")
-        if not (isinstance(self.ema, (float, int)) and not isinstance(self.ema, bool) and 0 <= self.ema < 1):
-            raise InputError(f"train: ema (the weight average's decay per step) must be in [0, 1), got {self.ema!r}")
-        objective.get(self.objective, what="train")
-        if self.per_task and self.finetune_epochs:
-            raise InputError("train: per_task trains each task's network from scratch and finetune_epochs "
-                             "fine-tunes a shared one per task; set finetune_epochs=0 with per_task")
-
-    @property
-    def class_weights(self) -> dict:
-        """{label: cross-entropy weight} of the binary heads the network gets, in output order."""
-        w = dict(zip(CLASS_TARGETS, (self.success_weight, self.failure_weight, self.weak_failure_weight)))
-        return {k: v for k, v in w.items() if v > 0}
-
-    @property
-    def targets(self) -> tuple:
-        """The label columns the network regresses, in output order (its objective's)."""
-        return objective.get(self.objective).targets
-
-    @property
-    def target_scales(self) -> tuple:
-        return objective.get(self.objective).target_scales(self.torque_scale)
-
-
-@dataclasses.dataclass(frozen=True)
-class Model:
-    """Trained SDG-Net: MLP layers plus everything needed to rebuild its inputs and outputs."""
-
-    params: list
-    spec: dict  # feature_spec, x_mean, x_std, y_mean, y_std, targets, train config, metrics
-
-    @property
-    def feature_spec(self) -> FeatureSpec:
-        return FeatureSpec(**self.spec["feature_spec"])
-
-    @property
-    def objective(self) -> str:
-        """The objective it was trained on (`objective.OBJECTIVES`; checkpoints that predate the choice:
-        'paper')."""
-        return str(self.spec.get("objective", "paper"))
-
-    @property
-    def output_names(self) -> list[str]:
-        """The names of its regression outputs, in order (`objective.Objective.outputs`)."""
-        return list(objective.get(self.objective).outputs)
-
-    @property
-    def class_heads(self) -> list[str]:
-        """Labels of the binary heads, in output order after the three costs (the oldest
-        checkpoints say `success_head` instead)."""
-        if "class_heads" in self.spec:
-            return list(self.spec["class_heads"])
-        return [SUCCESS_TARGET] if self.spec.get("success_head") else []
-
-    @property
-    def head_names(self) -> list[str]:
-        """The probability names of the binary heads (`CLASS_NAMES`: p_success, p_failed, p_failed_weak), in
-        output order."""
-        return [CLASS_NAMES[CLASS_TARGETS.index(t)] for t in self.class_heads]
-
-    @property
-    def has_success_head(self) -> bool:
-        """Whether the network also predicts the probability of task success."""
-        return SUCCESS_TARGET in self.class_heads
-
-    @property
-    def train_config(self) -> TrainConfig:
-        """The recipe this model was trained with (`spec["config"]`; fields a checkpoint predates take
-        TrainConfig's defaults, but a head it predates weighs 0: it has no such output): what `train`
-        needs to make it again on other data, and what `adapt` continues with."""
-        fields = {f.name for f in dataclasses.fields(TrainConfig)}
-        cfg = {k: v for k, v in self.spec["config"].items() if k in fields}
-        if WEAK_TARGET not in self.class_heads:
-            cfg["weak_failure_weight"] = 0.0
-        cfg["objective"] = self.objective  # a checkpoint that predates the choice was trained on the paper's
-        if "hidden" in cfg:
-            cfg["hidden"] = tuple(int(h) for h in cfg["hidden"])
-        return TrainConfig(**cfg)
-
-    @property
-    def ensemble_size(self) -> int:
-        """How many networks' predictions are averaged (`ensemble`); 1 for a trained model."""
-        return int(self.spec.get("ensemble", {}).get("size", 1))
-
-    @property
-    def tasks(self) -> list[str] | None:
-        """The tasks of a per-task model (one MLP each), or None for one shared MLP."""
-        return list(self.spec["by_task"]) if "by_task" in self.spec else None
-
-    def for_task(self, kind: str | None) -> "Model":
-        """The network that scores task `kind`: the model itself when one MLP serves every task, else
-        that task's MLP with its own normalisation (a plain single-network Model)."""
-        by_task = self.spec.get("by_task")
-        if by_task is None:
-            return self
-        if kind not in by_task:
-            raise InputError(f"SDG-Net model: trained per task for {list(by_task)}; no network for task {kind!r}")
-        e = by_task[kind]
-        lo, hi = e["layers"]
-        spec = {k: v for k, v in self.spec.items() if k != "by_task"}
-        spec.update({k: e[k] for k in ("x_mean", "x_std", "y_mean", "y_std")})
-        return Model(params=self.params[lo:hi], spec=spec)
+from itup_jax.sdgnet import mlp, objective
+from itup_jax.sdgnet.config import CLASS_NAMES, CLASS_TARGETS, WEAK_TARGET, TrainConfig
+from itup_jax.sdgnet.model import Model, predict_costs
+from itup_jax.sdgnet.optim import AdamConfig, adam_init, adam_update
 
 
 def training_loss(params, x, y, s, class_weights):
@@ -326,7 +108,7 @@ def _split_by_tool(data: dict, fraction: float, seed: int, val_tools: set | None
 
 def train(data: dict, config: TrainConfig = TrainConfig(), *, feature_spec: dict | None = None,
           progress: bool = True, log=print) -> Model:
-    """Fit SDG-Net on a loaded dataset (valid rows only; see `dataset.load_dataset`).
+    """Fit SDG-Net on a loaded dataset (valid rows only; see `dataset_load.load_dataset`).
 
     Default: one MLP shared by every task. With `config.finetune_epochs` > 0, then a copy of it
     fine-tuned on each task's rows (the same held-out tools and normalisation), stored as one network
@@ -609,64 +391,8 @@ def _head_spec(config: TrainConfig) -> dict:
     return {"class_heads": list(config.class_weights)}
 
 
-def save_model(path: str, model: Model) -> None:
-    checkpoint.save(path, model.params, model.spec)
-
-
-#: Spec entries that are one per network (normalisation): stacked along the member axis in an ensemble.
-_NORMALISATION = ("x_mean", "x_std", "y_mean", "y_std")
-
-
-def ensemble(models) -> Model:
-    """One Model that averages the predictions of `models` (>= 2 trained models, e.g. the same recipe
-    with different `TrainConfig.seed`s): a deep ensemble. Each layer's weights are stacked along a
-    leading member axis ([M, n_in, n_out]) and so is each network's normalisation, so the scorer runs
-    the M networks as one batched MLP in its one jit (M times the MLP's flops) and averages their
-    log1p(y / scale) (a geometric mean of 1 + y / scale) and their head probabilities.
-
-    The members must agree on everything but their weights: feature spec, targets and scales, binary
-    heads, layer shapes, and tasks (per-task networks: the same tasks and layer ranges). The spec is
-    the first member's with the normalisation stacked; `spec["ensemble"]` records each member's training
-    config, metrics and command (`train_config` gives the first member's recipe).
-    """
-    models = list(models)
-    if len(models) < 2 or not all(isinstance(m, Model) for m in models):
-        raise InputError(f"ensemble: needs >= 2 trained Models, got {len(models)} "
-                         f"({', '.join(sorted({type(m).__name__ for m in models})) or 'none'})")
-    first = models[0]
-    for k, m in enumerate(models):
-        if m.ensemble_size != 1:
-            raise InputError(f"ensemble: member {k} is itself an ensemble of {m.ensemble_size}; combine the trained "
-                             "models it was made of instead")
-        for key in ("feature_spec", "objective", "targets", "target_scales", "class_heads"):
-            if m.spec.get(key) != first.spec.get(key):
-                raise InputError(f"ensemble: member {k}'s {key} {m.spec.get(key)!r} differs from member 0's "
-                                 f"{first.spec.get(key)!r}; members must take the same inputs and give the same outputs")
-        shapes = [(np.shape(W), np.shape(b)) for W, b in m.params]
-        if shapes != [(np.shape(W), np.shape(b)) for W, b in first.params]:
-            raise InputError(f"ensemble: member {k}'s layers {shapes} differ from member 0's; members must share "
-                             "an architecture")
-        ranges = {t: e["layers"] for t, e in m.spec.get("by_task", {}).items()}
-        if ranges != {t: e["layers"] for t, e in first.spec.get("by_task", {}).items()}:
-            raise InputError(f"ensemble: member {k}'s per-task networks {ranges} differ from member 0's")
-    params = [(np.stack([np.asarray(m.params[i][0]) for m in models]), np.stack([np.asarray(m.params[i][1]) for m in models]))
-              for i in range(len(first.params))]
-    stack = lambda specs: {k: np.stack([np.asarray(s[k], np.float64) for s in specs]).tolist()  # noqa: E731
-                           for k in _NORMALISATION if k in specs[0]}
-    own = ("config", "command", "datasets", "n_train", "n_val", "best_val_loss", "train_seconds", "val_metrics")
-    spec = {k: v for k, v in first.spec.items() if k not in _NORMALISATION + own
-            + ("by_task", "history", "shared", "best_epoch", "ensemble")}
-    spec["config"] = first.spec.get("config")
-    spec.update(stack([m.spec for m in models]))
-    if "by_task" in first.spec:
-        spec["by_task"] = {t: {"layers": e["layers"], **stack([m.spec["by_task"][t] for m in models])}
-                           for t, e in first.spec["by_task"].items()}
-    spec["ensemble"] = {"size": len(models), "members": [{k: m.spec[k] for k in own if k in m.spec} for m in models]}
-    return Model(params=params, spec=spec)
-
-
 def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None = None) -> dict:
-    """A copy of `data` (as from `dataset.load_datasets`) whose regression targets (the teacher objective's, SI units) and
+    """A copy of `data` (as from `dataset_load.load_datasets`) whose regression targets (the teacher objective's, SI units) and
     binary labels (`CLASS_TARGETS` the teacher has a head for) are `teacher`'s predictions for each row,
     by task: the targets to distil a model (typically an `ensemble`, M times slower to score) into one
     network that scores at one network's cost (`itup train --teacher E.npz`). The probabilities are
@@ -702,86 +428,3 @@ def teacher_targets(data: dict, teacher: Model, outputs: tuple[str, ...] | None 
             cols[key][rows] = np.asarray(p[name], np.float64)
     out.update(cols)
     return out
-
-
-def load_model(path: str | None = None) -> Model:
-    """A saved model; None: the default checkpoint shipped in the package."""
-    layers, spec = checkpoint.load(path or DEFAULT_MODEL)
-    if not isinstance(spec.get("objective", "paper"), str) or spec.get("objective", "paper") not in objective.OBJECTIVES:
-        raise InputError(f"model {path!r}: unknown objective {spec.get('objective')!r}; known: "
-                         f"{', '.join(objective.OBJECTIVES)}")
-    targets = list(objective.get(spec.get("objective", "paper")).targets)
-    if spec.get("targets") != targets:
-        raise InputError(f"model {path!r}: trained for targets {spec.get('targets')}, expected {targets} "
-                         f"(objective {spec.get('objective', 'paper')!r})")
-    scales = spec.get("target_scales")
-    if not (isinstance(scales, list) and len(scales) == len(targets) and all(isinstance(v, (int, float)) and v > 0 for v in scales)):
-        raise InputError(f"model {path!r}: target_scales must be {len(targets)} positive numbers (the log1p(y / scale) "
-                         f"of training), got {scales!r}")
-    model = Model(params=layers, spec=spec)
-    heads = model.class_heads
-    if not set(heads) <= set(CLASS_TARGETS) or len(set(heads)) != len(heads):
-        raise InputError(f"model {path!r}: class_heads must be distinct labels among {list(CLASS_TARGETS)}, got {heads}")
-    n_out = len(targets) + len(heads)
-    outs = [layers[hi - 1][0].shape[-1] for hi in
-            ([e["layers"][1] for e in spec["by_task"].values()] if "by_task" in spec else [len(layers)])]
-    if any(o != n_out for o in outs):
-        raise InputError(f"model {path!r}: its network has {outs} outputs, but its spec ({len(targets)} costs + binary heads "
-                         f"{heads}) says {n_out}")
-    m = model.ensemble_size
-    if any(W.ndim != (2 if m == 1 else 3) or (m > 1 and (W.shape[0] != m or b.shape[0] != m)) for W, b in layers):
-        raise InputError(f"model {path!r}: its spec says an ensemble of {m}, but its layers have shapes "
-                         f"{[W.shape for W, _ in layers]}")
-    return model
-
-
-def _network_outputs(params, x_mean, x_std, y_mean, y_std, feats):
-    """One network: [N, F] features -> ([N, C] log1p(y / scale) of the regression targets, [N, K] head logits)."""
-    out = jax.vmap(mlp.apply, in_axes=(None, 0))(params, (feats - x_mean) / x_std)
-    k = y_mean.shape[-1]
-    return out[:, :k] * y_std + y_mean, out[:, k:]
-
-
-def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
-    """[N, F] features -> ([N, C] regression outputs in SI units, [N, K] probabilities of the binary heads
-    or None): normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales
-    `y_scale` [C] (the objective's units; `objective.costs_of` makes the scorer's costs of them); the probabilities are the sigmoids of the outputs after the costs (which label each
-    is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
-    shape). An ensemble (`ensemble`: every array with a leading member axis M, x_mean [M, F]) runs its
-    M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Outputs
-    are >= 0 and probabilities in [0, 1] by construction. Pure;
-    `predict` and the scorer's jit wrap it."""
-    if x_mean.ndim == 2:  # static: an ensemble's stacked members
-        z, logits = jax.vmap(_network_outputs, in_axes=(0, 0, 0, 0, 0, None))(params, x_mean, x_std, y_mean, y_std,
-                                                                               feats)
-        # each member's prediction held at >= 0 (below), then their mean
-        z, probs = jnp.maximum(z, 0.0).mean(0), jax.nn.sigmoid(logits).mean(0)
-    else:
-        z, logits = _network_outputs(params, x_mean, x_std, y_mean, y_std, feats)
-        probs = jax.nn.sigmoid(logits)
-    # every target is a magnitude (torque, grip force, slip, drift >= 0), learnt as log1p(y / scale) >= 0: a
-    # network output below 0 (an extrapolation) is held at 0, so no prediction is negative
-    return y_scale * jnp.expm1(jnp.maximum(z, 0.0)), (probs if probs.shape[-1] > 0 else None)
-
-
-#: Prediction from precomputed features, one jit (`scoring.score` fuses features and network instead).
-predict = jax.jit(full_precision(predict_from_features))
-
-
-def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str, jax.Array]:
-    """Each regression output (`Model.output_names`), the scorer's costs tau, slip, align (and grip,
-    for the wrench objective: tau is then the norm of the three torque components) and each binary
-    head's probability (p_success, p_failed, p_failed_weak): each [N], from features [N, F] of grasps for `task`
-    (required by a per-task model)."""
-    model = model.for_task(task)
-    s = model.spec
-    dt = jnp.asarray(model.params[0][0]).dtype
-    out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
-                     jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
-                     jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt))
-    costs = objective.costs_of(out, model.objective)
-    derived = {name: costs[:, i] for i, name in enumerate(objective.COST_COLUMNS)
-               if name != "grip" or model.objective != "paper"}
-    return ({name: out[:, i] for i, name in enumerate(model.output_names)} | derived
-            | {n: p[:, j] for j, n in enumerate(model.head_names)})
-

@@ -1,15 +1,15 @@
 """Procedural tool families: parametric builders, their size ranges, and the tasks each can do.
 
-    from itup_jax import families
+    from itup_jax.tools import families
     families.names()                         # ('hammer', 'broom', ..., 'squeegee')
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Nine families. The first four are the built-in tools' (`tool.claw_hammer`, `hand_broom`, `mallet`,
-`l_stick`), drawn part-wise by `dataset.part_variant`. The other five are defined here, each assembled
-from primitive parts with their own materials (`tool.assemble_tool`: mass properties from the parts'
+Nine families. The first four are the built-in tools' (`builtin.claw_hammer`, `hand_broom`, `mallet`,
+`l_stick`), drawn part-wise by `variants.part_variant`. The other five are defined here, each assembled
+from primitive parts with their own materials (`builtin.assemble_tool`: mass properties from the parts'
 meshes and densities, a watertight union for sampling, capsules and boxes for the simulator):
 
   screwdriver  a cellulose-acetate handle and a thin steel shaft; taps with the side of the shaft's tip
@@ -22,7 +22,7 @@ meshes and densities, a watertight union for sampling, capsules and boxes for th
   squeegee     a T-headed long tool: a neoprene blade in a polypropylene holder on a hollow aluminium
                handle; pushes with the blade (sweep).
 
-Every family keeps its category's tool frame (`tool.CATEGORY_CONTACT_NORMAL`): the handle along +z
+Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin, the contact normal along the category's direction. The ranges are typical
 hand-tool dimensions (assumed); every draw inside them builds a closed mesh with positive inertia, and
 its contact lands on the task's target (tests/test_families.py).
@@ -40,7 +40,9 @@ import numpy as np
 import trimesh
 
 from itup_jax.errors import InputError
-from itup_jax.tool import Tool, _box, _cylinder, assemble_tool, claw_hammer, hand_broom, l_stick, mallet
+from itup_jax.tools.builtin import assemble_tool, box_part, claw_hammer, cylinder_part, hand_broom, l_stick, mallet
+from itup_jax.tools.tool import Tool
+from itup_jax.tools.variants import part_variant
 
 
 def _prism(radius: float, p0, p1, sections: int) -> tuple[trimesh.Trimesh, tuple]:
@@ -66,8 +68,8 @@ def screwdriver(*, handle_radius: float = 0.0135, handle_length: float = 0.100, 
     return assemble_tool(
         name=name, category="screwdriver",
         parts=[
-            ("handle", "cellulose_acetate", _cylinder(handle_radius, (0, 0, 0), (0, 0, handle_length))),
-            ("shaft", "steel", _cylinder(shaft_radius, (0, 0, handle_length), (0, 0, top))),
+            ("handle", "cellulose_acetate", cylinder_part(handle_radius, (0, 0, 0), (0, 0, handle_length))),
+            ("shaft", "steel", cylinder_part(shaft_radius, (0, 0, handle_length), (0, 0, top))),
         ],
         contact_points=[(shaft_radius, 0.0, top - 0.010)],
         contact_normal=(1.0, 0.0, 0.0),
@@ -87,8 +89,8 @@ def spanner(*, bar_length: float = 0.160, bar_width: float = 0.018, bar_thicknes
     return assemble_tool(
         name=name, category="spanner",
         parts=[
-            ("bar", "steel", _box((-w, -t, 0.0), (w, t, bar_length))),
-            ("head", "steel", _box((-head_half, -head_thickness / 2, bar_length),
+            ("bar", "steel", box_part((-w, -t, 0.0), (w, t, bar_length))),
+            ("head", "steel", box_part((-head_half, -head_thickness / 2, bar_length),
                                    (head_half, head_thickness / 2, bar_length + 2 * head_half))),
         ],
         contact_points=[(head_half, 0.0, zc)],
@@ -131,10 +133,10 @@ def hatchet(*, handle_length: float = 0.300, handle_radius: float = 0.015, blade
     return assemble_tool(
         name=name, category="hatchet",
         parts=[
-            ("handle", "hickory", _cylinder(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("blade", "steel", _box((-blade_length, -blade_thickness / 2, z0),
+            ("handle", "hickory", cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("blade", "steel", box_part((-blade_length, -blade_thickness / 2, z0),
                                     (0.0, blade_thickness / 2, z0 + blade_height))),
-            ("poll", "steel", _box((0.0, -poll_size / 2, zc - poll_size / 2),
+            ("poll", "steel", box_part((0.0, -poll_size / 2, zc - poll_size / 2),
                                    (poll_length, poll_size / 2, zc + poll_size / 2))),
         ],
         contact_points=[(poll_length, 0.0, zc)],
@@ -158,10 +160,10 @@ def squeegee(*, half_width: float = 0.150, blade_height: float = 0.030, handle_r
     return assemble_tool(
         name=name, category="squeegee",
         parts=[
-            ("blade", "neoprene", _box((-half_width, -0.0015, 0.0), (half_width, 0.0015, blade_height))),
-            ("holder", "polypropylene", _box((-half_width - 0.005, -0.010, blade_height),
+            ("blade", "neoprene", box_part((-half_width, -0.0015, 0.0), (half_width, 0.0015, blade_height))),
+            ("holder", "polypropylene", box_part((-half_width - 0.005, -0.010, blade_height),
                                              (half_width + 0.005, 0.010, holder_top))),
-            ("handle", "aluminium", _cylinder(handle_radius, (0, 0, holder_top), (0, 0, holder_top + handle_length)),
+            ("handle", "aluminium", cylinder_part(handle_radius, (0, 0, holder_top), (0, 0, holder_top + handle_length)),
              HOLLOW_HANDLE_FILL),
         ],
         # the blade's leading edge: tilted back in the sweep, the rest of the blade stays above the table
@@ -183,7 +185,7 @@ class Family:
       build: keyword dimensions (metres) -> Tool; its defaults are the family's default tool.
       tasks: the task kinds the family's tools can do.
       ranges: {keyword: (low, high)} uniform ranges of a draw (metres, or a count for `sections`);
-        empty for the four built-in families, which `dataset.part_variant` draws.
+        empty for the four built-in families, which `variants.part_variant` draws.
       choices: {keyword: (value, ...)} discrete choices of a draw (uniform).
       summary: one line for the docs and `itup tools`.
     """
@@ -197,7 +199,7 @@ class Family:
 
     @property
     def builtin(self) -> bool:
-        """One of the four families of the built-in tools (drawn by `dataset.part_variant`)."""
+        """One of the four families of the built-in tools (drawn by `variants.part_variant`)."""
         return not self.ranges
 
 
@@ -260,13 +262,11 @@ def for_task(kind: str) -> tuple[str, ...]:
 def draw(name: str, seed: int) -> Tool:
     """A tool of family `name` drawn with `seed` (the same tool for the same seed), named '<name>@<seed>'.
     The five families defined here draw every dimension uniformly in its range (and each choice
-    uniformly); the four built-in families draw their part-wise variants (`dataset.part_variant`)."""
+    uniformly); the four built-in families draw their part-wise variants (`variants.part_variant`)."""
     fam = get(name)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"families.draw({name!r}): seed must be an integer >= 0, got {seed!r}")
     if fam.builtin:
-        from itup_jax.dataset import part_variant  # the built-in families' variants live with the datasets
-
         return dataclasses.replace(part_variant(name, int(seed)), name=f"{name}@{int(seed)}")
     rng = np.random.default_rng([int(seed), sum(map(ord, name))])
     kw = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in fam.ranges.items()}

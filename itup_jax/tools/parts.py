@@ -1,6 +1,6 @@
 """Named parts of a tool, with regions on its mesh: what grounding chooses among.
 
-    from itup_jax import parts
+    from itup_jax.tools import parts
     ps = parts.tool_parts(tool)            # (Part('handle', roles=('grasp',)), Part('head', roles=('work',)), ...)
     parts.find(tool, "face")               # the part a word names ('face' -> the hammer's head)
     grounded = parts.apply(tool, work=ps[1], grasp=ps[0])   # the tool with Omega's c_tool from `work`
@@ -34,7 +34,7 @@ import re
 import numpy as np
 
 from itup_jax.errors import InputError
-from itup_jax.tool import Box, Tool
+from itup_jax.tools.tool import Box, Tool
 
 #: Part roles.
 ROLES = ("work", "grasp")

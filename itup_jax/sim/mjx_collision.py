@@ -21,7 +21,7 @@ shallow contact (under 0.5 mm) that native MuJoCo reports, and near a face's rim
 normal towards the edge where MJX keeps the face's (depths then differ by up to 0.2 mm).
 
 `native_capsule_box()` installs it in MJX's table of collision functions for the duration of a `with`
-block; `simulate.rollout_mjx` traces its jitted rollout inside one. MJX looks the function up while it
+block; `sim.mjx.rollout_mjx` traces its jitted rollout inside one. MJX looks the function up while it
 traces, so a program traced inside the block keeps the collider when called outside it, and MJX code
 traced elsewhere in the process is not affected. It reads MJX's private modules (`mujoco.mjx._src`); the
 package pins mujoco-mjx 3.17.0, and the tests compare the collider with native MuJoCo on that version.

@@ -15,7 +15,7 @@ avoids it (tried).
 The functions here do the same arithmetic as LAPACK's unblocked Cholesky (column by column, left-looking)
 with JAX's own operations, which XLA compiles into the program: no custom call, nothing that blocks.
 `jax_cholesky()` puts them in place of `jax.scipy.linalg.cho_factor` and `cho_solve` for the duration of
-a `with` block; `simulate.rollout_mjx` traces its program on a CPU inside one. A program traced inside the
+a `with` block; `sim.mjx.rollout_mjx` traces its program on a CPU inside one. A program traced inside the
 block keeps them; code traced elsewhere is not affected. On a GPU MJX keeps jaxlib's (cuSOLVER) kernels.
 The matrices are small (the scenes' nv is 20-26), so the loop over columns costs little
 (`itup bench rollout`, docs/benchmarks.md).

@@ -88,7 +88,7 @@ def calibrated_dampratio(restitution: float, timeconst: float, timestep: float) 
     `restitution` (-) at step `timestep` (s) in MuJoCo's drop (`delivered_restitution`): interpolated
     in `delivered_table` (within 0.01 of the wanted e on the tested range, `tests/test_restitution.py`),
     clipped to DAMPRATIO_RANGE where the wanted e lies beyond what the range delivers. One table per
-    (time constant, step), cached: pass time constants rounded (`scene.restitution_solref` rounds them
+    (time constant, step), cached: pass time constants rounded (`sim.scene.restitution_solref` rounds them
     to 0.1 ms) so that a randomised dataset asks a few dozen tables, not one per rollout."""
     zeta, e = delivered_table(float(timeconst), float(timestep))
     # np.interp wants increasing x: the table's e falls with zeta
