@@ -14,7 +14,7 @@ extrapolates furthest. Shortlist rules compared on the same candidates and the s
   * spread:   the candidates split into 5 equal-count bins by position along the handle (tool z), the
               best by SDG-Net in each.
 Per tool of the held-out families (the families' default tool and seeds 100.. for the calibration set,
-seeds 200.. for the test set: `experiments/ood_guard.py`'s `set_tools`): 1,000 candidates the arm can carry
+seeds 200.. for the test set: `heldout.family_tools`, as `experiments/ood_guard.py`): 1,000 candidates the arm can carry
 (`sample_reachable`, seed as the planner's), each rule's shortlist rolled out once under nominal physics,
 its pick the lowest measured total (`verify.measured_total`, the planner's weights) or no pick when none
 of the shortlist did the task and held; each distinct pick then rolled out 3 times under random physics,

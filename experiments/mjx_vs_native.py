@@ -13,7 +13,7 @@ same randomised physics (`simulate(..., seed=)`: the draws depend on the seed on
   - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
   - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
 and the rows that only one backend calls valid (diverged on one side); `per_row` keeps both backends' torque,
-slip and flags row by row. MJX collides capsules with boxes by `itup_jax.mjx_collision`, as `simulate` does. `tests/test_simulate.py` checks
+slip and flags row by row. MJX collides capsules with boxes by `itup_jax.sim.mjx_collision`, as `simulate` does. `tests/test_simulate.py` checks
 the firm-grasp tolerances on a few grasps; this is the same comparison over a whole batch. The control
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
@@ -43,6 +43,7 @@ import numpy as np
 from itup_jax.atomic import atomic_write_json
 from itup_jax.grasp import Grasps
 from itup_jax.precision import MATMUL_PRECISION
+from itup_jax.sim import mjx_collision
 from itup_jax.stats import spearman
 from itup_jax.task import DEFAULT_TOOL, TASK_KINDS
 
@@ -214,8 +215,7 @@ def main(argv=None) -> dict:
            "precision": "float32" if a.mjx_float32 else "float64",  # MJX's; native MuJoCo is float64
            "matmul_precision": MATMUL_PRECISION,  # every jit of the package traces float32 products (precision.py)
            "xla_flags": os.environ.get("XLA_FLAGS", ""),
-           # MJX collides capsules with boxes by itup_jax.mjx_collision
-           "mjx_capsule_box": "itup_jax.mjx_collision", "rows": rows,
+           "mjx_capsule_box": mjx_collision.__name__, "rows": rows,  # MJX's capsule-box collider
            "wall_s": round(time.perf_counter() - t0, 1), "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "mjx_vs_native.json"), out, indent=1)

@@ -11,13 +11,13 @@ with 256 candidates per tool. `candidate_count.py` found that the pick by the to
 gains little from 1,024 or 4,096 candidates, while the pick by predicted C_tau alone gains much (but
 misses the task in half the tools). This experiment asks whether other weights do better at planner
 scale. Per held-out tool (variants >= 1) of --data:
-  * N fresh antipodal candidates (candidate_count.py's seeds), the arm's reachable ones kept (closed-form
+  * N fresh antipodal candidates (`heldout.SAMPLE_SEED`, candidate_count.py's), the arm's reachable ones kept (closed-form
     IK), scored once by SDG-Net;
   * the pick under every weight setting (the grid: --w-slip x --w-align x --w-task x --w-fail, or the
     settings given by --grid), the totals recomputed from that one prediction with the scorer's formula
     (checked against the scorer's own total for the shipped weights), and the pick by predicted C_tau;
   * every distinct pick rolled out --draws times under the same randomised physics draws
-    (`candidate_count._measure`): the full induced peak wrist torque (the headline, `torque`: the
+    (`heldout.measure_pick`): the full induced peak wrist torque (the headline, `torque`: the
     paper's measure, no projection), beside it the raw peak, the projected part, the part about the
     closure axis and the grip demand, then task success, grip failure, slip, drift.
 Per setting: the geometric-mean torque over tools, the success and failure rates, the mean slip and

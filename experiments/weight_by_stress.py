@@ -21,7 +21,7 @@ under a weaker grip. Two weights of `ScoreWeights` are chosen this way:
 
 Each weight of the grid (the other weights the shipped ones; --model the network) picks on each
 validation tool, beside force closure and geometric ranking, and every pick is stressed by
-`grip_stress.run` (the same candidates and physics draws for every method; its least holding grip by
+`evaluate.stress_picks` (the same candidates and physics draws for every method; its least holding grip by
 bisection, its grip failure at every force of the grid, its full induced peak torque at 100 N per pad).
 
 The selection rule, written before the validation runs: per task, a weight passes
@@ -81,7 +81,7 @@ def method_name(w: float, weight: str = "w_align", model: str = "sdgnet") -> str
 
 def checks(rows: list, tasks, weights, weight: str = "w_align", model: str = "sdgnet", *,
            methods: dict | None = None) -> dict:
-    """{task: {weight: {"S1": bool, "S2": bool, "T": bool, figures}}} from `grip_stress.run`'s rows (its
+    """{task: {weight: {"S1": bool, "S2": bool, "T": bool, figures}}} from `evaluate.stress_picks`' rows (its
     `at_grip` keyed by the force as a float); `methods` {label: method} in place of the grid's."""
     out = {}
     for kind in tasks:

@@ -60,6 +60,7 @@ def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N,
       task: a prebuilt task for `tool` (default `make_task(task_kind, tool)`).
       log: where progress lines go (None: nowhere).
     """
+    from itup_jax.atomic import atomic_write_json
     from itup_jax.evaluate import HEADLINE, evaluate, feasible_candidates
     from itup_jax.grasp import Grasps
     from itup_jax.mcap_log import write_rollout_mcap
@@ -104,7 +105,5 @@ def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N,
     result = {"schema": SCHEMA, **res, "headline": HEADLINE, "torque_reduction_vs_force_closure_pct": red,
               "verdict": sentence, "files": files, "wall_s": round(time.perf_counter() - t_start, 2)}
     files["json"] = os.path.join(out, "demo.json")
-    from itup_jax.atomic import atomic_write_json
-
     atomic_write_json(files["json"], result, indent=2)
     return result

@@ -187,7 +187,6 @@ def test_the_builtin_tool_named_by_its_own_name_or_category_stays_the_builtin(us
     for instruction in ("knock over the tower with the mallet", "knock over the tower with mallet"):
         g = grounding.ground(instruction, tools)
         assert (g.tool_index, g.tool_name) == (2, "mallet")
-        assert any("took the first" in n for n in g.notes) or g.tool_name == "mallet"
     assert not grounding.is_own(tools[2]) and grounding.is_own(user_mallet)
     assert not grounding.is_own(itup.load_tool("spanner@3")) and not grounding.is_own(itup.load_tool("spanner"))
     # 'my hammer' with no hammer of the user's on the table: refused, naming the user's tools
