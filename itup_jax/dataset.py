@@ -58,7 +58,7 @@ FORMAT = "itup.dataset/1"
 #: The version of the labels: what a row's labels mean (scenes, thresholds, measures). It changes only
 #: when labels change (CHANGELOG.md lists each change), not with the package's version. A dataset records
 #: it, and a folder of another label version refuses to resume (its rows would mean something else).
-LABEL_VERSION = "0.11.0"
+LABEL_VERSION = "0.12.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 

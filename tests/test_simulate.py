@@ -404,3 +404,43 @@ def test_slip_labels_do_not_depend_on_where_the_tools_mesh_has_its_origin(tasks)
     np.testing.assert_allclose(b.slip_rotation[v], a.slip_rotation[v], atol=0.01, rtol=0.05)
     np.testing.assert_array_equal(b.failed[v], a.failed[v])
     np.testing.assert_allclose(b.peak_torque_projected[v], a.peak_torque_projected[v], rtol=0.05)
+
+
+def test_implausible_slip_rule():
+    from itup_jax.sim.labels import implausible_slip
+
+    dt = 5e-4
+    steady = np.linspace(0.0, 0.004, 50)[None]  # 4 mm over 25 ms: a real slip
+    dropped = np.linspace(0.0, 0.9, 400)[None]  # a tool falling out of the hand: 0.9 m in 0.2 s
+    reset = np.concatenate([np.zeros(20), np.full(30, 0.4)])[None]  # a 0.4 m jump in one step
+    runaway = np.linspace(0.0, 60.0, 2000)[None]  # 60 m at 60 m/s: no jump, but no scene is that big
+    flags = [bool(implausible_slip(p, dt)[0]) for p in (steady, dropped, reset, runaway)]
+    assert flags == [False, False, True, True]
+    assert implausible_slip(np.array([[0.0, np.nan]]), dt)[0]
+
+
+def test_blown_up_rollout_is_not_a_label(tools):
+    """A rollout whose tool flies off by metres without a non-finite value or a fast joint (a nearly
+    massless tool) is diverged and invalid, never an ordinary measurement; the scene keeps MuJoCo from
+    resetting an unstable state silently."""
+    import copy
+
+    from itup_jax.grasp_sampler import sample_reachable
+    from itup_jax.sim.labels import compute_labels
+    from itup_jax.sim.native import rollout_native
+    from itup_jax.task import make_task
+
+    tool = tools["hammer"]
+    task = make_task("hammer", tool)
+    scene = build_scene(tool, task)
+    assert scene.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    g = sample_reachable(tool, task, 1, 0).grasps
+    physics = sample_physics(tool, 1, spread=None)
+    p = plan(scene, task, g, physics)
+    m = copy.copy(scene.model)
+    m.body_mass[m.body("tool").id] *= 1e-9
+    qvel_peak, sensordata = rollout_native(scene, p, physics, models=[m])
+    labels = compute_labels(scene, task, p, qvel_peak, sensordata)
+    assert labels.diverged[0] and not labels.valid[0]
+    ordinary = compute_labels(scene, task, p, *rollout_native(scene, p, physics))
+    assert ordinary.valid[0] and not ordinary.diverged[0]

@@ -7,7 +7,8 @@ One module per stage: `scene` (the composed MJCF: UR5e, gripper, wrist sensor, t
 (each rollout's physics draw), `arm` (IK along the task, reachability, the plan of controls), `native`
 (native MuJoCo, the CPU default and ground truth), `mjx` (MJX on accelerators), `labels` (what a rollout
 measured), `rollout` (`simulate`, the one interface to both backends); `restitution`, `mjx_cholesky` and
-`mjx_collision` hold what the scene and MJX need.
+`mjx_collision` hold what the scene and MJX need; `arm_inertia` (the arm as the hand feels it: the
+operational-space inertia and servo impedance at the wrist sensor, for `itup_jax.transmission`).
 """
 
 from itup_jax.sim.arm import Plan, reachability_in_order, reachable

@@ -18,5 +18,6 @@ class SimConfig:
     rotation_threshold: float = math.radians(10.0)  # rad, failure when it turns this far
     lost_distance: float = 0.05  # m, tool lost (slid this far at the grasp centre)
     impact_window: float = 0.05  # s after an impact still counted as contact (alignment drift)
-    diverged_qvel: float = 500.0  # rad/s or m/s: any |qvel| above is a blow-up
+    diverged_qvel: float = 500.0  # rad/s or m/s: any |qvel| above is a blow-up (and any grasp-point jump faster)
+    diverged_slip: float = 2.0  # m, a grasp point this far from the pads is a blow-up (a dropped tool lands nearer)
     static_window: float = 0.05  # s at the end of the settle phase averaged for the static wrench

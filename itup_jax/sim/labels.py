@@ -60,7 +60,8 @@ class Labels:
     thresholds, or tool lost.  task_metric: nail depth (m) | debris past the line (count) | top-block
     displacement (m) | block displacement along the task direction (m).  success: task_metric beyond
     the task's threshold.  diverged, infeasible, over_speed: flags.  valid: neither diverged nor
-    infeasible (only valid rollouts are labels).
+    infeasible (only valid rollouts are labels). diverged: a non-finite state or sensor, a joint faster
+    than `SimConfig.diverged_qvel`, or a slip no physical rollout makes (`implausible_slip`).
     """
 
     peak_torque: np.ndarray
@@ -159,6 +160,16 @@ def grasp_point_slip(pos_g: np.ndarray, quat_g: np.ndarray, ref: int) -> np.ndar
     return np.sqrt(np.einsum("...i,...i->...", d, d))
 
 
+def implausible_slip(slip_path: np.ndarray, dt: float, config: SimConfig = SimConfig()) -> np.ndarray:
+    """[N] bool: a grasp point's slip [N, S] (m, per step) that no physical rollout makes: farther from the
+    pads than `config.diverged_slip` (a tool that falls out of the hand lands within it), or a jump
+    between two steps faster than `config.diverged_qvel` m/s (a state MuJoCo reset after an
+    instability, or an integration that blew up without a non-finite value). NaN counts as implausible."""
+    path = np.nan_to_num(slip_path, nan=np.inf)
+    jump = np.abs(np.diff(path, axis=1)).max(1, initial=0.0) if path.shape[1] > 1 else np.zeros(len(path))
+    return (path.max(1, initial=0.0) > config.diverged_slip) | (jump > config.diverged_qvel * dt)
+
+
 def induced(scene: Scene, p: Plan, x: np.ndarray, config: SimConfig = SimConfig()) -> tuple[np.ndarray, np.ndarray]:
     """What the motion induces at a wrist sensor: (x over the motion minus its static value
     [N, nstep - n_settle, 3], the static value [N, 3]). x: [N, nstep, 3], the trace of the wrist torque
@@ -187,7 +198,8 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
     pos_g, quat_g = s("tool_pos_grasp"), s("tool_quat_grasp")
     # slip and rotation in the pads over the motion, from the grip as it stands at the end of the settle
     ref = p.n_settle - 1
-    slip_t = grasp_point_slip(pos_g[:, ref:], quat_g[:, ref:], 0)[:, 1:].max(1)
+    slip_path = grasp_point_slip(pos_g[:, ref:], quat_g[:, ref:], 0)[:, 1:]  # [N, S]
+    slip_t = slip_path.max(1)
     slip_r = quat_angle(quat_g[:, motion], quat_g[:, ref, None]).max(1)
     # alignment drift: the tool's z axis against the trajectory's, while in contact
     # (the task's arrays are JAX arrays: converted once, host indexing of a JAX array dispatches an op)
@@ -208,7 +220,8 @@ def compute_labels(scene: Scene, task: Task, p: Plan, qvel_peak: np.ndarray, sen
                        for pad in (s(f"pad_{side}_contact")[:, motion] for side in ("neg", "pos"))], axis=0)
     lost = slip_t > config.lost_distance
     qvel_peak = np.nan_to_num(np.asarray(qvel_peak), nan=np.inf).reshape(len(sensordata), -1).max(1)
-    diverged = ~np.isfinite(sensordata).all(axis=(1, 2)) | (qvel_peak > config.diverged_qvel)
+    diverged = (~np.isfinite(sensordata).all(axis=(1, 2)) | (qvel_peak > config.diverged_qvel)
+                | implausible_slip(slip_path, dt, config))
     metric, success = _task_outcome(scene, task, sensordata, p)
     failed = (slip_t > config.slip_threshold) | (slip_r > config.rotation_threshold) | lost
     nan0 = lambda a: np.nan_to_num(a, nan=np.inf)  # noqa: E731

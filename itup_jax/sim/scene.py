@@ -207,6 +207,9 @@ def attach_robot(spec: mujoco.MjSpec, timestep: float) -> None:
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.impratio = 10.0
+    # an unstable step keeps its NaN or huge values instead of MuJoCo's silent reset to the initial state,
+    # so the labels see it (`labels.compute_labels`: diverged) on both backends (MJX never resets)
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
 
 
 def target_bodies(kind: str) -> tuple[str, ...]:

@@ -1,0 +1,128 @@
+"""What a blow passes to the wrist when the arm is part of the physics: tool, pads, hand and arm as a
+linear chain over the contact (per example, JAX, differentiable).
+
+The rigid model of `wrench.py`/`costs.py` holds the tool on its trajectory, so the grasp carries the
+whole contact force times its lever arm. Here the blow meets the real chain instead, in spatial
+coordinates about the wrist sensor site s (world axes, twists (v, w), wrenches (F, tau)):
+
+  tool      M_t  a_t = w J p(t) - W_p                          (the blow: impulse J along the unit
+                                                               wrench w = (n, (c - s) x n), delivered
+                                                               as a half sine p(t) over the contact
+                                                               duration T_c, integral 1)
+  pads      W_p = d M_r (b (v_t - v_h) + k (x_t - x_h))       (MuJoCo's soft constraint: time constant
+                                                               tau_p, critically damped, b = 2/(d tau_p),
+                                                               k = 1/(d tau_p)^2, M_r = (M_t^-1 +
+                                                               (M_h + Lambda)^-1)^-1 the pair's
+                                                               effective inertia, d the impedance);
+                                                               optional: the part about the jaw's
+                                                               closure axis capped at the pads'
+                                                               torsional friction 2 c_t mu f_grip
+  hand+arm  (M_h + Lambda) a_h = W_p - D_x v_h - K_x x_h      (`sim.arm_inertia.ArmImpedance`)
+  wrist     W_s = W_p - M_h a_h                                (what the sensor reads: the arm's side)
+
+integrated by semi-implicit Euler (the arm's damping and stiffness implicitly) from rest over `horizon`.
+The peak of |tau_s| over the steps is the predicted peak induced wrist torque of the blow.
+
+Closed forms it reduces to (tests): with a heavy arm (Lambda, K, D -> infinity) and stiff pads the
+sensor reads the contact wrench itself, (n, (c - s) x n) J p(t): the rigid model, whose peak is
+pi/2 J / T_c times the lever arm; with no servo (K = D = 0) the arm's share of the blow's momentum
+once the pads have settled is `impulse_share` = Lambda (M_t + M_h + Lambda)^-1, which for a pin that
+resists translation only and a uniform rod vanishes in force when the rod is struck at its centre of
+percussion (2/3 of its length from the pin).
+
+`wrist_response` is per example; `batched_wrist_response` vmaps it. Nothing here is jitted: jit at the
+call site (`experiments/arm_transmission.py` does).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+#: s, the pads' contact time constant (solref of the pad-tool pairs in `sim/scene.py`)
+PAD_TIMECONST = 0.004
+#: -, the pads' constraint impedance at depth (solimp's dmax in `sim/scene.py`)
+PAD_IMPEDANCE = 0.99
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class Blow:
+    """One blow at the wrist sensor site (world axes), the inputs of `wrist_response`.
+
+    tool: [6, 6] the tool's spatial inertia about the site.  wrench: [6] the contact's unit wrench about
+    the site, (n, (c - s) x n).  impulse: [] N s.  duration: [] s, the contact's duration.
+    arm_inertia, arm_stiffness, arm_damping, hand: [6, 6] (`ArmImpedance`).  closure: [3] the jaw's
+    closure axis (world).  torsion_cap: [] N m, the most torque the pads pass about it (inf: no cap).
+    """
+
+    tool: Any
+    wrench: Any
+    impulse: Any
+    duration: Any
+    arm_inertia: Any
+    arm_stiffness: Any
+    arm_damping: Any
+    hand: Any
+    closure: Any
+    torsion_cap: Any
+
+
+def impulse_share(tool: jax.Array, hand: jax.Array, arm_inertia: jax.Array) -> jax.Array:
+    """[6, 6] Lambda (M_t + M_h + Lambda)^-1: the part of a blow's impulse wrench (about the site) that
+    ends in the arm once tool and hand move together, with no servo acting. -> identity for a heavy arm,
+    -> 0 for a weightless one."""
+    return arm_inertia @ jnp.linalg.solve(tool + hand + arm_inertia, jnp.eye(6, dtype=tool.dtype))
+
+
+def _cap_about(W: jax.Array, axis: jax.Array, cap: jax.Array) -> jax.Array:
+    """W [6] with its torque's component about `axis` [3] clipped to +-cap."""
+    c = W[3:] @ axis
+    return W.at[3:].add((jnp.clip(c, -cap, cap) - c) * axis)
+
+
+def wrist_response(blow: Blow, *, step: float = 1e-4, horizon: float = 0.03,
+                   pad_timeconst: float = PAD_TIMECONST, pad_impedance: float = PAD_IMPEDANCE) -> tuple[jax.Array, jax.Array]:
+    """(peak |tau_s| [] N m, the sensor's wrench over the steps [S, 6]) of ONE blow (module docstring).
+
+    step (s) and horizon (s) are static: S = round(horizon / step) steps, from the blow's start.
+    """
+    dtype = blow.tool.dtype
+    n = int(round(horizon / step))
+    h = jnp.asarray(step, dtype)
+    k = 1.0 / (pad_impedance * pad_timeconst) ** 2
+    b = 2.0 / (pad_impedance * pad_timeconst)
+    eye = jnp.eye(6, dtype=dtype)
+    m_ha = blow.hand + blow.arm_inertia
+    tool_inv = jnp.linalg.solve(blow.tool, eye)
+    m_rel = jnp.linalg.solve(tool_inv + jnp.linalg.solve(m_ha, eye), eye)
+    # hand + arm, damping and stiffness implicit: (M + h D + h^2 K) a = W_p - D v - K (x + h v)
+    arm_solve = jnp.linalg.solve(m_ha + h * blow.arm_damping + h * h * blow.arm_stiffness, eye)
+    duration = blow.duration
+
+    def one(state, i):
+        x_t, v_t, x_h, v_h = state
+        t = i * h
+        pulse = jnp.where(t < duration, (jnp.pi / (2.0 * duration)) * jnp.sin(jnp.pi * t / duration), 0.0)
+        W_p = pad_impedance * m_rel @ (b * (v_t - v_h) + k * (x_t - x_h))
+        W_p = _cap_about(W_p, blow.closure, blow.torsion_cap)
+        a_t = tool_inv @ (blow.wrench * blow.impulse * pulse - W_p)
+        a_h = arm_solve @ (W_p - blow.arm_damping @ v_h - blow.arm_stiffness @ (x_h + h * v_h))
+        v_t, v_h = v_t + h * a_t, v_h + h * a_h
+        x_t, x_h = x_t + h * v_t, x_h + h * v_h
+        W_s = W_p - blow.hand @ a_h
+        return (x_t, v_t, x_h, v_h), W_s
+
+    z = jnp.zeros(6, dtype)
+    _, trace = jax.lax.scan(one, (z, z, z, z), jnp.arange(n, dtype=dtype))
+    tau_sq = jnp.sum(trace[:, 3:] ** 2, axis=-1)
+    return jnp.sqrt(jnp.max(tau_sq) + 1e-30) - 1e-15, trace
+
+
+def batched_wrist_response(blows: Blow, **kw: Any) -> jax.Array:
+    """[N] peak wrist torques (N m) of a batch of blows (leading [N] on every leaf). Pure; jit it outside
+    (with `kw` static)."""
+    return jax.vmap(lambda b: wrist_response(b, **kw)[0])(blows)

@@ -1,0 +1,183 @@
+"""The arm in the physics: the blow's transmission (closed forms and limits) and the arm's operational-space
+inertia against MuJoCo's own forward dynamics."""
+
+import copy
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+from conftest import run_experiment
+
+from itup_jax.errors import InputError
+from itup_jax.grasp_sampler import sample_reachable
+from itup_jax.sim.arm import arm_trajectory
+from itup_jax.sim.arm_inertia import arm_impedance, spatial_inertia, task_blows
+from itup_jax.sim.scene import build_scene
+from itup_jax.task import make_task
+from itup_jax.transmission import Blow, batched_wrist_response, impulse_share, wrist_response
+
+ROD_MASS, ROD_LENGTH = 0.6, 0.4
+
+
+def rod_about_end(mass=ROD_MASS, length=ROD_LENGTH) -> np.ndarray:
+    """A uniform thin rod along +z from the site: com at length/2, I_com = m L^2 / 12 across it."""
+    i = mass * length**2 / 12.0
+    return spatial_inertia(mass, [0.0, 0.0, length / 2], np.diag([i, i, 1e-6]))
+
+
+def unit_wrench(z, n=(1.0, 0.0, 0.0)) -> np.ndarray:
+    c, n = np.array([0.0, 0.0, z]), np.asarray(n, float)
+    return np.concatenate([n, np.cross(c, n)])
+
+
+def blow(tool, wrench, *, arm, impulse=0.5, duration=0.003, stiffness=None, damping=None, hand=None, cap=np.inf):
+    z = np.zeros((6, 6))
+    return Blow(tool=jnp.asarray(tool), wrench=jnp.asarray(wrench), impulse=jnp.asarray(impulse), duration=jnp.asarray(duration),
+                arm_inertia=jnp.asarray(arm), arm_stiffness=jnp.asarray(z if stiffness is None else stiffness),
+                arm_damping=jnp.asarray(z if damping is None else damping), hand=jnp.asarray(z if hand is None else hand),
+                closure=jnp.array([0.0, 1.0, 0.0]), torsion_cap=jnp.asarray(cap))
+
+
+def test_heavy_arm_and_stiff_pads_carry_the_contact_wrench():
+    """The rigid limit: the sensor reads the contact's wrench, pi/2 J / T_c times the lever arm at the peak."""
+    z, J, T = 0.35, 0.5, 0.003
+    b = blow(rod_about_end(), unit_wrench(z), arm=1e7 * np.eye(6), impulse=J, duration=T)
+    peak, trace = wrist_response(b, step=1e-6, horizon=0.006, pad_timeconst=5e-5)
+    assert float(peak) == pytest.approx(np.pi / 2 * J / T * z, rel=0.02)
+    # the impulse the sensor reads over the blow is the contact's: J along n, J z about y
+    total = np.asarray(trace).sum(0) * 1e-6
+    np.testing.assert_allclose(total, unit_wrench(z) * J, atol=0.01 * J)
+
+
+def test_share_limits():
+    tool = rod_about_end()
+    np.testing.assert_allclose(impulse_share(jnp.asarray(tool), jnp.zeros((6, 6)), 1e9 * jnp.eye(6)), np.eye(6), atol=1e-6)
+    np.testing.assert_allclose(impulse_share(jnp.asarray(tool), jnp.zeros((6, 6)), 1e-12 * jnp.eye(6)), 0.0, atol=1e-5)
+
+
+def test_centre_of_percussion():
+    """A rod on a pin that resists translation only: struck at 2L/3 from the pin the pin feels no force;
+    struck at the end it feels half the blow."""
+    pin = np.diag([1e8, 1e8, 1e8, 1e-9, 1e-9, 1e-9])
+    share = np.asarray(impulse_share(jnp.asarray(rod_about_end()), jnp.zeros((6, 6)), jnp.asarray(pin)))
+    at_cop = share @ unit_wrench(2 * ROD_LENGTH / 3)
+    at_end = share @ unit_wrench(ROD_LENGTH)
+    assert np.linalg.norm(at_cop[:3]) < 1e-6
+    assert np.linalg.norm(at_end[:3]) == pytest.approx(0.5, rel=1e-6)
+
+
+def test_response_settles_to_the_share():
+    """With no servo, the arm's momentum once the pads have settled is the share of the blow."""
+    arm = spatial_inertia(4.0, [0.0, 0.0, -0.1], np.diag([0.05, 0.05, 0.02]))
+    hand = spatial_inertia(0.9, [0.0, 0.0, 0.04], np.diag([1e-3, 1e-3, 5e-4]))
+    b = blow(rod_about_end(), unit_wrench(0.3), arm=arm, hand=hand)
+    _, trace = wrist_response(b, step=2e-5, horizon=0.08)
+    arm_momentum = np.asarray(trace).sum(0) * 2e-5 + 0.0  # the wrist impulse = the arm's momentum (no servo)
+    # W_s = Lambda a_h here (hand's inertia taken out): its integral is Lambda v_h at the end
+    expected = np.asarray(impulse_share(jnp.asarray(rod_about_end()), jnp.asarray(hand), jnp.asarray(arm))) @ (unit_wrench(0.3) * 0.5)
+    np.testing.assert_allclose(arm_momentum, expected, atol=2e-3 * np.abs(expected).max())
+
+
+def test_torsion_cap_limits_the_closure_axis_torque():
+    # a blow whose torque lies about the closure axis (y): contact along +x at height z
+    b = blow(rod_about_end(), unit_wrench(0.3), arm=1e7 * np.eye(6), cap=0.5)
+    _, trace = wrist_response(b, step=1e-5, horizon=0.01)
+    free = wrist_response(dataclasses.replace(b, torsion_cap=jnp.asarray(np.inf)), step=1e-5, horizon=0.01)[0]
+    assert np.abs(np.asarray(trace)[:, 4]).max() <= 0.5 + 0.05  # the hand's inertia adds a little
+    assert float(free) > 5.0
+
+
+def test_gradient_matches_finite_differences():
+    """d(peak)/d(strike height) against central differences, float64."""
+    arm = spatial_inertia(4.0, [0.0, 0.0, -0.1], np.diag([0.05, 0.05, 0.02]))
+
+    def peak(z):
+        c = jnp.array([0.0, 0.0, 1.0]) * z
+        n = jnp.array([1.0, 0.0, 0.0])
+        w = jnp.concatenate([n, jnp.cross(c, n)])
+        b = blow(rod_about_end(), np.zeros(6), arm=arm)
+        return wrist_response(dataclasses.replace(b, wrench=w), step=1e-4, horizon=0.02)[0]
+
+    z, h = 0.3, 1e-6
+    g = float(jax.grad(peak)(z))
+    fd = (float(peak(z + h)) - float(peak(z - h))) / (2 * h)
+    assert g == pytest.approx(fd, rel=1e-5)
+
+
+@pytest.fixture(scope="module")
+def hammer_scene(tools):
+    tool = tools["hammer"]
+    task = make_task("hammer", tool)
+    return tool, task, build_scene(tool, task)
+
+
+def test_operational_inertia_matches_mujoco_forward_dynamics(hammer_scene):
+    """Lambda^-1 W is the site's acceleration MuJoCo computes for a wrench W applied there (arm alone, at
+    rest), by its own factorisation; K_x pulled back through J is the servos' diagonal gain."""
+    tool, task, scene = hammer_scene
+    q = np.array([0.3, -1.2, 1.5, -1.8, -1.5, 0.4])
+    imp = arm_impedance(scene, q)
+    m = scene.model
+    arm_only = copy.copy(m)  # the gripper and everything on it weightless: the arm alone
+    root = m.site_bodyid[scene.ft_site]
+    for b in range(m.nbody):
+        a = b
+        while a > 0 and a != root:
+            a = m.body_parentid[a]
+        if a == root:
+            arm_only.body_mass[b], arm_only.body_inertia[b] = 1e-9, 1e-12
+    d = mujoco.MjData(arm_only)
+    d.qpos[scene.arm_qpos] = q
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    mujoco.mj_forward(arm_only, d)
+    mujoco.mj_jacSite(arm_only, d, jp, jr, scene.ft_site)
+    J = np.vstack([jp, jr])
+    base = d.qacc.copy()
+    for W in (np.array([5.0, 0, 0, 0, 0, 0]), np.array([0, -3.0, 2.0, 0.1, 0, 0.3])):
+        d.qfrc_applied[:] = J.T @ W
+        mujoco.mj_forward(arm_only, d)
+        acc = J[:, scene.arm_dof] @ (d.qacc - base)[scene.arm_dof]
+        np.testing.assert_allclose(acc, np.linalg.solve(imp.inertia, W), rtol=1e-6, atol=1e-9)
+    Ja = J[:, scene.arm_dof]
+    np.testing.assert_allclose(Ja.T @ imp.stiffness @ Ja, np.diag(m.actuator_gainprm[scene.arm_actuators, 0]), atol=1e-6)
+    assert np.all(np.linalg.eigvalsh(imp.inertia) > 0)
+    gripper_root = m.site_bodyid[scene.ft_site]
+    assert imp.hand[0, 0] == pytest.approx(m.body_subtreemass[gripper_root])
+
+
+def test_task_blows(hammer_scene):
+    tool, task, scene = hammer_scene
+    g = sample_reachable(tool, task, 6, 0).grasps
+    q_traj, infeasible = arm_trajectory(task, g)
+    assert not infeasible.any()
+    blows, k, arm = task_blows(scene, task, g, q_traj, grip_force=100.0)
+    assert np.asarray(task.impact)[k].max() > 0
+    assert blows.tool.shape == (6, 6, 6) and blows.wrench.shape == (6, 6) and arm.inertia.shape == (6, 6, 6)
+    np.testing.assert_allclose(np.linalg.norm(blows.closure, axis=1), 1.0)
+    peaks = np.asarray(jax.jit(batched_wrist_response)(blows))
+    assert peaks.shape == (6,) and np.all(np.isfinite(peaks)) and np.all(peaks > 0)
+    sweep = make_task("sweep", tool)
+    with pytest.raises(InputError, match="no impact"):
+        task_blows(scene, sweep, g, q_traj, grip_force=100.0)
+    with pytest.raises(InputError, match="no IK solution"):
+        task_blows(scene, task, g, np.full_like(q_traj, np.nan), grip_force=100.0)
+    with pytest.raises(InputError, match="arm_impedance: q"):
+        arm_impedance(scene, np.zeros(5))
+
+
+@pytest.mark.slow
+def test_arm_transmission_quick(tmp_path):
+    import json
+
+    run_experiment("arm_transmission", "--quick", "--out", str(tmp_path))
+    out = json.loads((tmp_path / "arm_transmission.json").read_text())
+    sets = out["tasks"]["hammer"]
+    assert set(sets) == {"built-in family", "other families"}
+    for s in sets.values():
+        row = s["tools"][0]
+        assert row["valid"] >= 8 and set(row["rho"]) == set(out["methods"])
+        assert all(-1.0 <= v <= 1.0 for v in row["rho"].values())
+        assert 0.0 < row["ceiling"] <= 1.0
