@@ -16,10 +16,12 @@ of its prediction with the measured `peak_torque_induced` over the valid rollout
                  torque_projection='full')`)
   rigid/passed   the same with the closure-axis part capped by the pads' torsional friction at 100 N
   arm            `transmission.wrist_response`: tool, pads, hand and arm (MuJoCo's operational-space
-                 inertia, servo stiffness and damping at the impact's configuration), no torsion cap
-  arm/capped     the same with the pads' torsion cap
-  heavy/capped   the same chain with a heavy, servo-less arm (Lambda x 1e4, K = D = 0): what the arm's
-                 own dynamics add beyond the pads
+                 inertia, servo stiffness and damping at the impact's configuration); the pads pass on
+                 everything (`pads='rigid'`)
+  arm/passed     the same, the closure-axis torque capped by the pads' torsion (`pads='torsion'`)
+  arm/limit      the same, the pads' wrench scaled onto the grip's limit surface (`pads='limit'`)
+  heavy/passed, heavy/limit   the same chains with a heavy, servo-less arm (Lambda x 1e4, K = D = 0):
+                 what the arm's own dynamics add beyond the pads
 
 Beside them, the measure's own repeatability (`ceiling`): each grasp moved by 1 mm in its x-z plane and
 turned by 1 degree about its jaw axis (`heldout.moved`), rolled out again, and the Spearman correlation
@@ -65,11 +67,13 @@ DRAW_SEEDS = (4201, 4202)
 GRIP = SimConfig().grip_force
 RIGID = {"rigid/full": CostParams(lever_arm="wrist", torque_projection="full"),
          "rigid/passed": CostParams(lever_arm="wrist", torque_projection="passed", grip_force=GRIP)}
-METHODS = (*RIGID, "arm", "arm/capped", "heavy/capped")
+CHAINS = {"arm": ("arm", "rigid"), "arm/passed": ("arm", "torsion"), "arm/limit": ("arm", "limit"),
+          "heavy/passed": ("heavy", "torsion"), "heavy/limit": ("heavy", "limit")}
+METHODS = (*RIGID, *CHAINS)
 #: m and rad: the nudge of the repeatability ceiling
 NUDGE = (0.001, np.radians(1.0))
 
-_response = jax.jit(batched_wrist_response)
+_response = jax.jit(batched_wrist_response, static_argnames="pads")
 
 
 def baton(length: float = 0.45, radius: float = 0.014) -> Tool:
@@ -92,12 +96,10 @@ def predictions(tool: Tool, task, grasps, q_traj) -> dict[str, np.ndarray]:
     out = {name: np.asarray(wrench_costs(tool, task, grasps, prm).tau, float) for name, prm in RIGID.items()}
     blows, _, _ = task_blows(build_scene(tool, task), task, grasps, q_traj, grip_force=GRIP)
     b = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), blows)
-    n = len(grasps)
-    out["arm"] = np.asarray(_response(dataclasses.replace(b, torsion_cap=jnp.full(n, jnp.inf))), float)
-    out["arm/capped"] = np.asarray(_response(b), float)
     heavy = dataclasses.replace(b, arm_inertia=b.arm_inertia * 1e4, arm_stiffness=jnp.zeros_like(b.arm_stiffness),
                                 arm_damping=jnp.zeros_like(b.arm_damping))
-    out["heavy/capped"] = np.asarray(_response(heavy), float)
+    for name, (arm, pads) in CHAINS.items():
+        out[name] = np.asarray(_response(b if arm == "arm" else heavy, pads=pads), float)
     return out
 
 

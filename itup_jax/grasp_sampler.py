@@ -380,6 +380,10 @@ REACHABLE_BUDGET_FACTOR = 40
 #: ~6 s, so 100,000 candidates take ~45 s and 400,000 draws ~3 min; more is refused before any work.
 MAX_CANDIDATES = 100_000
 MAX_DRAWN = 400_000
+#: Below this reachable share `sample_reachable` says why the rest are unreachable (`ReachableGrasps.unreachable`),
+#: from up to REACHABLE_NOTE_CHECK of its first round's candidates.
+REACHABLE_NOTE_SHARE = 0.10
+REACHABLE_NOTE_CHECK = 256
 
 
 @dataclasses.dataclass(frozen=True)
@@ -389,7 +393,9 @@ class ReachableGrasps:
     Attributes:
       grasps: [M] the reachable candidates, M <= requested, in the order they were drawn.
       requested: the count asked for.  drawn: candidates sampled and checked.  budget: the most that
-      could be drawn.  rounds: sampling rounds.
+      could be drawn.  rounds: sampling rounds.  unreachable: where fewer than REACHABLE_NOTE_SHARE of
+      the drawn candidates were reachable, why the first round's were not (`sim.arm.unreachable_summary`
+      of up to REACHABLE_NOTE_CHECK of them); else None.
     """
 
     grasps: Grasps
@@ -397,16 +403,29 @@ class ReachableGrasps:
     drawn: int
     budget: int
     rounds: int
+    unreachable: dict | None = None
+
+    @property
+    def share(self) -> float:
+        """The reachable share of the candidates drawn (0 when none were)."""
+        return self.reachable_count / self.drawn if self.drawn else 0.0
 
     @property
     def complete(self) -> bool:
         """Whether the requested count was met within the budget."""
         return len(self.grasps) >= self.requested
 
+    @property
+    def reachable_count(self) -> int:
+        return len(self.grasps)
+
     def to_json(self) -> dict:
         """The plan document's `sampling` record."""
-        return {"requested": self.requested, "reachable": len(self.grasps), "drawn": self.drawn,
-                "budget": self.budget, "complete": self.complete}
+        out = {"requested": self.requested, "reachable": len(self.grasps), "drawn": self.drawn,
+               "budget": self.budget, "complete": self.complete}
+        if self.unreachable is not None:
+            out["unreachable"] = self.unreachable
+        return out
 
 
 def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | None = None,
@@ -426,7 +445,7 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
     Raises:
       InputError for a bad n, budget or seed; SamplingError when the grasp region yields too few grasps.
     """
-    from itup_jax.sim.arm import reachable  # the arm's kinematics: imported only when asked
+    from itup_jax.sim.arm import reachable, unreachable_summary  # the arm's kinematics: imported only when asked
 
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
         raise InputError(f"sample_reachable: n must be a positive integer, got {n!r}")
@@ -439,11 +458,13 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
     rng = _rng_from(seed)
     found: list[tuple[np.ndarray, ...]] = []  # host-side (p, q, width) of the reachable ones per round
     have = drawn = rounds = 0
+    first_round = None
     while have < n and drawn < budget:
         share = have / drawn if drawn else 0.0
         want = int(math.ceil((n - have) / max(share, 0.05) * 1.2)) if drawn else 2 * (n - have)
         size = int(min(max(want, 256), budget - drawn))
         g = sample_grasps(tool, size, seed=int(rng.integers(2**31)), config=config)
+        first_round = g if first_round is None else first_round
         ok = np.asarray(reachable(task, g))
         drawn += size
         rounds += 1
@@ -453,4 +474,6 @@ def sample_reachable(tool: Tool, task, n: int, seed: Any = 0, *, budget: int | N
     p, q, w = ((np.concatenate(a)[:n] for a in zip(*found)) if found  # to_device makes them the package's float
                else (np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0,))))
     cat = Grasps(p_tool_grasp=to_device(p), q_tool_grasp=to_device(q), width=to_device(w))
-    return ReachableGrasps(grasps=cat, requested=int(n), drawn=drawn, budget=int(budget), rounds=rounds)
+    why = (unreachable_summary(task, first_round[:REACHABLE_NOTE_CHECK])
+           if drawn and have < REACHABLE_NOTE_SHARE * drawn else None)
+    return ReachableGrasps(grasps=cat, requested=int(n), drawn=drawn, budget=int(budget), rounds=rounds, unreachable=why)

@@ -136,6 +136,11 @@ class GraspPlan:
         if sm["mode"] == "reachable" and not sm["complete"]:
             out(f"warning: the arm can carry {sm['reachable']} of {sm['drawn']} drawn candidates through the task, "
                 f"fewer than the {sm['requested']} asked for (--budget {sm['budget']} spent)")
+        if sm.get("unreachable"):
+            from itup_jax.sim.arm import describe_unreachable
+
+            out(f"note: the arm can carry {100.0 * sm['reachable'] / sm['drawn']:.1f} % of the drawn candidates through "
+                f"the task; {describe_unreachable(sm['unreachable'], self.task)}")
         g = self.guard
         if g is not None and g.fired:
             if self.guard_verified:

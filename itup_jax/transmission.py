@@ -13,10 +13,13 @@ coordinates about the wrist sensor site s (world axes, twists (v, w), wrenches (
                                                                tau_p, critically damped, b = 2/(d tau_p),
                                                                k = 1/(d tau_p)^2, M_r = (M_t^-1 +
                                                                (M_h + Lambda)^-1)^-1 the pair's
-                                                               effective inertia, d the impedance);
-                                                               optional: the part about the jaw's
-                                                               closure axis capped at the pads'
-                                                               torsional friction 2 c_t mu f_grip
+                                                               effective inertia, d the impedance),
+                                                               then what the pads pass on
+                                                               (`pads_pass`: all of it, the closure
+                                                               axis's torque capped at the pads'
+                                                               torsional friction 2 c_t mu f_grip,
+                                                               or the wrench scaled onto the grip's
+                                                               limit surface)
   hand+arm  (M_h + Lambda) a_h = W_p - D_x v_h - K_x x_h      (`sim.arm_inertia.ArmImpedance`)
   wrist     W_s = W_p - M_h a_h                                (what the sensor reads: the arm's side)
 
@@ -42,6 +45,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
+from itup_jax.errors import InputError
+from itup_jax.grip_demand import grip_demand_sq
+from itup_jax.robot import PAD_TORSION
+
 #: s, the pads' contact time constant (solref of the pad-tool pairs in `sim/scene.py`)
 PAD_TIMECONST = 0.004
 #: -, the pads' constraint impedance at depth (solimp's dmax in `sim/scene.py`)
@@ -55,8 +62,10 @@ class Blow:
 
     tool: [6, 6] the tool's spatial inertia about the site.  wrench: [6] the contact's unit wrench about
     the site, (n, (c - s) x n).  impulse: [] N s.  duration: [] s, the contact's duration.
-    arm_inertia, arm_stiffness, arm_damping, hand: [6, 6] (`ArmImpedance`).  closure: [3] the jaw's
-    closure axis (world).  torsion_cap: [] N m, the most torque the pads pass about it (inf: no cap).
+    arm_inertia, arm_stiffness, arm_damping, hand: [6, 6] (`sim.arm_inertia.ArmImpedance`).
+    grasp_axes: [3, 3] the grasp frame's axes as columns (x third, y the jaw's closure, z approach).
+    grasp_offset: [3] m, the grasp centre minus the site.  mu: [] pad friction.  width: [] m, the jaw's
+    opening.  grip_force: [] N per pad.
     """
 
     tool: Any
@@ -67,8 +76,16 @@ class Blow:
     arm_stiffness: Any
     arm_damping: Any
     hand: Any
-    closure: Any
-    torsion_cap: Any
+    grasp_axes: Any
+    grasp_offset: Any
+    mu: Any
+    width: Any
+    grip_force: Any
+
+
+#: What the pads pass on (`wrist_response(pads=...)`): all of it; all but the torque about the closure
+#: axis beyond the pads' torsional friction; or the wrench scaled onto the grip's limit surface
+PAD_MODELS = ("rigid", "torsion", "limit")
 
 
 def impulse_share(tool: jax.Array, hand: jax.Array, arm_inertia: jax.Array) -> jax.Array:
@@ -78,18 +95,37 @@ def impulse_share(tool: jax.Array, hand: jax.Array, arm_inertia: jax.Array) -> j
     return arm_inertia @ jnp.linalg.solve(tool + hand + arm_inertia, jnp.eye(6, dtype=tool.dtype))
 
 
-def _cap_about(W: jax.Array, axis: jax.Array, cap: jax.Array) -> jax.Array:
-    """W [6] with its torque's component about `axis` [3] clipped to +-cap."""
-    c = W[3:] @ axis
-    return W.at[3:].add((jnp.clip(c, -cap, cap) - c) * axis)
+def pads_pass(W: jax.Array, blow: Blow, pads: str) -> jax.Array:
+    """The wrench [6] (about the site) the pads pass on when W [6] is what holding the tool takes.
+
+    'rigid': W.  'torsion': the torque about the closure axis, taken about the grasp centre, clipped at
+    the pads' torsional friction 2 c_t mu f_grip.  'limit': W scaled onto the grip's limit surface
+    (`grip_demand`: the normal force per pad N that W needs) where N exceeds f_grip: the pads slide and
+    pass on what friction holds.
+    """
+    if pads == "rigid":
+        return W
+    F, tau_g = W[:3], W[3:] - jnp.cross(blow.grasp_offset, W[:3])
+    if pads == "torsion":
+        y = blow.grasp_axes[:, 1]
+        c = tau_g @ y
+        cap = 2.0 * PAD_TORSION * blow.mu * blow.grip_force
+        return W.at[3:].add((jnp.clip(c, -cap, cap) - c) * y)
+    need_sq = grip_demand_sq(F @ blow.grasp_axes, tau_g @ blow.grasp_axes, blow.mu, blow.width, xp=jnp)
+    f_sq = blow.grip_force**2
+    scale = jnp.where(need_sq > f_sq, jnp.sqrt(f_sq / jnp.where(need_sq > f_sq, need_sq, 1.0)), 1.0)
+    return W * scale
 
 
-def wrist_response(blow: Blow, *, step: float = 1e-4, horizon: float = 0.03,
+def wrist_response(blow: Blow, *, pads: str = "torsion", step: float = 1e-4, horizon: float = 0.03,
                    pad_timeconst: float = PAD_TIMECONST, pad_impedance: float = PAD_IMPEDANCE) -> tuple[jax.Array, jax.Array]:
     """(peak |tau_s| [] N m, the sensor's wrench over the steps [S, 6]) of ONE blow (module docstring).
 
-    step (s) and horizon (s) are static: S = round(horizon / step) steps, from the blow's start.
+    pads (one of PAD_MODELS), step (s) and horizon (s) are static: S = round(horizon / step) steps, from
+    the blow's start.
     """
+    if pads not in PAD_MODELS:
+        raise InputError(f"wrist_response: pads {pads!r}; choose one of {PAD_MODELS}")
     dtype = blow.tool.dtype
     n = int(round(horizon / step))
     h = jnp.asarray(step, dtype)
@@ -108,7 +144,7 @@ def wrist_response(blow: Blow, *, step: float = 1e-4, horizon: float = 0.03,
         t = i * h
         pulse = jnp.where(t < duration, (jnp.pi / (2.0 * duration)) * jnp.sin(jnp.pi * t / duration), 0.0)
         W_p = pad_impedance * m_rel @ (b * (v_t - v_h) + k * (x_t - x_h))
-        W_p = _cap_about(W_p, blow.closure, blow.torsion_cap)
+        W_p = pads_pass(W_p, blow, pads)
         a_t = tool_inv @ (blow.wrench * blow.impulse * pulse - W_p)
         a_h = arm_solve @ (W_p - blow.arm_damping @ v_h - blow.arm_stiffness @ (x_h + h * v_h))
         v_t, v_h = v_t + h * a_t, v_h + h * a_h
@@ -124,5 +160,5 @@ def wrist_response(blow: Blow, *, step: float = 1e-4, horizon: float = 0.03,
 
 def batched_wrist_response(blows: Blow, **kw: Any) -> jax.Array:
     """[N] peak wrist torques (N m) of a batch of blows (leading [N] on every leaf). Pure; jit it outside
-    (with `kw` static)."""
+    with `kw` static (e.g. `jax.jit(batched_wrist_response, static_argnames="pads")`)."""
     return jax.vmap(lambda b: wrist_response(b, **kw)[0])(blows)

@@ -75,3 +75,37 @@ def test_a_verification_order_is_checked_and_followed(tasks):
     for bad in ([0, 0], [64], [-1], np.array([0.5])):
         with pytest.raises(itup.InputError, match="order must list distinct candidate indices"):
             best_grasp_verified(tool, task, g, k=2, order=bad)
+
+
+def test_unreachable_reasons_take_the_reachability_test_apart(tasks):
+    """Each unreachable grasp gets the reason `arm_trajectory` refuses it for, and only those do."""
+    from itup_jax.grasp_sampler import sample_grasps
+    from itup_jax.sim.arm import UNREACHABLE_REASONS, unreachable_reasons, unreachable_summary
+
+    for kind in ("hammer", "reach"):
+        tool, task = tasks[kind]
+        g = sample_grasps(tool, 300, seed=3)
+        code, first = unreachable_reasons(task, g)
+        np.testing.assert_array_equal(code < 0, reachable(task, g))
+        assert ((first >= 0) == (code >= 0)).all() and (first < task.num_steps).all()
+        summary = unreachable_summary(task, g)
+        assert summary["checked"] == 300 and summary["reachable"] == int((code < 0).sum())
+        assert sum(summary[r]["count"] for r in UNREACHABLE_REASONS if r in summary) == int((code >= 0).sum())
+    assert {UNREACHABLE_REASONS[c] for c in code[code >= 0]} >= {"below_table", "joint_limits"}
+
+
+def test_plan_says_why_when_few_candidates_are_reachable(tasks, monkeypatch):
+    """Under REACHABLE_NOTE_SHARE reachable, the plan's report and JSON say why the rest are not."""
+    from itup_jax import grasp_sampler
+
+    monkeypatch.setattr(grasp_sampler, "REACHABLE_NOTE_SHARE", 1.01)  # every plan falls under it
+    tool, task = tasks["hammer"]
+    p = itup.plan_grasp(tool, task, n=8, seed=0, scorer="analytic")
+    why = p.sampling["unreachable"]
+    assert why["checked"] >= 8 and why["reachable"] < why["checked"]
+    note = [line for line in p.report().splitlines() if line.startswith("note: the arm can carry")]
+    assert len(note) == 1 and "below the table" in note[0] and "first impact" in note[0]
+    validate(p.to_json(), load_schema("plan"))
+    monkeypatch.setattr(grasp_sampler, "REACHABLE_NOTE_SHARE", 0.10)
+    q = itup.plan_grasp(tool, task, n=8, seed=0, scorer="analytic")
+    assert "unreachable" not in q.sampling and "note: the arm can carry" not in q.report()

@@ -33,19 +33,20 @@ def unit_wrench(z, n=(1.0, 0.0, 0.0)) -> np.ndarray:
     return np.concatenate([n, np.cross(c, n)])
 
 
-def blow(tool, wrench, *, arm, impulse=0.5, duration=0.003, stiffness=None, damping=None, hand=None, cap=np.inf):
+def blow(tool, wrench, *, arm, impulse=0.5, duration=0.003, stiffness=None, damping=None, hand=None, grip_force=np.inf):
     z = np.zeros((6, 6))
     return Blow(tool=jnp.asarray(tool), wrench=jnp.asarray(wrench), impulse=jnp.asarray(impulse), duration=jnp.asarray(duration),
                 arm_inertia=jnp.asarray(arm), arm_stiffness=jnp.asarray(z if stiffness is None else stiffness),
                 arm_damping=jnp.asarray(z if damping is None else damping), hand=jnp.asarray(z if hand is None else hand),
-                closure=jnp.array([0.0, 1.0, 0.0]), torsion_cap=jnp.asarray(cap))
+                grasp_axes=jnp.eye(3), grasp_offset=jnp.array([0.0, 0.0, 0.085]), mu=jnp.asarray(0.5),
+                width=jnp.asarray(0.03), grip_force=jnp.asarray(grip_force))
 
 
 def test_heavy_arm_and_stiff_pads_carry_the_contact_wrench():
     """The rigid limit: the sensor reads the contact's wrench, pi/2 J / T_c times the lever arm at the peak."""
     z, J, T = 0.35, 0.5, 0.003
     b = blow(rod_about_end(), unit_wrench(z), arm=1e7 * np.eye(6), impulse=J, duration=T)
-    peak, trace = wrist_response(b, step=1e-6, horizon=0.006, pad_timeconst=5e-5)
+    peak, trace = wrist_response(b, pads="rigid", step=1e-6, horizon=0.006, pad_timeconst=5e-5)
     assert float(peak) == pytest.approx(np.pi / 2 * J / T * z, rel=0.02)
     # the impulse the sensor reads over the blow is the contact's: J along n, J z about y
     total = np.asarray(trace).sum(0) * 1e-6
@@ -74,32 +75,59 @@ def test_response_settles_to_the_share():
     arm = spatial_inertia(4.0, [0.0, 0.0, -0.1], np.diag([0.05, 0.05, 0.02]))
     hand = spatial_inertia(0.9, [0.0, 0.0, 0.04], np.diag([1e-3, 1e-3, 5e-4]))
     b = blow(rod_about_end(), unit_wrench(0.3), arm=arm, hand=hand)
-    _, trace = wrist_response(b, step=2e-5, horizon=0.08)
+    _, trace = wrist_response(b, pads="rigid", step=2e-5, horizon=0.08)
     arm_momentum = np.asarray(trace).sum(0) * 2e-5 + 0.0  # the wrist impulse = the arm's momentum (no servo)
     # W_s = Lambda a_h here (hand's inertia taken out): its integral is Lambda v_h at the end
     expected = np.asarray(impulse_share(jnp.asarray(rod_about_end()), jnp.asarray(hand), jnp.asarray(arm))) @ (unit_wrench(0.3) * 0.5)
     np.testing.assert_allclose(arm_momentum, expected, atol=2e-3 * np.abs(expected).max())
 
 
-def test_torsion_cap_limits_the_closure_axis_torque():
-    # a blow whose torque lies about the closure axis (y): contact along +x at height z
-    b = blow(rod_about_end(), unit_wrench(0.3), arm=1e7 * np.eye(6), cap=0.5)
-    _, trace = wrist_response(b, step=1e-5, horizon=0.01)
-    free = wrist_response(dataclasses.replace(b, torsion_cap=jnp.asarray(np.inf)), step=1e-5, horizon=0.01)[0]
-    assert np.abs(np.asarray(trace)[:, 4]).max() <= 0.5 + 0.05  # the hand's inertia adds a little
-    assert float(free) > 5.0
+def test_pads_pass_what_they_hold():
+    """'torsion': the torque about the closure axis (y), about the grasp centre, clipped at 2 c_t mu f;
+    'limit': the wrench scaled onto the grip's limit surface; both leave a wrench the grip holds as is."""
+    from itup_jax.grip_demand import grip_demand_sq
+    from itup_jax.robot import PAD_TORSION
+    from itup_jax.transmission import pads_pass
+
+    b = blow(rod_about_end(), unit_wrench(0.3), arm=np.eye(6), grip_force=100.0)
+    W = jnp.array([2.0, -1.0, 3.0, 0.4, 5.0, -0.7])
+    cap = 2 * PAD_TORSION * 0.5 * 100.0
+    t = np.asarray(pads_pass(W, b, "torsion"))
+    tau_g = t[3:] - np.cross([0.0, 0.0, 0.085], t[:3])
+    assert tau_g[1] == pytest.approx(cap)
+    np.testing.assert_allclose(t[[0, 1, 2, 3, 5]], np.asarray(W)[[0, 1, 2, 3, 5]])
+    lim = np.asarray(pads_pass(W, b, "limit"))
+    need = grip_demand_sq(lim[:3], lim[3:] - np.cross([0.0, 0.0, 0.085], lim[:3]), 0.5, 0.03)
+    assert np.sqrt(need) == pytest.approx(100.0)
+    np.testing.assert_allclose(lim / np.asarray(W), (lim / np.asarray(W))[0])  # scaled as a whole
+    small = W * 1e-3
+    for pads in ("torsion", "limit"):
+        np.testing.assert_allclose(pads_pass(small, b, pads), small)
+    with pytest.raises(InputError, match="pads"):
+        wrist_response(b, pads="soft")
 
 
-def test_gradient_matches_finite_differences():
-    """d(peak)/d(strike height) against central differences, float64."""
+def test_torsion_cap_limits_the_closure_axis_torque_over_a_blow():
+    b = blow(rod_about_end(), unit_wrench(0.3), arm=1e7 * np.eye(6), grip_force=100.0)
+    _, trace = wrist_response(b, pads="torsion", step=1e-5, horizon=0.01)
+    trace = np.asarray(trace)
+    about_closure = trace[:, 4] - np.cross([0.0, 0.0, 0.085], trace[:, :3])[:, 1]
+    assert np.abs(about_closure).max() <= 0.5 + 0.05  # 2 c_t mu f = 0.5 N m; the hand's inertia adds a little
+    assert float(wrist_response(b, pads="rigid", step=1e-5, horizon=0.01)[0]) > 5.0
+
+
+@pytest.mark.parametrize("pads", ["rigid", "torsion", "limit"])
+def test_gradient_matches_finite_differences(pads):
+    """d(peak)/d(strike height) against central differences, float64, for each pad model (the strike
+    is off the closure axis's plane so that the torsion cap and the limit surface both act)."""
     arm = spatial_inertia(4.0, [0.0, 0.0, -0.1], np.diag([0.05, 0.05, 0.02]))
 
     def peak(z):
         c = jnp.array([0.0, 0.0, 1.0]) * z
-        n = jnp.array([1.0, 0.0, 0.0])
+        n = jnp.array([0.8, 0.0, 0.6])
         w = jnp.concatenate([n, jnp.cross(c, n)])
-        b = blow(rod_about_end(), np.zeros(6), arm=arm)
-        return wrist_response(dataclasses.replace(b, wrench=w), step=1e-4, horizon=0.02)[0]
+        b = blow(rod_about_end(), np.zeros(6), arm=arm, grip_force=100.0)
+        return wrist_response(dataclasses.replace(b, wrench=w), pads=pads, step=1e-4, horizon=0.02)[0]
 
     z, h = 0.3, 1e-6
     g = float(jax.grad(peak)(z))
@@ -156,8 +184,9 @@ def test_task_blows(hammer_scene):
     blows, k, arm = task_blows(scene, task, g, q_traj, grip_force=100.0)
     assert np.asarray(task.impact)[k].max() > 0
     assert blows.tool.shape == (6, 6, 6) and blows.wrench.shape == (6, 6) and arm.inertia.shape == (6, 6, 6)
-    np.testing.assert_allclose(np.linalg.norm(blows.closure, axis=1), 1.0)
-    peaks = np.asarray(jax.jit(batched_wrist_response)(blows))
+    np.testing.assert_allclose(blows.grasp_axes @ blows.grasp_axes.transpose(0, 2, 1), np.broadcast_to(np.eye(3), (6, 3, 3)), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(blows.grasp_offset, axis=1), 0.085, atol=2e-3)  # the grasp site, 85 mm out
+    peaks = np.asarray(jax.jit(batched_wrist_response, static_argnames="pads")(blows, pads="limit"))
     assert peaks.shape == (6,) and np.all(np.isfinite(peaks)) and np.all(peaks > 0)
     sweep = make_task("sweep", tool)
     with pytest.raises(InputError, match="no impact"):

@@ -107,6 +107,67 @@ def reachable(task: Task, grasps: Grasps) -> np.ndarray:
     return np.concatenate([~arm_trajectory(task, g[s: s + REACHABLE_CHUNK])[1] for s in range(0, n, REACHABLE_CHUNK)])
 
 
+#: Why a grasp is not reachable (`unreachable_reasons`), in the order they are tested.
+UNREACHABLE_REASONS = ("out_of_reach", "below_table", "joint_limits")
+#: What a reason means, for messages.
+REASON_TEXT = {"out_of_reach": "put the flange where no arm posture reaches",
+               "below_table": "would take the elbow or wrist below the table",
+               "joint_limits": "would turn a joint past its limits"}
+
+
+def unreachable_reasons(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
+    """Why each grasp is (not) reachable: (code [N] int, -1 reachable or an index into UNREACHABLE_REASONS;
+    first [N] int, the first trajectory sample where it fails, -1 when reachable).
+
+    out_of_reach: at some sample no IK branch exists (the flange pose lies outside the arm's workspace);
+    below_table: every sample has a branch, but the tracked posture dips below `robot.ARM_CLEARANCE`;
+    joint_limits: the tracked posture leaves `robot.JOINT_LIMITS`. The same test as `arm_trajectory`,
+    taken apart (its infeasible flag is code >= 0), in chunks of REACHABLE_CHUNK."""
+    g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
+    tr = task.traj
+    T_world_tool = pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))
+    codes, firsts = [], []
+    for s in range(0, len(g), REACHABLE_CHUNK):
+        T06 = T_world_tool[None] @ tool_grasp_poses(g[s: s + REACHABLE_CHUNK])[:, None] @ grasp_flange_pose()
+        none = np.isnan(ik.inverse_kinematics(T06)).all(axis=-1).all(axis=-1)  # [n, T] no branch at a sample
+        q = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
+        dips = np.isnan(q).any(-1)
+        past = (np.abs(np.nan_to_num(q)) > JOINT_LIMITS).any(-1)
+        code = np.full(len(T06), -1)
+        first = np.full(len(T06), -1)
+        for c, bad in ((2, past), (1, dips), (0, none)):  # the earliest-tested reason wins
+            hit = bad.any(1)
+            code[hit], first[hit] = c, np.argmax(bad[hit], axis=1)
+        codes.append(code)
+        firsts.append(first)
+    return np.concatenate(codes), np.concatenate(firsts)
+
+
+def unreachable_summary(task: Task, grasps: Grasps) -> dict:
+    """{"checked", "reachable", reason: {"count", "first_t"}} over `grasps`: how many fail for each of
+    UNREACHABLE_REASONS and the earliest time (s, on the task's trajectory) one of them fails."""
+    code, first = unreachable_reasons(task, grasps)
+    t = np.asarray(task.traj.t, float)
+    out: dict = {"checked": int(len(code)), "reachable": int((code < 0).sum())}
+    for c, name in enumerate(UNREACHABLE_REASONS):
+        hit = code == c
+        if hit.any():
+            out[name] = {"count": int(hit.sum()), "first_t": round(float(t[first[hit].min()]), 3)}
+    return out
+
+
+def describe_unreachable(summary: dict, task: Task) -> str:
+    """One sentence saying why the checked candidates are unreachable (`unreachable_summary`)."""
+    parts = [f"{summary[name]['count']} {REASON_TEXT[name]} (from t = {summary[name]['first_t']} s)"
+             for name in UNREACHABLE_REASONS if name in summary]
+    impact = np.nonzero(np.asarray(task.impact).max(1) > 0)[0]
+    when = (f"; the {task.kind} task's first impact is at t = {float(np.asarray(task.traj.t)[impact[0]]):.3f} s of "
+            f"{float(np.asarray(task.traj.t)[-1]):.3f} s" if len(impact) else
+            f"; the {task.kind} task lasts {float(np.asarray(task.traj.t)[-1]):.3f} s")
+    return (f"of {summary['checked']} candidates checked, {summary['reachable']} are reachable: "
+            + ", ".join(parts) + when)
+
+
 def reachability_in_order(task: Task, grasps: Grasps, order, chunk: int = 16):
     """Yield (index, reachable) for the candidates `order` [M] (indices into grasps), in that order,
     checking `reachable` `chunk` candidates at a time (closed-form IK, ~0.2 ms a grasp warm): a caller

@@ -30,7 +30,6 @@ import numpy as np
 
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
-from itup_jax.robot import PAD_TORSION
 from itup_jax.rotations import quat_to_matrix_np
 from itup_jax.sim.scene import Scene
 from itup_jax.task import Task
@@ -161,7 +160,7 @@ def task_blows(scene: Scene, task: Task, grasps: Grasps, q_traj: np.ndarray, *, 
 
     The tool's pose and the impulse J come from the task (`wrench.task_loads`: the free tool's impulse,
     what the rigid model uses too); the arm's configuration at that sample from `q_traj` [N, T, 6]
-    (`sim.arm.arm_trajectory` or `Plan.q_traj`); the torsion cap is 2 c_t mu f_grip at `grip_force` N per pad.
+    (`sim.arm.arm_trajectory` or `Plan.q_traj`); the pads hold with `grip_force` N each at the tool's mu.
     Returns (blows, step index k of the impact, ArmImpedance [N]).
     Raises InputError for a task without an impact (its contacts are slow: the servos hold, and the rigid
     model applies) or a grasp whose IK failed at the impact.
@@ -184,10 +183,12 @@ def task_blows(scene: Scene, task: Task, grasps: Grasps, q_traj: np.ndarray, *, 
     site = arm.site  # [N, 3]
     tool6 = np.stack([spatial_inertia(float(p.mass), com - s, inertia) for s in site])
     wrench = np.concatenate([np.broadcast_to(n, site.shape), np.cross(contact - site, n)], axis=-1)
-    closure = quat_to_matrix_np(np.asarray(grasps.q_tool_grasp, float))[:, :, 1] @ R.T
+    axes = R @ quat_to_matrix_np(np.asarray(grasps.q_tool_grasp, float))  # [N, 3, 3] grasp axes (world)
+    centre = np.asarray(grasps.p_tool_grasp, float) @ R.T + P  # [N, 3] the grasp centres (world)
     N = len(site)
-    cap = 2.0 * PAD_TORSION * float(p.mu) * float(grip_force)
-    blows = Blow(tool=tool6, wrench=wrench, impulse=np.full(N, impulse[k]), duration=np.full(N, float(p.contact_duration)),
+    full = lambda v: np.full(N, float(v))  # noqa: E731
+    blows = Blow(tool=tool6, wrench=wrench, impulse=full(impulse[k]), duration=full(p.contact_duration),
                  arm_inertia=arm.inertia, arm_stiffness=arm.stiffness, arm_damping=arm.damping, hand=arm.hand,
-                 closure=closure, torsion_cap=np.full(N, cap))
+                 grasp_axes=axes, grasp_offset=centre - site, mu=full(p.mu),
+                 width=np.asarray(grasps.width, float), grip_force=full(grip_force))
     return blows, k, arm
