@@ -422,8 +422,8 @@ def pick_model(top: Tabletop, index: int) -> tuple[mujoco.MjModel, list[str]]:
         for pad in ("gripper/pad_neg", "gripper/pad_pos"):
             for g in names[i]:
                 spec.add_pair(name=f"{pad}-{g}", geomname1=pad, geomname2=g, condim=4,
-                              friction=[mu, mu, robot.PAD_TORSION, 1e-4, 1e-4], solref=[0.004, 1.0],
-                              solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
+                              friction=[mu, mu, robot.PAD_TORSION, 1e-4, 1e-4], solref=list(robot.PAD_SOLREF),
+                              solimp=list(robot.PAD_SOLIMP))
     grip = spec.actuator("gripper/grip")
     grip.ctrlrange = [-OPEN_FORCE, robot.GRIPPER_MAX_GRIP_FORCE]
     for key in list(spec.keys):

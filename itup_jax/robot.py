@@ -60,3 +60,7 @@ PALM_WIDTH_Y = 0.11  # m, palm box along the closure axis: spans the open finger
 FLANGE_TO_GRASP = 0.085
 #: m, torsional friction length of the pads (an assumed contact patch radius).
 PAD_TORSION = 0.005
+#: MuJoCo solref (time constant s, damping ratio) and solimp of the pad-tool contacts: stiff (4 ms) and
+#: critically damped, impedance 0.95-0.99 over 1 mm (`sim/scene.py`; `transmission.py` models them).
+PAD_SOLREF = (0.004, 1.0)
+PAD_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)

@@ -47,12 +47,12 @@ import jax.numpy as jnp
 
 from itup_jax.errors import InputError
 from itup_jax.grip_demand import grip_demand_sq
-from itup_jax.robot import PAD_TORSION
+from itup_jax.robot import PAD_SOLIMP, PAD_SOLREF, PAD_TORSION
 
-#: s, the pads' contact time constant (solref of the pad-tool pairs in `sim/scene.py`)
-PAD_TIMECONST = 0.004
-#: -, the pads' constraint impedance at depth (solimp's dmax in `sim/scene.py`)
-PAD_IMPEDANCE = 0.99
+#: s, the pads' contact time constant (their solref's)
+PAD_TIMECONST = PAD_SOLREF[0]
+#: -, the pads' constraint impedance at depth (their solimp's dmax)
+PAD_IMPEDANCE = PAD_SOLIMP[1]
 
 
 @jax.tree_util.register_dataclass

@@ -84,6 +84,8 @@ def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, mon
     assert main(["plan", "--task", "knock", "--n", "20", "--json", str(out)]) == 3
     res = json.loads(out.read_text())
     assert res["status"] == "no_reachable_candidate" and res["best"] is None and res["n_candidates"] == 0
+    why = res["sampling"].pop("unreachable")  # under 10 % reachable: the plan says why (IK itself is not patched)
+    assert why["checked"] == 256
     assert res["sampling"] == {"mode": "reachable", "requested": 20, "reachable": 0, "drawn": 800, "budget": 800,
                                "complete": False}
     assert res["summary"] is None and res["top"] == []
@@ -94,6 +96,7 @@ def test_plan_marks_no_pick_when_no_candidate_is_reachable(tmp_path, capsys, mon
     validate(res, load_schema("plan"))
     text = capsys.readouterr().out
     assert "no pick: none of the 800 drawn candidates is reachable" in text and "<- pick" not in text
+    assert "note: the arm can carry 0.0 % of the drawn candidates through the task; of 256 candidates checked" in text
 
 
 @pytest.mark.slow

@@ -38,7 +38,7 @@ import numpy as np
 
 from itup_jax import tasks
 from itup_jax.errors import InputError
-from itup_jax.robot import ARM_JOINTS, PAD_TORSION
+from itup_jax.robot import ARM_JOINTS, PAD_SOLIMP, PAD_SOLREF, PAD_TORSION
 from itup_jax.sim.restitution import calibrated_dampratio, textbook_dampratio
 from itup_jax.task import Task
 from itup_jax.tools import Tool
@@ -232,8 +232,8 @@ def build_scene(tool: Tool, task: Task, *, timestep: float | None = None) -> Sce
     for pad in ("gripper/pad_neg", "gripper/pad_pos"):
         for g in tool_geoms:
             spec.add_pair(name=f"{pad}-{g}", geomname1=pad, geomname2=g, condim=4,
-                          friction=[mu, mu, PAD_TORSION, 1e-4, 1e-4], solref=[0.004, 1.0],
-                          solimp=[0.95, 0.99, 0.001, 0.5, 2.0])
+                          friction=[mu, mu, PAD_TORSION, 1e-4, 1e-4], solref=list(PAD_SOLREF),
+                          solimp=list(PAD_SOLIMP))
             pad_pairs.append(f"{pad}-{g}")
     solref = target_solref(task.kind, float(tool.params.restitution), float(tool.params.contact_duration), timestep)
     for target in kind.target_geoms:
