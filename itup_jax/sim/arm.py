@@ -79,16 +79,32 @@ def grasp_flange_pose() -> np.ndarray:
     return pose_matrix(np.eye(3), np.array([0.0, 0.0, -FLANGE_TO_GRASP]))
 
 
+def flange_poses(task: Task, grasps: Grasps, samples: slice = slice(None)) -> np.ndarray:
+    """[N, T, 4, 4] the flange poses (world) that carry each grasp along the task's trajectory samples
+    `samples` (all by default)."""
+    tr = task.traj
+    T_world_tool = pose_matrix(np.asarray(tr.R_world_tool, float)[samples], np.asarray(tr.p_world_tool, float)[samples])
+    return T_world_tool[None] @ tool_grasp_poses(grasps)[:, None] @ grasp_flange_pose()
+
+
+def _infeasible(q_traj: np.ndarray) -> np.ndarray:
+    """[N] bool: IK failed at some sample of q_traj [N, T, 6] or a joint leaves its limits."""
+    return np.isnan(q_traj).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q_traj)) > JOINT_LIMITS).any(axis=(1, 2))
+
+
 def arm_trajectory(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndarray]:
     """The arm's joint trajectory that carries each grasp along the task: q_traj [N, T, 6] (rad, closed-form
     IK at the trajectory's samples; NaN where IK fails) and infeasible [N] (IK failed somewhere or a joint
     leaves its limits). Kinematics only: no scene, no physics."""
-    tr = task.traj
-    T_world_tool = pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))  # [T]
-    T06 = T_world_tool[None] @ tool_grasp_poses(grasps)[:, None] @ grasp_flange_pose()  # [N, T, 4, 4]
-    q_traj = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
-    infeasible = np.isnan(q_traj).any(axis=(1, 2)) | (np.abs(np.nan_to_num(q_traj)) > JOINT_LIMITS).any(axis=(1, 2))
-    return q_traj, infeasible
+    q_traj = ik.track(flange_poses(task, grasps), HOME_Q, min_height=ARM_CLEARANCE)
+    return q_traj, _infeasible(q_traj)
+
+
+def infeasible_at_start(task: Task, grasps: Grasps) -> np.ndarray:
+    """[N] bool: the grasps the arm cannot carry through the trajectory's first two samples. `ik.track`
+    chooses each sample's posture from the samples before it alone, so each of them is infeasible for the
+    whole task too (`arm_trajectory`); the converse does not hold."""
+    return _infeasible(ik.track(flange_poses(task, grasps, slice(0, 2)), HOME_Q, min_height=ARM_CLEARANCE))
 
 
 #: Candidates per `arm_trajectory` call in `reachable`: the IK's temporaries of 128 candidates x 64 samples
@@ -99,12 +115,16 @@ REACHABLE_CHUNK = 128
 
 def reachable(task: Task, grasps: Grasps) -> np.ndarray:
     """[N] bool: whether the arm can follow the task's trajectory holding each grasp (`arm_trajectory`;
-    the complement of `plan(...).infeasible`, without building controls), in chunks of REACHABLE_CHUNK."""
+    the complement of `plan(...).infeasible`, without building controls). The grasps the arm cannot
+    carry through the first two samples are ruled out first (`infeasible_at_start`), the others checked
+    over the whole trajectory in chunks of REACHABLE_CHUNK."""
     g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
-    n = len(g)
-    if n <= REACHABLE_CHUNK:
-        return ~arm_trajectory(task, g)[1]
-    return np.concatenate([~arm_trajectory(task, g[s: s + REACHABLE_CHUNK])[1] for s in range(0, n, REACHABLE_CHUNK)])
+    ok = np.zeros(len(g), bool)
+    idx = np.nonzero(~infeasible_at_start(task, g))[0]
+    for s in range(0, len(idx), REACHABLE_CHUNK):
+        part = idx[s: s + REACHABLE_CHUNK]
+        ok[part] = ~arm_trajectory(task, g[part])[1]
+    return ok
 
 
 #: Why a grasp is not reachable (`unreachable_reasons`), in the order they are tested.
@@ -124,11 +144,9 @@ def unreachable_reasons(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndar
     joint_limits: the tracked posture leaves `robot.JOINT_LIMITS`. The same test as `arm_trajectory`,
     taken apart (its infeasible flag is code >= 0), in chunks of REACHABLE_CHUNK."""
     g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
-    tr = task.traj
-    T_world_tool = pose_matrix(np.asarray(tr.R_world_tool, float), np.asarray(tr.p_world_tool, float))
     codes, firsts = [], []
     for s in range(0, len(g), REACHABLE_CHUNK):
-        T06 = T_world_tool[None] @ tool_grasp_poses(g[s: s + REACHABLE_CHUNK])[:, None] @ grasp_flange_pose()
+        T06 = flange_poses(task, g[s: s + REACHABLE_CHUNK])
         none = np.isnan(ik.inverse_kinematics(T06)).all(axis=-1).all(axis=-1)  # [n, T] no branch at a sample
         q = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
         dips = np.isnan(q).any(-1)
