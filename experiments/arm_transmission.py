@@ -49,6 +49,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.grasp import make_grasps
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.heldout import moved
+from itup_jax.rotations import quat_to_matrix_np
 from itup_jax.sim.arm_inertia import task_blows
 from itup_jax.sim.config import SimConfig
 from itup_jax.sim.rollout import simulate
@@ -91,10 +92,10 @@ def tool_sets(kind: str, quick: bool) -> dict[str, list[Tool]]:
     return {"built-in family": builtin[:1] if quick else builtin, "other families": other[:1] if quick else other}
 
 
-def predictions(tool: Tool, task, grasps, q_traj) -> dict[str, np.ndarray]:
+def predictions(tool: Tool, task, scene, grasps, q_traj) -> dict[str, np.ndarray]:
     """Each method's predicted peak wrist torque [N] (N m) for the grasps."""
     out = {name: np.asarray(wrench_costs(tool, task, grasps, prm).tau, float) for name, prm in RIGID.items()}
-    blows, _, _ = task_blows(build_scene(tool, task), task, grasps, q_traj, grip_force=GRIP)
+    blows, _, _ = task_blows(scene, task, grasps, q_traj, grip_force=GRIP)
     b = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), blows)
     heavy = dataclasses.replace(b, arm_inertia=b.arm_inertia * 1e4, arm_stiffness=jnp.zeros_like(b.arm_stiffness),
                                 arm_damping=jnp.zeros_like(b.arm_damping))
@@ -105,26 +106,21 @@ def predictions(tool: Tool, task, grasps, q_traj) -> dict[str, np.ndarray]:
 
 def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int) -> dict:
     task = make_task(kind, tool)
-    found = sample_reachable(tool, task, grasps_n, seed)
-    g = found.grasps
-    res = simulate(tool, task, g, backend="native", randomize=None)
+    scene = build_scene(tool, task)  # one scene for both rollouts and the arm's impedance
+    g = sample_reachable(tool, task, grasps_n, seed).grasps
+    res = simulate(tool, task, g, backend="native", randomize=None, scene=scene)
     ok = res.labels.valid
     y = res.labels.peak_torque_induced[ok]
-    preds = predictions(tool, task, g[np.nonzero(ok)[0]], res.plan.q_traj[ok])
-    R = _rotations(g)
-    p1, R1 = moved(np.asarray(g.p_tool_grasp, float), R, *NUDGE, np.random.default_rng(seed))
-    again = simulate(tool, task, make_grasps(p1, R1, np.asarray(g.width, float)), backend="native", randomize=None).labels
+    preds = predictions(tool, task, scene, g[np.nonzero(ok)[0]], res.plan.q_traj[ok])
+    p1, R1 = moved(np.asarray(g.p_tool_grasp, float), quat_to_matrix_np(np.asarray(g.q_tool_grasp, float)), *NUDGE,
+                   np.random.default_rng(seed))
+    again = simulate(tool, task, make_grasps(p1, R1, np.asarray(g.width, float)), backend="native", randomize=None,
+                     scene=scene).labels
     both = ok & again.valid
     return {"tool": tool.name, "valid": int(ok.sum()), "label_median": float(np.median(y)),
             "rho": {m: float(spearman(preds[m], y)) for m in METHODS},
             "ceiling": float(spearman(again.peak_torque_induced[both], res.labels.peak_torque_induced[both])),
             "median_prediction": {m: float(np.median(preds[m])) for m in METHODS}}
-
-
-def _rotations(g) -> np.ndarray:
-    from itup_jax.rotations import quat_to_matrix_np
-
-    return quat_to_matrix_np(np.asarray(g.q_tool_grasp, float))
 
 
 def main(argv=None) -> dict:

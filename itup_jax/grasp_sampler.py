@@ -406,18 +406,9 @@ class ReachableGrasps:
     unreachable: dict | None = None
 
     @property
-    def share(self) -> float:
-        """The reachable share of the candidates drawn (0 when none were)."""
-        return self.reachable_count / self.drawn if self.drawn else 0.0
-
-    @property
     def complete(self) -> bool:
         """Whether the requested count was met within the budget."""
         return len(self.grasps) >= self.requested
-
-    @property
-    def reachable_count(self) -> int:
-        return len(self.grasps)
 
     def to_json(self) -> dict:
         """The plan document's `sampling` record."""

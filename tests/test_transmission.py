@@ -76,7 +76,7 @@ def test_response_settles_to_the_share():
     hand = spatial_inertia(0.9, [0.0, 0.0, 0.04], np.diag([1e-3, 1e-3, 5e-4]))
     b = blow(rod_about_end(), unit_wrench(0.3), arm=arm, hand=hand)
     _, trace = wrist_response(b, pads="rigid", step=2e-5, horizon=0.08)
-    arm_momentum = np.asarray(trace).sum(0) * 2e-5 + 0.0  # the wrist impulse = the arm's momentum (no servo)
+    arm_momentum = np.asarray(trace).sum(0) * 2e-5  # the wrist impulse = the arm's momentum (no servo)
     # W_s = Lambda a_h here (hand's inertia taken out): its integral is Lambda v_h at the end
     expected = np.asarray(impulse_share(jnp.asarray(rod_about_end()), jnp.asarray(hand), jnp.asarray(arm))) @ (unit_wrench(0.3) * 0.5)
     np.testing.assert_allclose(arm_momentum, expected, atol=2e-3 * np.abs(expected).max())

@@ -90,7 +90,6 @@ class _ArmModel:
 
     def __init__(self, scene: Scene):
         m = scene.model
-        self.scene = scene
         root = m.site_bodyid[scene.ft_site]
         below = [b for b in range(m.nbody) if _descends(m, b, root)]
         tool = m.body("tool").id
