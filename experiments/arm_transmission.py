@@ -28,6 +28,14 @@ turned by 1 degree about its jaw axis (`heldout.moved`), rolled out again, and t
 of the two measurements. No model of the grasp's pose can rank the measure much better than the
 measure ranks itself under a nudge that small.
 
+And when the peak comes (`phases`, from the rollouts' traces): the contact's onset (the first step the
+target has moved 5 micrometres), whether the peak falls in the swing before it, the blow (1 ms before to
+2 ms after it) or the push after it (the servos driving the tool on into the target); the peak of each
+phase and each model's ranking of it; the onset's delay after the trajectory's impact time and the
+tool's drift in the pads before the blow (how far its contact point moved in the grasp frame since the
+settle) with their rank correlations with the measure; and the models' ranking over the rollouts that
+struck the target (`rho_hit`; a rollout that never moves the target measures no blow).
+
 Every tool here is a validation tool (the seeds are fixed in this file; nothing here is sealed).
 Writes arm_transmission.json into --out and prints the per-task medians.
 """
@@ -52,8 +60,9 @@ from itup_jax.heldout import moved
 from itup_jax.rotations import quat_to_matrix_np
 from itup_jax.sim.arm_inertia import task_blows
 from itup_jax.sim.config import SimConfig
+from itup_jax.sim.labels import induced
 from itup_jax.sim.rollout import simulate
-from itup_jax.sim.scene import build_scene
+from itup_jax.sim.scene import build_scene, target_bodies
 from itup_jax.stats import spearman
 from itup_jax.task import make_task
 from itup_jax.tools import Tool, families
@@ -73,6 +82,17 @@ CHAINS = {"arm": ("arm", "rigid"), "arm/passed": ("arm", "torsion"), "arm/limit"
 METHODS = (*RIGID, *CHAINS)
 #: m and rad: the nudge of the repeatability ceiling
 NUDGE = (0.001, np.radians(1.0))
+#: The phases of the motion, from the contact's onset (the first step the target has moved ONSET_MOVE m from
+#: where it stood when the motion began; a block creeps < 1 um before it): before it (the swing), the
+#: blow (from BLOW_START to BLOW_END s after the onset: the contact's first stiffness time scales, what an
+#: impulse describes) and the push after it (the servos driving the tool on into the target, a rebound,
+#: a second contact)
+BLOW_START, BLOW_END, ONSET_MOVE = -0.001, 0.002, 5e-6
+PHASES = ("swing", "blow", "push")
+#: s: how long before the onset the tool's drift in the pads is taken (before the contact loads it)
+DRIFT_BEFORE = 0.010
+#: the models whose ranking of each phase's peak is reported
+PHASE_METHODS = ("rigid/passed", "arm/passed")
 
 _response = jax.jit(batched_wrist_response, static_argnames="pads")
 
@@ -104,14 +124,87 @@ def predictions(tool: Tool, task, scene, grasps, q_traj) -> dict[str, np.ndarray
     return out
 
 
+def phase_peaks(tool: Tool, scene, task, res) -> dict[str, np.ndarray]:
+    """When and how the blow lands, from one `simulate(..., traces=True)`, per rollout [N]: the contact's
+    onset less the trajectory's impact time (`delay`, s), the peak's time after the onset (s), the peak of
+    each phase (N m; `PHASES`, NaN where a phase is empty) and how far the tool's contact point moved
+    in the grasp frame between the end of the settle and `DRIFT_BEFORE` s before the onset (`drift`, m).
+    NaN where the target never moved."""
+    p = res.plan
+    d_tau, _ = induced(scene, p, res.traces["gripper/wrist_torque"])
+    norm = np.linalg.norm(d_tau, axis=-1)  # [N, S]
+    t = p.sim_t[p.n_settle:p.nstep]
+    pos = res.traces[f"target/{target_bodies(task.kind)[0]}_pos"][:, p.n_settle:p.nstep]
+    moved_far = np.linalg.norm(pos - pos[:, :1], axis=-1) > ONSET_MOVE
+    hit = moved_far.any(1)
+    k_on = moved_far.argmax(1)
+    onset = np.where(hit, t[k_on], np.nan)
+    rel = t[None, :] - onset[:, None]  # NaN rows: every phase empty
+    masks = {"swing": rel < BLOW_START, "blow": (rel >= BLOW_START) & (rel <= BLOW_END), "push": rel > BLOW_END}
+    t_impact = float(np.asarray(task.traj.t)[np.asarray(task.impact).max(1).argmax()])
+    out = {"delay": onset - t_impact, "peak_after_onset": t[np.nan_to_num(norm, nan=-1.0).argmax(1)] - onset}
+    for name, m in masks.items():
+        out[name] = np.where(m.any(1), np.where(m, np.nan_to_num(norm, nan=-np.inf), -np.inf).max(1), np.nan)
+    # the contact point in the grasp frame: at the end of the settle and just before the blow
+    c = np.asarray(tool.contact_points, float)[0]
+    pos_g, quat_g = res.traces["tool_pos_grasp"], res.traces["tool_quat_grasp"]
+    k_before = p.n_settle + np.maximum(k_on - int(round(DRIFT_BEFORE / scene.model.opt.timestep)), 0)
+    rows = np.arange(len(k_on))
+    at = lambda k: pos_g[rows, k] + np.einsum("nij,j->ni", quat_to_matrix_np(quat_g[rows, k]), c)  # noqa: E731
+    out["drift"] = np.where(hit, np.linalg.norm(at(k_before) - at(np.full_like(k_on, p.n_settle - 1)), axis=1), np.nan)
+    return out
+
+
+def rank01(x: np.ndarray) -> np.ndarray:
+    """Each value's rank in x scaled to [0, 1] (0 the least)."""
+    return np.argsort(np.argsort(x)) / max(len(x) - 1, 1)
+
+
+def phase_summary(ph: dict[str, np.ndarray], y: np.ndarray, preds: dict[str, np.ndarray]) -> dict:
+    """Where the peaks fall, how the models rank each phase's peak, and how the measure follows the
+    blow's timing and the tool's drift in the pads (valid rollouts that hit)."""
+    hit = np.isfinite(ph["delay"])
+    pct = lambda v, scale: [float(x) for x in np.percentile(v[hit], [10, 50, 90]) * scale] if hit.any() else None  # noqa: E731
+    rho = lambda a, b: float(spearman(a, b)) if len(a) > 2 else None  # noqa: E731
+    out = {"valid": len(y), "hit": int(hit.sum()), "share": {name: float(np.mean(np.isclose(ph[name][hit], y[hit]))) for name in PHASES},
+           "peak_after_onset_ms": pct(ph["peak_after_onset"], 1e3), "delay_ms": pct(ph["delay"], 1e3),
+           "drift_mm": pct(ph["drift"], 1e3),
+           "median_peak": {name: float(np.nanmedian(ph[name][hit])) if hit.any() else None for name in PHASES},
+           "rho_delay": rho(ph["delay"][hit], y[hit]), "rho_drift": rho(ph["drift"][hit], y[hit]),
+           "rho_hit": {m: rho(preds[m][hit], y[hit]) for m in PHASE_METHODS},
+           "median_miss": float(np.median(y[~hit])) if (~hit).any() else None,
+           # where the misses stand in each model's order (0: the least predicted torque, 1: the most)
+           "miss_rank": {m: float(np.mean(rank01(preds[m])[~hit])) if (~hit).any() else None for m in PHASE_METHODS},
+           "rho": {}}
+    for name in PHASES:
+        ok = hit & np.isfinite(ph[name])
+        out["rho"][name] = {m: rho(preds[m][ok], ph[name][ok]) for m in PHASE_METHODS}
+    return out
+
+
+def phase_medians(rows: list[dict]) -> dict:
+    """Medians over a tool set's tools of `phase_summary`'s figures (NaN where no tool has one)."""
+    med = lambda xs: float(np.nanmedian([np.nan if x is None else x for x in xs])) if xs else float("nan")  # noqa: E731
+    mid = lambda key: med([r[key][1] if r[key] else None for r in rows])  # noqa: E731
+    return {"share": {n: med([r["share"][n] for r in rows]) for n in PHASES},
+            "peak_after_onset_ms": mid("peak_after_onset_ms"), "delay_ms": mid("delay_ms"), "drift_mm": mid("drift_mm"),
+            "delay_spread_ms": med([r["delay_ms"][2] - r["delay_ms"][0] if r["delay_ms"] else None for r in rows]),
+            "median_peak": {n: med([r["median_peak"][n] for r in rows]) for n in PHASES},
+            "rho_delay": med([r["rho_delay"] for r in rows]), "rho_drift": med([r["rho_drift"] for r in rows]),
+            "hit_share": med([r["hit"] / r["valid"] for r in rows]),
+            "rho_hit": {m: med([r["rho_hit"][m] for r in rows]) for m in PHASE_METHODS},
+            "rho": {n: {m: med([r["rho"][n][m] for r in rows]) for m in PHASE_METHODS} for n in PHASES}}
+
+
 def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int) -> dict:
     task = make_task(kind, tool)
     scene = build_scene(tool, task)  # one scene for both rollouts and the arm's impedance
     g = sample_reachable(tool, task, grasps_n, seed).grasps
-    res = simulate(tool, task, g, backend="native", randomize=None, scene=scene)
+    res = simulate(tool, task, g, backend="native", randomize=None, scene=scene, traces=True)
     ok = res.labels.valid
     y = res.labels.peak_torque_induced[ok]
     preds = predictions(tool, task, scene, g[np.nonzero(ok)[0]], res.plan.q_traj[ok])
+    ph = {k: v[ok] for k, v in phase_peaks(tool, scene, task, res).items()}
     p1, R1 = moved(np.asarray(g.p_tool_grasp, float), quat_to_matrix_np(np.asarray(g.q_tool_grasp, float)), *NUDGE,
                    np.random.default_rng(seed))
     again = simulate(tool, task, make_grasps(p1, R1, np.asarray(g.width, float)), backend="native", randomize=None,
@@ -120,7 +213,8 @@ def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int) -> dict:
     return {"tool": tool.name, "valid": int(ok.sum()), "label_median": float(np.median(y)),
             "rho": {m: float(spearman(preds[m], y)) for m in METHODS},
             "ceiling": float(spearman(again.peak_torque_induced[both], res.labels.peak_torque_induced[both])),
-            "median_prediction": {m: float(np.median(preds[m])) for m in METHODS}}
+            "median_prediction": {m: float(np.median(preds[m])) for m in METHODS},
+            "phases": phase_summary(ph, y, preds)}
 
 
 def main(argv=None) -> dict:
@@ -140,9 +234,20 @@ def main(argv=None) -> dict:
             rows = [measure_tool(t, kind, grasps_n, args.seed) for t in tools]
             medians = {m: float(np.nanmedian([r["rho"][m] for r in rows])) for m in METHODS}
             medians["ceiling"] = float(np.nanmedian([r["ceiling"] for r in rows]))
-            per_set[set_name] = {"tools": rows, "median_rho": medians}
+            phases = phase_medians([r["phases"] for r in rows])
+            per_set[set_name] = {"tools": rows, "median_rho": medians, "phases": phases}
             print(f"{kind:7s} {set_name:16s} ({len(rows)} tools) median rho: "
                   + "  ".join(f"{m} {v:+.2f}" for m, v in medians.items()))
+            print(f"{'':24s} peak in phase: " + "  ".join(f"{n} {phases['share'][n]:.2f}" for n in PHASES)
+                  + f"; {phases['peak_after_onset_ms']:.1f} ms after the onset; phase peaks "
+                  + "  ".join(f"{n} {phases['median_peak'][n]:.2f}" for n in PHASES) + " N m")
+            print(f"{'':24s} rho per phase (rigid/passed, arm/passed): "
+                  + "  ".join(f"{n} {phases['rho'][n]['rigid/passed']:+.2f} {phases['rho'][n]['arm/passed']:+.2f}"
+                              for n in PHASES)
+                  + f"; onset delay {phases['delay_ms']:+.1f} ms (p10-p90 spread {phases['delay_spread_ms']:.1f} ms,"
+                  f" rho {phases['rho_delay']:+.2f}); drift in the pads {phases['drift_mm']:.1f} mm (rho "
+                  f"{phases['rho_drift']:+.2f}); {phases['hit_share']:.2f} hit the target, rho over them "
+                  + " ".join(f"{phases['rho_hit'][m]:+.2f}" for m in PHASE_METHODS))
         result["tasks"][kind] = per_set
     result["wall_s"] = round(time.time() - t0, 1)
     os.makedirs(args.out, exist_ok=True)

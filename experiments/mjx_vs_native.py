@@ -12,9 +12,10 @@ same randomised physics (`simulate(..., seed=)`: the draws depend on the seed on
   - peak wrist torque: Spearman rank correlation, median and 90th-percentile relative difference;
   - slip (m) and alignment drift (rad): median and 90th-percentile absolute difference;
   - the task metric: Spearman; the failed and success flags: fraction of rows where the two agree;
-and the rows that only one backend calls valid (diverged on one side); `per_row` keeps both backends' torque,
-slip and flags row by row. MJX collides capsules with boxes by `itup_jax.sim.mjx_collision`, as `simulate` does. `tests/test_simulate.py` checks
-the firm-grasp tolerances on a few grasps; this is the same comparison over a whole batch. The control
+and the rows that only one backend calls valid (diverged on one side); `per_row` keeps both backends' peak and static
+torques, slip, alignment drift and flags row by row. MJX collides capsules with boxes by
+`itup_jax.sim.mjx_collision`, as `simulate` does. The quick run's test checks the firm-grasp tolerances
+on its rows; the full run is the same comparison over a whole batch. The control
 (`native_control`): native MuJoCo against itself with every grasp moved by 1 micrometre, which shows how
 much of a difference a perturbation of float32's size makes by itself (the labels' own conditioning).
 
@@ -86,9 +87,10 @@ def compare(native, mjx) -> dict:
 
 def per_row(native, mjx) -> dict:
     """Both backends' labels row by row, for a closer look: {field: {"native": [N], "mjx": [N]}} of the peak
-    wrist torque (N m), slip (m) and the valid and failed flags; null where a label is NaN (unstepped rows)."""
+    wrist torque and the static holding torque (N m), slip (m), alignment drift (rad) and the valid and failed
+    flags; null where a label is NaN (unstepped rows)."""
     out = {}
-    for f in ("peak_torque", "slip_translation", "valid", "failed"):
+    for f in ("peak_torque", "static_torque", "slip_translation", "alignment_drift", "valid", "failed"):
         out[f] = {}
         for name, lab in (("native", native), ("mjx", mjx)):
             x = np.asarray(getattr(lab, f))

@@ -16,6 +16,16 @@ import pytest  # noqa: E402
 import itup_jax as itup  # noqa: E402
 from itup_jax.task import DEFAULT_TOOL  # noqa: E402
 
+#: MJX against native MuJoCo (tests/test_simulate.py, the mjx_vs_native quick run in tests/test_evaluate.py).
+#: MJX runs in float64 (`sim.mjx.MJX_FLOAT64`) but its contact solver differs in detail from the C one: raw
+#: peak torques agree to ~10 % on firm grasps (docs/design.md measured 3 % on a simpler scene), slip to a
+#: few mm, alignment drift to a few hundredths of a radian. Labels of grasps that slip (> FIRM_SLIP m) are
+#: chaotic and not compared.
+MJX_TORQUE_RTOL = 0.15
+MJX_SLIP_ATOL = 3e-3
+MJX_DRIFT_ATOL = 0.03
+FIRM_SLIP = 5e-3
+
 
 @pytest.fixture(scope="session")
 def tools():

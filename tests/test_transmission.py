@@ -9,13 +9,13 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 import pytest
-from conftest import run_experiment
+from conftest import load_experiment, run_experiment
 
 from itup_jax.errors import InputError
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.sim.arm import arm_trajectory
 from itup_jax.sim.arm_inertia import arm_impedance, spatial_inertia, task_blows
-from itup_jax.sim.scene import build_scene
+from itup_jax.sim.scene import build_scene, target_bodies
 from itup_jax.task import make_task
 from itup_jax.transmission import Blow, batched_wrist_response, impulse_share, wrist_response
 
@@ -210,3 +210,45 @@ def test_arm_transmission_quick(tmp_path):
         assert row["valid"] >= 8 and set(row["rho"]) == set(out["methods"])
         assert all(-1.0 <= v <= 1.0 for v in row["rho"].values())
         assert 0.0 < row["ceiling"] <= 1.0
+        ph = row["phases"]
+        assert 0 < ph["hit"] <= ph["valid"] == row["valid"]
+        assert sum(ph["share"].values()) == pytest.approx(1.0)  # every peak lies in exactly one phase
+        lo, mid, hi = ph["delay_ms"]
+        assert lo <= mid <= hi and ph["drift_mm"][0] >= 0.0
+    assert s["phases"]["hit_share"] <= 1.0
+
+
+def test_phase_peaks_place_the_peak_the_delay_and_the_drift():
+    """A synthetic rollout: the target starts to move 0.20 s into the motion, 0.05 s after the trajectory's
+    impact; the wrist torque peaks 10 ms after that (the push), with a smaller bump in the blow's window;
+    the tool's contact point slides 3 mm along the grasp's x before the blow."""
+    from types import SimpleNamespace
+
+    mod = load_experiment("arm_transmission")
+    dt, n_settle, n_motion = 0.001, 100, 400
+    nstep = n_settle + n_motion
+    sim_t = (np.arange(nstep) + 1 - n_settle) * dt
+    t_m = sim_t[n_settle:]
+    onset_k = n_settle + int(np.argmin(np.abs(t_m - 0.200)))
+    tau = np.zeros((1, nstep, 3))
+    tau[0, onset_k + 1, 0] = 2.0   # in the blow
+    tau[0, onset_k + 10, 2] = 5.0  # the push, the peak
+    target = np.zeros((1, nstep, 3))
+    target[0, onset_k:, 0] = 1e-3
+    pos_g = np.zeros((1, nstep, 3))
+    pos_g[0, n_settle + 20:, 0] = 3e-3
+    quat_g = np.tile([1.0, 0.0, 0.0, 0.0], (1, nstep, 1))
+    traces = {"gripper/wrist_torque": tau, f"target/{target_bodies('hammer')[0]}_pos": target, "tool_pos_grasp": pos_g, "tool_quat_grasp": quat_g}
+    res = SimpleNamespace(plan=SimpleNamespace(n_settle=n_settle, nstep=nstep, sim_t=sim_t), traces=traces)
+    scene = SimpleNamespace(model=SimpleNamespace(opt=SimpleNamespace(timestep=dt)))
+    task = SimpleNamespace(kind="hammer", traj=SimpleNamespace(t=np.array([0.0, 0.15, 0.4])),
+                           impact=np.array([[0.0], [1.0], [0.0]]))
+    tool = SimpleNamespace(contact_points=np.array([[0.0, 0.0, 0.3]]))
+    ph = mod.phase_peaks(tool, scene, task, res)
+    assert ph["delay"][0] == pytest.approx(0.05, abs=1e-9)
+    assert ph["peak_after_onset"][0] == pytest.approx(0.010, abs=1e-9)
+    assert ph["push"][0] == pytest.approx(5.0) and ph["blow"][0] == pytest.approx(2.0) and ph["swing"][0] == 0.0
+    assert ph["drift"][0] == pytest.approx(3e-3)
+    y = np.array([5.0])
+    summary = mod.phase_summary(ph, y, {m: np.ones(1) for m in mod.PHASE_METHODS})
+    assert summary["share"] == {"swing": 0.0, "blow": 0.0, "push": 1.0} and summary["hit"] == 1
