@@ -57,6 +57,7 @@ from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.grasp import make_grasps
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.heldout import moved
+from itup_jax.robot import GRIPPER_MAX_GRIP_FORCE, GRIPPER_MIN_GRIP_FORCE
 from itup_jax.rotations import quat_to_matrix_np
 from itup_jax.sim.arm_inertia import task_blows
 from itup_jax.sim.config import SimConfig
@@ -74,9 +75,17 @@ from itup_jax.transmission import batched_wrist_response
 TOOL_SETS = {"hammer": ("hammer", ("spanner", "hatchet")), "knock": ("mallet", ("screwdriver", "spanner", "hatchet"))}
 VARIANT_SEEDS = (4101, 4102, 4103)
 DRAW_SEEDS = (4201, 4202)
+#: N per pad: the rollouts' grip and the models' (the shipped SimConfig's unless --grip-force)
 GRIP = SimConfig().grip_force
-RIGID = {"rigid/full": CostParams(lever_arm="wrist", torque_projection="full"),
-         "rigid/passed": CostParams(lever_arm="wrist", torque_projection="passed", grip_force=GRIP)}
+
+
+def rigid_params(grip: float) -> dict[str, CostParams]:
+    """The rigid model's two forms at `grip` N per pad."""
+    return {"rigid/full": CostParams(lever_arm="wrist", torque_projection="full"),
+            "rigid/passed": CostParams(lever_arm="wrist", torque_projection="passed", grip_force=grip)}
+
+
+RIGID = rigid_params(GRIP)
 CHAINS = {"arm": ("arm", "rigid"), "arm/passed": ("arm", "torsion"), "arm/limit": ("arm", "limit"),
           "heavy/passed": ("heavy", "torsion"), "heavy/limit": ("heavy", "limit")}
 METHODS = (*RIGID, *CHAINS)
@@ -112,10 +121,10 @@ def tool_sets(kind: str, quick: bool) -> dict[str, list[Tool]]:
     return {"built-in family": builtin[:1] if quick else builtin, "other families": other[:1] if quick else other}
 
 
-def predictions(tool: Tool, task, scene, grasps, q_traj) -> dict[str, np.ndarray]:
-    """Each method's predicted peak wrist torque [N] (N m) for the grasps."""
-    out = {name: np.asarray(wrench_costs(tool, task, grasps, prm).tau, float) for name, prm in RIGID.items()}
-    blows, _, _ = task_blows(scene, task, grasps, q_traj, grip_force=GRIP)
+def predictions(tool: Tool, task, scene, grasps, q_traj, grip: float = GRIP) -> dict[str, np.ndarray]:
+    """Each method's predicted peak wrist torque [N] (N m) for the grasps, at `grip` N per pad."""
+    out = {name: np.asarray(wrench_costs(tool, task, grasps, prm).tau, float) for name, prm in rigid_params(grip).items()}
+    blows, _, _ = task_blows(scene, task, grasps, q_traj, grip_force=grip)
     b = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), blows)
     heavy = dataclasses.replace(b, arm_inertia=b.arm_inertia * 1e4, arm_stiffness=jnp.zeros_like(b.arm_stiffness),
                                 arm_damping=jnp.zeros_like(b.arm_damping))
@@ -196,19 +205,20 @@ def phase_medians(rows: list[dict]) -> dict:
             "rho": {n: {m: med([r["rho"][n][m] for r in rows]) for m in PHASE_METHODS} for n in PHASES}}
 
 
-def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int) -> dict:
+def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int, grip: float = GRIP) -> dict:
     task = make_task(kind, tool)
     scene = build_scene(tool, task)  # one scene for both rollouts and the arm's impedance
     g = sample_reachable(tool, task, grasps_n, seed).grasps
-    res = simulate(tool, task, g, backend="native", randomize=None, scene=scene, traces=True)
+    config = SimConfig(grip_force=grip)
+    res = simulate(tool, task, g, backend="native", randomize=None, scene=scene, traces=True, config=config)
     ok = res.labels.valid
     y = res.labels.peak_torque_induced[ok]
-    preds = predictions(tool, task, scene, g[np.nonzero(ok)[0]], res.plan.q_traj[ok])
+    preds = predictions(tool, task, scene, g[np.nonzero(ok)[0]], res.plan.q_traj[ok], grip)
     ph = {k: v[ok] for k, v in phase_peaks(tool, scene, task, res).items()}
     p1, R1 = moved(np.asarray(g.p_tool_grasp, float), quat_to_matrix_np(np.asarray(g.q_tool_grasp, float)), *NUDGE,
                    np.random.default_rng(seed))
     again = simulate(tool, task, make_grasps(p1, R1, np.asarray(g.width, float)), backend="native", randomize=None,
-                     scene=scene).labels
+                     scene=scene, config=config).labels
     both = ok & again.valid
     return {"tool": tool.name, "valid": int(ok.sum()), "label_median": float(np.median(y)),
             "rho": {m: float(spearman(preds[m], y)) for m in METHODS},
@@ -222,16 +232,22 @@ def main(argv=None) -> dict:
     ap.add_argument("--tasks", nargs="+", default=list(TOOL_SETS), choices=list(TOOL_SETS))
     ap.add_argument("--grasps", type=int, default=48, help="reachable candidates per tool (default 48)")
     ap.add_argument("--seed", type=int, default=0, help="candidate sampling seed")
+    ap.add_argument("--grip-force", type=float, default=GRIP,
+                    help=f"N per pad, the rollouts' grip and the models' (default {GRIP:g}; within the gripper's "
+                    f"{GRIPPER_MIN_GRIP_FORCE:g}-{GRIPPER_MAX_GRIP_FORCE:g})")
     ap.add_argument("--quick", action="store_true", help="one tool per set, 12 grasps, the hammer task (tests)")
     ap.add_argument("--out", default="results/arm_transmission")
     args = ap.parse_args(argv)
+    if not GRIPPER_MIN_GRIP_FORCE <= args.grip_force <= GRIPPER_MAX_GRIP_FORCE:
+        ap.error(f"--grip-force must be within the gripper's {GRIPPER_MIN_GRIP_FORCE:g}-{GRIPPER_MAX_GRIP_FORCE:g} N, "
+                 f"got {args.grip_force:g}")
     tasks, grasps_n = (["hammer"], 12) if args.quick else (args.tasks, args.grasps)
     t0 = time.time()
-    result = {"grasps": grasps_n, "seed": args.seed, "methods": list(METHODS), "tasks": {}}
+    result = {"grasps": grasps_n, "seed": args.seed, "grip_force": args.grip_force, "methods": list(METHODS), "tasks": {}}
     for kind in tasks:
         per_set = {}
         for set_name, tools in tool_sets(kind, args.quick).items():
-            rows = [measure_tool(t, kind, grasps_n, args.seed) for t in tools]
+            rows = [measure_tool(t, kind, grasps_n, args.seed, args.grip_force) for t in tools]
             medians = {m: float(np.nanmedian([r["rho"][m] for r in rows])) for m in METHODS}
             medians["ceiling"] = float(np.nanmedian([r["ceiling"] for r in rows]))
             phases = phase_medians([r["phases"] for r in rows])

@@ -252,3 +252,10 @@ def test_phase_peaks_place_the_peak_the_delay_and_the_drift():
     y = np.array([5.0])
     summary = mod.phase_summary(ph, y, {m: np.ones(1) for m in mod.PHASE_METHODS})
     assert summary["share"] == {"swing": 0.0, "blow": 0.0, "push": 1.0} and summary["hit"] == 1
+
+
+def test_arm_transmission_refuses_a_grip_outside_the_gripper_before_any_work(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        run_experiment("arm_transmission", "--grip-force", "300", "--out", str(tmp_path / "out"))
+    assert exc.value.code == 2 and "--grip-force must be within the gripper's 20-235 N, got 300" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
