@@ -2,6 +2,7 @@
 `itup_jax/transmission.py`, ranked against MuJoCo's full induced peak wrist torque, tool by tool.
 
     python experiments/arm_transmission.py --out results/arm_transmission            # ~4 min, 2-core CPU
+    python experiments/arm_transmission.py --tasks knock --grip-force 235 --out results/arm_transmission_235  # ~2 min
     python experiments/arm_transmission.py --quick --out results/arm_transmission_quick  # tests
 
 For the impulsive tasks (hammer, knock; a sweep's or reach's contacts last long enough for the servos to
@@ -31,10 +32,12 @@ measure ranks itself under a nudge that small.
 And when the peak comes (`phases`, from the rollouts' traces): the contact's onset (the first step the
 target has moved 5 micrometres), whether the peak falls in the swing before it, the blow (1 ms before to
 2 ms after it) or the push after it (the servos driving the tool on into the target); the peak of each
-phase and each model's ranking of it; the onset's delay after the trajectory's impact time and the
-tool's drift in the pads before the blow (how far its contact point moved in the grasp frame since the
-settle) with their rank correlations with the measure; and the models' ranking over the rollouts that
-struck the target (`rho_hit`; a rollout that never moves the target measures no blow).
+phase and each model's ranking of it; the onset's delay after the trajectory's impact time and its rank
+correlation with the measure; how far the tool's contact point is behind its planned place 10 ms
+before the impact, along the direction of travel, split into the arm's part (the gripper's pose) and
+the pads' part (the tool's pose in the grasp), each with its rank correlation with the delay; and the
+models' ranking over the rollouts that struck the target (`rho_hit`; a rollout that never moves the
+target measures no blow) and where the misses stand in each model's order (`miss_rank`).
 
 Every tool here is a validation tool (the seeds are fixed in this file; nothing here is sealed).
 Writes arm_transmission.json into --out and prints the per-task medians.
@@ -98,8 +101,8 @@ NUDGE = (0.001, np.radians(1.0))
 #: a second contact)
 BLOW_START, BLOW_END, ONSET_MOVE = -0.001, 0.002, 5e-6
 PHASES = ("swing", "blow", "push")
-#: s: how long before the onset the tool's drift in the pads is taken (before the contact loads it)
-DRIFT_BEFORE = 0.010
+#: s before the trajectory's impact time at which the contact point's lag behind the plan is taken
+LAG_BEFORE = 0.010
 #: the models whose ranking of each phase's peak is reported
 PHASE_METHODS = ("rigid/passed", "arm/passed")
 
@@ -133,12 +136,14 @@ def predictions(tool: Tool, task, scene, grasps, q_traj, grip: float = GRIP) -> 
     return out
 
 
-def phase_peaks(tool: Tool, scene, task, res) -> dict[str, np.ndarray]:
-    """When and how the blow lands, from one `simulate(..., traces=True)`, per rollout [N]: the contact's
-    onset less the trajectory's impact time (`delay`, s), the peak's time after the onset (s), the peak of
-    each phase (N m; `PHASES`, NaN where a phase is empty) and how far the tool's contact point moved
-    in the grasp frame between the end of the settle and `DRIFT_BEFORE` s before the onset (`drift`, m).
-    NaN where the target never moved."""
+def phase_peaks(tool: Tool, scene, task, grasps, res) -> dict[str, np.ndarray]:
+    """When and how the blow lands, from one `simulate(..., traces=True)` of `grasps`, per rollout [N]: the
+    contact's onset less the trajectory's impact time (`delay`, s), the peak's time after the onset (s),
+    the peak of each phase (N m; `PHASES`, NaN where a phase is empty), and how far the tool's contact
+    point is behind its planned place `LAG_BEFORE` s before the impact time, along the planned
+    direction of travel (m), split into what the gripper's pose puts there (`lag_arm`: the arm's
+    tracking) and what the tool's pose in the pads does (`lag_pads`: the tool has turned or slid in the
+    grasp since the plan). The onset and the phases are NaN where the target never moved."""
     p = res.plan
     d_tau, _ = induced(scene, p, res.traces["gripper/wrist_torque"])
     norm = np.linalg.norm(d_tau, axis=-1)  # [N, S]
@@ -146,21 +151,35 @@ def phase_peaks(tool: Tool, scene, task, res) -> dict[str, np.ndarray]:
     pos = res.traces[f"target/{target_bodies(task.kind)[0]}_pos"][:, p.n_settle:p.nstep]
     moved_far = np.linalg.norm(pos - pos[:, :1], axis=-1) > ONSET_MOVE
     hit = moved_far.any(1)
-    k_on = moved_far.argmax(1)
-    onset = np.where(hit, t[k_on], np.nan)
+    onset = np.where(hit, t[moved_far.argmax(1)], np.nan)
     rel = t[None, :] - onset[:, None]  # NaN rows: every phase empty
     masks = {"swing": rel < BLOW_START, "blow": (rel >= BLOW_START) & (rel <= BLOW_END), "push": rel > BLOW_END}
-    t_impact = float(np.asarray(task.traj.t)[np.asarray(task.impact).max(1).argmax()])
-    out = {"delay": onset - t_impact, "peak_after_onset": t[np.nan_to_num(norm, nan=-1.0).argmax(1)] - onset}
+    t_traj = np.asarray(task.traj.t, float)
+    k_impact = int(np.asarray(task.impact).max(1).argmax())
+    out = {"delay": onset - t_traj[k_impact], "peak_after_onset": t[np.nan_to_num(norm, nan=-1.0).argmax(1)] - onset}
     for name, m in masks.items():
         out[name] = np.where(m.any(1), np.where(m, np.nan_to_num(norm, nan=-np.inf), -np.inf).max(1), np.nan)
-    # the contact point in the grasp frame: at the end of the settle and just before the blow
+    # the contact point LAG_BEFORE s before the impact: planned, as the gripper carries it with the tool where
+    # the grasp planned it, and where it is
     c = np.asarray(tool.contact_points, float)[0]
-    pos_g, quat_g = res.traces["tool_pos_grasp"], res.traces["tool_quat_grasp"]
-    k_before = p.n_settle + np.maximum(k_on - int(round(DRIFT_BEFORE / scene.model.opt.timestep)), 0)
-    rows = np.arange(len(k_on))
-    at = lambda k: pos_g[rows, k] + np.einsum("nij,j->ni", quat_to_matrix_np(quat_g[rows, k]), c)  # noqa: E731
-    out["drift"] = np.where(hit, np.linalg.norm(at(k_before) - at(np.full_like(k_on, p.n_settle - 1)), axis=1), np.nan)
+    R_traj, p_traj = np.asarray(task.traj.R_world_tool, float), np.asarray(task.traj.p_world_tool, float)
+    c_traj = p_traj + np.einsum("tij,j->ti", R_traj, c)
+    t_probe = t_traj[k_impact] - LAG_BEFORE
+    planned = np.array([np.interp(t_probe, t_traj, c_traj[:, j]) for j in range(3)])
+    travel = np.gradient(c_traj, t_traj, axis=0)[k_impact]
+    travel = travel / np.linalg.norm(travel)
+    k = p.n_settle + int(np.argmin(np.abs(t - t_probe)))
+    R_wt = quat_to_matrix_np(res.traces["tool_quat"][:, k])
+    p_wt = res.traces["tool_pos"][:, k]
+    R_gt = quat_to_matrix_np(res.traces["tool_quat_grasp"][:, k])
+    R_wg = np.einsum("nij,nkj->nik", R_wt, R_gt)  # the grasp frame (the gripper) in the world
+    p_wg = p_wt - np.einsum("nij,nj->ni", R_wg, res.traces["tool_pos_grasp"][:, k])
+    R_plan = quat_to_matrix_np(np.asarray(grasps.q_tool_grasp, float))  # the grasp frame in the tool frame
+    c_grasp_plan = np.einsum("nji,nj->ni", R_plan, c[None] - np.asarray(grasps.p_tool_grasp, float))
+    carried = p_wg + np.einsum("nij,nj->ni", R_wg, c_grasp_plan)
+    actual = p_wt + np.einsum("nij,j->ni", R_wt, c)
+    out["lag_arm"] = (planned[None] - carried) @ travel
+    out["lag_pads"] = (carried - actual) @ travel
     return out
 
 
@@ -171,15 +190,16 @@ def rank01(x: np.ndarray) -> np.ndarray:
 
 def phase_summary(ph: dict[str, np.ndarray], y: np.ndarray, preds: dict[str, np.ndarray]) -> dict:
     """Where the peaks fall, how the models rank each phase's peak, and how the measure follows the
-    blow's timing and the tool's drift in the pads (valid rollouts that hit)."""
+    blow's timing and the contact point's lag behind the plan (valid rollouts that hit)."""
     hit = np.isfinite(ph["delay"])
     pct = lambda v, scale: [float(x) for x in np.percentile(v[hit], [10, 50, 90]) * scale] if hit.any() else None  # noqa: E731
     rho = lambda a, b: float(spearman(a, b)) if len(a) > 2 else None  # noqa: E731
     out = {"valid": len(y), "hit": int(hit.sum()), "share": {name: float(np.mean(np.isclose(ph[name][hit], y[hit]))) for name in PHASES},
            "peak_after_onset_ms": pct(ph["peak_after_onset"], 1e3), "delay_ms": pct(ph["delay"], 1e3),
-           "drift_mm": pct(ph["drift"], 1e3),
+           "lag_arm_mm": pct(ph["lag_arm"], 1e3), "lag_pads_mm": pct(ph["lag_pads"], 1e3),
            "median_peak": {name: float(np.nanmedian(ph[name][hit])) if hit.any() else None for name in PHASES},
-           "rho_delay": rho(ph["delay"][hit], y[hit]), "rho_drift": rho(ph["drift"][hit], y[hit]),
+           "rho_delay": rho(ph["delay"][hit], y[hit]), "rho_delay_lag_pads": rho(ph["lag_pads"][hit], ph["delay"][hit]),
+           "rho_delay_lag_arm": rho(ph["lag_arm"][hit], ph["delay"][hit]),
            "rho_hit": {m: rho(preds[m][hit], y[hit]) for m in PHASE_METHODS},
            "median_miss": float(np.median(y[~hit])) if (~hit).any() else None,
            # where the misses stand in each model's order (0: the least predicted torque, 1: the most)
@@ -196,10 +216,13 @@ def phase_medians(rows: list[dict]) -> dict:
     med = lambda xs: float(np.nanmedian([np.nan if x is None else x for x in xs])) if xs else float("nan")  # noqa: E731
     mid = lambda key: med([r[key][1] if r[key] else None for r in rows])  # noqa: E731
     return {"share": {n: med([r["share"][n] for r in rows]) for n in PHASES},
-            "peak_after_onset_ms": mid("peak_after_onset_ms"), "delay_ms": mid("delay_ms"), "drift_mm": mid("drift_mm"),
+            "peak_after_onset_ms": mid("peak_after_onset_ms"), "delay_ms": mid("delay_ms"),
             "delay_spread_ms": med([r["delay_ms"][2] - r["delay_ms"][0] if r["delay_ms"] else None for r in rows]),
             "median_peak": {n: med([r["median_peak"][n] for r in rows]) for n in PHASES},
-            "rho_delay": med([r["rho_delay"] for r in rows]), "rho_drift": med([r["rho_drift"] for r in rows]),
+            "lag_spread_mm": {part: med([r[f"lag_{part}_mm"][2] - r[f"lag_{part}_mm"][0] if r[f"lag_{part}_mm"] else None
+                                         for r in rows]) for part in ("arm", "pads")},
+            "rho_delay": med([r["rho_delay"] for r in rows]),
+            "rho_delay_lag": {part: med([r[f"rho_delay_lag_{part}"] for r in rows]) for part in ("arm", "pads")},
             "hit_share": med([r["hit"] / r["valid"] for r in rows]),
             "rho_hit": {m: med([r["rho_hit"][m] for r in rows]) for m in PHASE_METHODS},
             "rho": {n: {m: med([r["rho"][n][m] for r in rows]) for m in PHASE_METHODS} for n in PHASES}}
@@ -214,7 +237,7 @@ def measure_tool(tool: Tool, kind: str, grasps_n: int, seed: int, grip: float = 
     ok = res.labels.valid
     y = res.labels.peak_torque_induced[ok]
     preds = predictions(tool, task, scene, g[np.nonzero(ok)[0]], res.plan.q_traj[ok], grip)
-    ph = {k: v[ok] for k, v in phase_peaks(tool, scene, task, res).items()}
+    ph = {k: v[ok] for k, v in phase_peaks(tool, scene, task, g, res).items()}
     p1, R1 = moved(np.asarray(g.p_tool_grasp, float), quat_to_matrix_np(np.asarray(g.q_tool_grasp, float)), *NUDGE,
                    np.random.default_rng(seed))
     again = simulate(tool, task, make_grasps(p1, R1, np.asarray(g.width, float)), backend="native", randomize=None,
@@ -261,8 +284,10 @@ def main(argv=None) -> dict:
                   + "  ".join(f"{n} {phases['rho'][n]['rigid/passed']:+.2f} {phases['rho'][n]['arm/passed']:+.2f}"
                               for n in PHASES)
                   + f"; onset delay {phases['delay_ms']:+.1f} ms (p10-p90 spread {phases['delay_spread_ms']:.1f} ms,"
-                  f" rho {phases['rho_delay']:+.2f}); drift in the pads {phases['drift_mm']:.1f} mm (rho "
-                  f"{phases['rho_drift']:+.2f}); {phases['hit_share']:.2f} hit the target, rho over them "
+                  f" rho {phases['rho_delay']:+.2f}); lag behind the plan, p10-p90 spread: arm "
+                  f"{phases['lag_spread_mm']['arm']:.1f} mm, pads {phases['lag_spread_mm']['pads']:.1f} mm (rho with the "
+                  f"delay {phases['rho_delay_lag']['arm']:+.2f}, {phases['rho_delay_lag']['pads']:+.2f}); "
+                  f"{phases['hit_share']:.2f} hit the target, rho over them "
                   + " ".join(f"{phases['rho_hit'][m]:+.2f}" for m in PHASE_METHODS))
         result["tasks"][kind] = per_set
     result["wall_s"] = round(time.time() - t0, 1)

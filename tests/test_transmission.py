@@ -214,14 +214,15 @@ def test_arm_transmission_quick(tmp_path):
         assert 0 < ph["hit"] <= ph["valid"] == row["valid"]
         assert sum(ph["share"].values()) == pytest.approx(1.0)  # every peak lies in exactly one phase
         lo, mid, hi = ph["delay_ms"]
-        assert lo <= mid <= hi and ph["drift_mm"][0] >= 0.0
+        assert lo <= mid <= hi and ph["lag_pads_mm"][0] <= ph["lag_pads_mm"][2]
     assert s["phases"]["hit_share"] <= 1.0
 
 
-def test_phase_peaks_place_the_peak_the_delay_and_the_drift():
-    """A synthetic rollout: the target starts to move 0.20 s into the motion, 0.05 s after the trajectory's
-    impact; the wrist torque peaks 10 ms after that (the push), with a smaller bump in the blow's window;
-    the tool's contact point slides 3 mm along the grasp's x before the blow."""
+def test_phase_peaks_place_the_peak_the_delay_and_the_lag():
+    """A synthetic rollout: the tool moves along world x at 1 m/s, the target starts to move 0.20 s into
+    the motion, 0.05 s after the trajectory's impact; the wrist torque peaks 10 ms after that (the push),
+    with a smaller bump in the blow's window; the gripper trails its plan by 2 mm and the tool sits 3 mm
+    further back in the grasp than planned."""
     from types import SimpleNamespace
 
     mod = load_experiment("arm_transmission")
@@ -235,22 +236,29 @@ def test_phase_peaks_place_the_peak_the_delay_and_the_drift():
     tau[0, onset_k + 10, 2] = 5.0  # the push, the peak
     target = np.zeros((1, nstep, 3))
     target[0, onset_k:, 0] = 1e-3
+    gripper_x = sim_t - 0.002
+    tool_pos = np.zeros((1, nstep, 3))
+    tool_pos[0, :, 0] = gripper_x - 0.003
     pos_g = np.zeros((1, nstep, 3))
-    pos_g[0, n_settle + 20:, 0] = 3e-3
-    quat_g = np.tile([1.0, 0.0, 0.0, 0.0], (1, nstep, 1))
-    traces = {"gripper/wrist_torque": tau, f"target/{target_bodies('hammer')[0]}_pos": target, "tool_pos_grasp": pos_g, "tool_quat_grasp": quat_g}
+    pos_g[0, :, 0] = -0.003
+    quat = np.tile([1.0, 0.0, 0.0, 0.0], (1, nstep, 1))
+    traces = {"gripper/wrist_torque": tau, f"target/{target_bodies('hammer')[0]}_pos": target, "tool_pos": tool_pos,
+              "tool_quat": quat, "tool_pos_grasp": pos_g, "tool_quat_grasp": quat}
     res = SimpleNamespace(plan=SimpleNamespace(n_settle=n_settle, nstep=nstep, sim_t=sim_t), traces=traces)
     scene = SimpleNamespace(model=SimpleNamespace(opt=SimpleNamespace(timestep=dt)))
-    task = SimpleNamespace(kind="hammer", traj=SimpleNamespace(t=np.array([0.0, 0.15, 0.4])),
-                           impact=np.array([[0.0], [1.0], [0.0]]))
+    t_traj = np.linspace(0.0, 0.4, 9)  # the impact at 0.15 s
+    p_traj = np.stack([t_traj, np.zeros(9), np.zeros(9)], 1)
+    impact = (np.abs(t_traj - 0.15) < 1e-9).astype(float)[:, None]
+    task = SimpleNamespace(kind="hammer", impact=impact,
+                           traj=SimpleNamespace(t=t_traj, p_world_tool=p_traj, R_world_tool=np.tile(np.eye(3), (9, 1, 1))))
     tool = SimpleNamespace(contact_points=np.array([[0.0, 0.0, 0.3]]))
-    ph = mod.phase_peaks(tool, scene, task, res)
+    grasps = SimpleNamespace(p_tool_grasp=np.zeros((1, 3)), q_tool_grasp=np.array([[1.0, 0.0, 0.0, 0.0]]))
+    ph = mod.phase_peaks(tool, scene, task, grasps, res)
     assert ph["delay"][0] == pytest.approx(0.05, abs=1e-9)
     assert ph["peak_after_onset"][0] == pytest.approx(0.010, abs=1e-9)
     assert ph["push"][0] == pytest.approx(5.0) and ph["blow"][0] == pytest.approx(2.0) and ph["swing"][0] == 0.0
-    assert ph["drift"][0] == pytest.approx(3e-3)
-    y = np.array([5.0])
-    summary = mod.phase_summary(ph, y, {m: np.ones(1) for m in mod.PHASE_METHODS})
+    assert ph["lag_arm"][0] == pytest.approx(0.002, abs=1e-9) and ph["lag_pads"][0] == pytest.approx(0.003, abs=1e-9)
+    summary = mod.phase_summary(ph, np.array([5.0]), {m: np.ones(1) for m in mod.PHASE_METHODS})
     assert summary["share"] == {"swing": 0.0, "blow": 0.0, "push": 1.0} and summary["hit"] == 1
 
 
