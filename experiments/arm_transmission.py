@@ -88,10 +88,9 @@ def rigid_params(grip: float) -> dict[str, CostParams]:
             "rigid/passed": CostParams(lever_arm="wrist", torque_projection="passed", grip_force=grip)}
 
 
-RIGID = rigid_params(GRIP)
 CHAINS = {"arm": ("arm", "rigid"), "arm/passed": ("arm", "torsion"), "arm/limit": ("arm", "limit"),
           "heavy/passed": ("heavy", "torsion"), "heavy/limit": ("heavy", "limit")}
-METHODS = (*RIGID, *CHAINS)
+METHODS = (*rigid_params(GRIP), *CHAINS)
 #: m and rad: the nudge of the repeatability ceiling
 NUDGE = (0.001, np.radians(1.0))
 #: The phases of the motion, from the contact's onset (the first step the target has moved ONSET_MOVE m from
@@ -162,11 +161,10 @@ def phase_peaks(tool: Tool, scene, task, grasps, res) -> dict[str, np.ndarray]:
     # the contact point LAG_BEFORE s before the impact: planned, as the gripper carries it with the tool where
     # the grasp planned it, and where it is
     c = np.asarray(tool.contact_points, float)[0]
-    R_traj, p_traj = np.asarray(task.traj.R_world_tool, float), np.asarray(task.traj.p_world_tool, float)
-    c_traj = p_traj + np.einsum("tij,j->ti", R_traj, c)
+    c_traj = np.asarray(task.traj.point_position(c), float)  # [T, 3]
     t_probe = t_traj[k_impact] - LAG_BEFORE
     planned = np.array([np.interp(t_probe, t_traj, c_traj[:, j]) for j in range(3)])
-    travel = np.gradient(c_traj, t_traj, axis=0)[k_impact]
+    travel = np.asarray(task.traj.point_velocity(c), float)[k_impact]
     travel = travel / np.linalg.norm(travel)
     k = p.n_settle + int(np.argmin(np.abs(t - t_probe)))
     R_wt = quat_to_matrix_np(res.traces["tool_quat"][:, k])

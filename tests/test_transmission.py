@@ -17,6 +17,7 @@ from itup_jax.sim.arm import arm_trajectory
 from itup_jax.sim.arm_inertia import arm_impedance, spatial_inertia, task_blows
 from itup_jax.sim.scene import build_scene, target_bodies
 from itup_jax.task import make_task
+from itup_jax.trajectory import Trajectory
 from itup_jax.transmission import Blow, batched_wrist_response, impulse_share, wrist_response
 
 ROD_MASS, ROD_LENGTH = 0.6, 0.4
@@ -249,8 +250,10 @@ def test_phase_peaks_place_the_peak_the_delay_and_the_lag():
     t_traj = np.linspace(0.0, 0.4, 9)  # the impact at 0.15 s
     p_traj = np.stack([t_traj, np.zeros(9), np.zeros(9)], 1)
     impact = (np.abs(t_traj - 0.15) < 1e-9).astype(float)[:, None]
-    task = SimpleNamespace(kind="hammer", impact=impact,
-                           traj=SimpleNamespace(t=t_traj, p_world_tool=p_traj, R_world_tool=np.tile(np.eye(3), (9, 1, 1))))
+    still = np.zeros((9, 3))
+    traj = Trajectory(t=t_traj, p_world_tool=p_traj, R_world_tool=np.tile(np.eye(3), (9, 1, 1)),
+                      v_world=np.tile([1.0, 0.0, 0.0], (9, 1)), w_world=still, a_world=still, alpha_world=still)
+    task = SimpleNamespace(kind="hammer", impact=impact, traj=traj)
     tool = SimpleNamespace(contact_points=np.array([[0.0, 0.0, 0.3]]))
     grasps = SimpleNamespace(p_tool_grasp=np.zeros((1, 3)), q_tool_grasp=np.array([[1.0, 0.0, 0.0, 0.0]]))
     ph = mod.phase_peaks(tool, scene, task, grasps, res)
