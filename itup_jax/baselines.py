@@ -73,18 +73,17 @@ def ferrari_canny(points: np.ndarray, normals: np.ndarray, com: np.ndarray, mu: 
                   *, edges: int = CONE_EDGES, torsion: float | None = None) -> float:
     """Ferrari-Canny epsilon of contacts `points` [C, 3] with inward normals [C, 3] (soft fingers)."""
     gamma = (2.0 / 3.0) * mu * PAD_HALF_WIDTH if torsion is None else torsion
+    phi = [2 * math.pi * k / edges for k in range(edges)]
+    cos_phi = np.array([[math.cos(a)] for a in phi])  # [E, 1]
+    sin_phi = np.array([[math.sin(a)] for a in phi])
     W = []
-    for c, n in zip(points, normals):
+    for c, n in zip(points, normals):  # per contact: its E cone edges, then its two torsion wrenches
         n = n / np.linalg.norm(n)
         t1, t2 = _tangents(n)
-        r = c - com
-        for k in range(edges):
-            phi = 2 * math.pi * k / edges
-            f = n + mu * (math.cos(phi) * t1 + math.sin(phi) * t2)
-            W.append(np.r_[f, np.cross(r, f) / length])
-        for s in (-1.0, 1.0):
-            W.append(np.r_[np.zeros(3), s * gamma * n / length])
-    W = np.asarray(W)
+        f = n + mu * (cos_phi * t1 + sin_phi * t2)  # [E, 3]
+        W += [np.concatenate([f, np.cross(c - com, f) / length], axis=1)]
+        W += [np.r_[np.zeros(3), s * gamma * n / length][None] for s in (-1.0, 1.0)]
+    W = np.concatenate(W)
     try:
         hull = ConvexHull(W)
     except QhullError:  # degenerate (e.g. coplanar wrenches): no 6-D force closure

@@ -102,11 +102,15 @@ def _load_tool_arg(args) -> Any:
 
 def _make_task(args, tool) -> Any:
     """The task of `--task` for `tool`: from the task cache kept between runs when the compile cache is on
-    (`task_cache`: the same arrays, without their ~0.5 s of op-by-op dispatch in a fresh process)."""
+    (`task_cache`: the same arrays, without their ~0.5 s of op-by-op dispatch in a fresh process), and
+    then the contact calibration tables its rollouts use kept beside it (`sim.restitution.keep_tables`:
+    0.05-0.2 s per contact duration drawn)."""
     from itup_jax import compile_cache, task_cache
+    from itup_jax.sim import restitution
     from itup_jax.task import make_task
 
     if compile_cache.wanted(args.no_compile_cache):
+        restitution.keep_tables(task_cache.restitution_dir())
         return task_cache.make_task(args.task, tool)
     return make_task(args.task, tool)
 

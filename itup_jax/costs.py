@@ -46,6 +46,7 @@ import numpy as np
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.grip_demand import grip_demand_sq
+from itup_jax.kernel_cache import kept
 from itup_jax.precision import full_precision
 from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
 from itup_jax.rotations import quat_to_matrix
@@ -288,7 +289,7 @@ def regime_code(tool: ToolParams, task: Task) -> jax.Array:
                      jnp.where(dynamic_load > DYNAMIC_FORCE_RATIO * static_load, Regime.DYNAMIC, Regime.QUASI_STATIC))
 
 
-_regime_code_jit = jax.jit(regime_code)
+_regime_code_jit = kept(regime_code, "costs.regime_code")
 
 
 def classify_regime(tool: Tool | ToolParams, task: Task) -> Regime:

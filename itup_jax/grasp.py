@@ -35,6 +35,7 @@ import numpy as np
 
 from itup_jax import robot
 from itup_jax.errors import InputError
+from itup_jax.kernel_cache import kept
 from itup_jax.rotations import quat_to_matrix
 from itup_jax.shapes import to_device
 
@@ -91,7 +92,7 @@ class Grasps:
 #: [N, 3, 3] -> [N, 4] (w, x, y, z), the outer call of a host-side helper: one compiled kernel instead of
 #: its ~15 ops dispatched one by one (each a compile of its own in a fresh process); the same float32
 #: values as op by op (elementwise arithmetic, no reductions).
-_matrix_to_wxyz = jax.jit(jax.vmap(lambda m: jaxlie.SO3.from_matrix(m).wxyz))
+_matrix_to_wxyz = kept(jax.vmap(lambda m: jaxlie.SO3.from_matrix(m).wxyz), "grasp.matrix_to_wxyz")
 
 
 def make_grasps(p_tool_grasp: Any, R_tool_grasp: Any = None, width: Any = None, *,

@@ -44,6 +44,7 @@ import trimesh
 from itup_jax import robot
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, gripper_boxes, make_grasps
+from itup_jax.kernel_cache import kept
 from itup_jax.shapes import pad_rows_repeating, to_device
 from itup_jax.tools import Tool
 
@@ -224,7 +225,7 @@ def gripper_hits(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: 
 
 
 #: The sampler's one jit: the collision check over a fixed-size chunk of candidates.
-gripper_hits_batch = jax.jit(jax.vmap(gripper_hits, in_axes=(None, 0, 0, 0, None)))  # no matrix products
+gripper_hits_batch = kept(jax.vmap(gripper_hits, in_axes=(None, 0, 0, 0, None)), "grasp_sampler.gripper_hits")  # no matrix products
 CHUNK = 256
 POINT_BUCKET_BITS = 4  # the tool points' count is padded to a bucket of 4 significant bits (shapes.py)
 
@@ -241,7 +242,7 @@ def _pad_span(points_tool: jax.Array, R_tool_grasp: jax.Array, p_tool_grasp: jax
 
 
 #: contact="flat": the pads' span over a chunk of candidates (the sampler's second jit).
-pad_span_batch = jax.jit(jax.vmap(_pad_span, in_axes=(None, 0, 0)))
+pad_span_batch = kept(jax.vmap(_pad_span, in_axes=(None, 0, 0)), "grasp_sampler.pad_span")
 
 
 def pad_span(points_tool: np.ndarray, R_tool_grasp: np.ndarray, p_tool_grasp: np.ndarray) -> np.ndarray:

@@ -41,6 +41,7 @@ import numpy as np
 
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.kernel_cache import kept
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet.features import FeatureSpec, batched, cached_tool_field
 from itup_jax.shapes import to_device
@@ -88,7 +89,7 @@ def _distances(field, tool_params, task, grasps, x_mean, x_std, ref, spec, k):
 
 #: The outer call: a batch of grasps' features, their nearest-neighbour distances to the standardised
 #: reference and their group distances, one jit (`spec`, `k` static).
-guard_distances_jit = jax.jit(full_precision(_distances), static_argnames=("spec", "k"))
+guard_distances_jit = kept(full_precision(_distances), "ood.guard_distances", static_argnames=("spec", "k"))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -22,6 +22,7 @@ from itup_jax.baselines import BASELINES
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.errors import InputError, check_seed
 from itup_jax.grasp import Grasps, validate_grasps
+from itup_jax.kernel_cache import kept
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet.checkpoint import load_model
 from itup_jax.sdgnet.config import PAPER_MODEL
@@ -150,7 +151,7 @@ def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_me
 
 
 #: The one jit of SDG-Net scoring (the outer call).
-sdgnet_scores_jit = jax.jit(full_precision(_sdgnet_scores), static_argnames=("spec", "objective"))
+sdgnet_scores_jit = kept(full_precision(_sdgnet_scores), "scoring.sdgnet_scores", static_argnames=("spec", "objective"))
 
 
 def sdgnet_args(tool: Tool, task: Task, grasps: Grasps, model: Model, weights: ScoreWeights) -> tuple[tuple, dict]:

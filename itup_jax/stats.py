@@ -4,14 +4,14 @@
     roc_auc(score, label)                 P(a positive's score > a negative's), ties count half
     failure_threshold(torque, failed)     logistic fit of P(fail | peak torque); the 50 % torque
     binned_rate(x, flag, bins)            empirical rate per equal-count bin with Wilson intervals
+
+SciPy is imported inside the functions that need it: `scipy.stats` alone costs ~0.5 s of a command's
+start on a 2-core CPU, and `itup plan`/`itup demo` import this module without calling them.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
-from scipy.special import expit, log_expit
-from scipy.stats import beta, mannwhitneyu, spearmanr
 
 from itup_jax.errors import InputError, is_integer
 
@@ -24,6 +24,8 @@ def spearman(a, b) -> float:
         raise InputError(f"spearman: need two [N] arrays of one length, got {a.shape} and {b.shape}")
     if len(a) < 3 or np.ptp(a) <= 1e-12 * max(1.0, np.abs(a).max()) or np.ptp(b) <= 1e-12 * max(1.0, np.abs(b).max()):
         return float("nan")
+    from scipy.stats import spearmanr
+
     return float(spearmanr(a, b).statistic)
 
 
@@ -38,11 +40,16 @@ def roc_auc(score, label) -> float:
     pos, neg = score[label], score[~label]
     if len(pos) == 0 or len(neg) == 0:
         return float("nan")
+    from scipy.stats import mannwhitneyu
+
     return float(mannwhitneyu(pos, neg).statistic / (len(pos) * len(neg)))
 
 
 def _logistic_mle(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """(a, b) maximising sum log sigma(+-(a + b x)) on standardised x (BFGS, analytic gradient)."""
+    from scipy.optimize import minimize
+    from scipy.special import expit, log_expit
+
     mu, sd = x.mean(), x.std() or 1.0
     z = (x - mu) / sd
     s = 2.0 * y - 1.0
@@ -155,6 +162,8 @@ def paired_ratio(a, b, *, bootstrap: int = 2000, seed: int = 0, level: float = 0
 def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     """The exact (Clopper-Pearson) binomial interval of a success rate, k successes in n trials, at
     `level`: the beta quantiles, 0 and 1 at the ends (k = 0, k = n)."""
+    from scipy.stats import beta
+
     a = 1 - level
     lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
     hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))

@@ -19,12 +19,13 @@ An entry is ~12 kB (64 steps); entries of other code versions are never read aga
 be deleted at any time (the next run builds its task again).
 The CLI uses it whenever it uses the compile cache (`compile_cache.wanted`: off with
 `--no-compile-cache` or `ITUP_COMPILE_CACHE=0`); a notebook keeps its tasks in memory and has no need.
+Its subfolder `restitution/` (`restitution_dir`) keeps the contact calibration tables of the tasks'
+scenes (`sim.restitution.keep_tables`), ~1 kB each.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import io
 import json
@@ -37,6 +38,7 @@ import jax
 import numpy as np
 
 from itup_jax.atomic import atomic_write
+from itup_jax.kernel_cache import code_digest
 from itup_jax.shapes import to_device
 from itup_jax.task import Task
 from itup_jax.task import make_task as build_task
@@ -57,15 +59,9 @@ def cache_dir() -> Path:
     return Path(base) / "itup-jax" / "tasks"
 
 
-@functools.lru_cache(maxsize=1)
-def _code_digest() -> str:
-    """SHA-256 of every module of this package (its source as installed): a code change is a new key."""
-    root = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
+def restitution_dir() -> Path:
+    """The folder the CLI keeps MuJoCo's contact calibration tables in (`sim.restitution.keep_tables`)."""
+    return cache_dir() / "restitution"
 
 
 def _update(h, value: Any) -> None:
@@ -90,7 +86,7 @@ def _update(h, value: Any) -> None:
 def key(kind: str, tool: Tool, overrides: dict) -> str:
     """The entry's name for a task of `kind` for `tool` with parameter `overrides`."""
     h = hashlib.sha256()
-    h.update(f"format {FORMAT} jax {jax.__version__} numpy {np.__version__} code {_code_digest()} "
+    h.update(f"format {FORMAT} jax {jax.__version__} numpy {np.__version__} code {code_digest()} "
              f"x64 {jax.config.jax_enable_x64} backend {jax.default_backend()}".encode())
     h.update(kind.encode())
     for name in sorted(overrides):

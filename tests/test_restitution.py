@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from itup_jax.sim import restitution
 from itup_jax.sim.restitution import calibrated_dampratio, delivered_restitution, textbook_dampratio
 from itup_jax.sim.scene import build_scene, restitution_solref
 
@@ -15,6 +16,29 @@ def test_calibrated_contacts_deliver_the_wanted_restitution_within_0_02(timestep
         for timeconst in (0.004, 0.01, 0.05):
             zeta = calibrated_dampratio(e, timeconst, timestep)
             assert delivered_restitution((timeconst, zeta), timestep) == pytest.approx(e, abs=0.02)
+
+
+def test_tables_kept_on_disk_are_read_back_bit_for_bit_and_a_broken_one_is_measured_again(tmp_path):
+    args = (0.0047, 0.0005)  # a time constant no other test asks, so the in-memory cache holds no table of it
+    measured = restitution.delivered_table.__wrapped__(*args)[1]
+    try:
+        restitution.keep_tables(tmp_path)
+        restitution.delivered_table.cache_clear()
+        written = restitution.delivered_table(*args)[1]
+        (entry,) = tmp_path.iterdir()
+        np.testing.assert_array_equal(written, measured)
+        entry.write_bytes(np.zeros(80).tobytes())  # no .npy header: measured again, and rewritten
+        restitution.delivered_table.cache_clear()
+        np.testing.assert_array_equal(restitution.delivered_table(*args)[1], measured)
+        np.testing.assert_array_equal(np.load(entry), measured)
+        restitution.delivered_table.cache_clear()
+        np.save(entry, np.full(80, 0.5))  # a readable entry is what is read: the table comes from disk
+        assert restitution.delivered_table(*args)[1][0] == 0.5
+        assert restitution.delivered_table(0.0047, 0.001)[1].shape == (80,)
+        assert len(list(tmp_path.iterdir())) == 2  # the step is part of the key
+    finally:
+        restitution.keep_tables(None)
+        restitution.delivered_table.cache_clear()
 
 
 def test_the_textbook_ratio_bounces_more_than_it_promises_which_is_why_it_is_calibrated():

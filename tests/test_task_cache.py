@@ -44,7 +44,7 @@ def test_every_input_is_in_the_key(tools, monkeypatch):
     moved = hammer.mesh.copy()
     moved.vertices[0] += 1e-6
     others.append(task_cache.key("hammer", dataclasses.replace(hammer, mesh=moved), {}))
-    monkeypatch.setattr(task_cache, "_code_digest", lambda: "another version of the code")
+    monkeypatch.setattr(task_cache, "code_digest", lambda: "another version of the code")
     others.append(task_cache.key("hammer", hammer, {}))
     assert len(set(others) | {k}) == len(others) + 1
 
@@ -81,6 +81,7 @@ def test_bad_input_is_refused_before_the_cache_and_an_unwritable_folder_is_no_ca
 def test_the_cli_keeps_tasks_when_it_keeps_kernels(tools, monkeypatch, tmp_path):
     from itup_jax import compile_cache
     from itup_jax.cli import _make_task
+    from itup_jax.sim import restitution
 
     monkeypatch.setenv(task_cache.ENV_DIR, str(tmp_path))
     assert task_cache.cache_dir() == tmp_path
@@ -91,5 +92,9 @@ def test_the_cli_keeps_tasks_when_it_keeps_kernels(tools, monkeypatch, tmp_path)
     monkeypatch.delenv(compile_cache.ENV_SWITCH)
     _make_task(argparse.Namespace(task="reach", no_compile_cache=True), tool)
     assert not list(tmp_path.iterdir())
-    _make_task(argparse.Namespace(task="reach", no_compile_cache=False), tool)
+    try:
+        _make_task(argparse.Namespace(task="reach", no_compile_cache=False), tool)
+        assert restitution.tables_folder() == task_cache.restitution_dir() == tmp_path / "restitution"
+    finally:
+        restitution.keep_tables(None)
     assert len(list(tmp_path.glob("*.npz"))) == 1

@@ -15,15 +15,26 @@ is the same drop for any solref: the test of the calibration and of the scenes' 
 
     zeta = calibrated_dampratio(0.4, timeconst=0.005, timestep=0.0005)
     delivered_restitution((0.005, zeta), timestep=0.0005)   # -> 0.40 (within 0.01)
+
+A table costs 0.05-0.2 s (80 drops; longer for the long contacts of sweep and reach), and a run with
+randomised contact durations asks several. Each process keeps its tables in memory; `keep_tables(folder)`
+also keeps them on disk between processes (the command line does, next to its task cache), keyed by
+MuJoCo's version, this module's source, the time constant and the step, so a stale table is never read.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import io
 import math
+import os
+from pathlib import Path
 
 import mujoco
 import numpy as np
+
+from itup_jax.atomic import atomic_write
 
 #: m/s, the drop's impact speed (the strikes meet their targets at 0.3-1.5 m/s)
 DROP_SPEED = 1.0
@@ -75,12 +86,56 @@ def delivered_restitution(solref, timestep: float, speed: float = DROP_SPEED) ->
 TABLE_DAMPRATIOS = np.geomspace(*DAMPRATIO_RANGE, 80)
 
 
+#: Folder where `delivered_table` keeps its tables between processes (None: in memory only).
+_table_folder: Path | None = None
+
+
+def keep_tables(folder: str | os.PathLike | None) -> None:
+    """Keep `delivered_table`'s tables in `folder` between processes (made when the first is written), or
+    only in memory with None. An entry that cannot be read is measured again and rewritten; a folder
+    that cannot be written leaves the tables in memory."""
+    global _table_folder
+    _table_folder = None if folder is None else Path(folder)
+
+
+def tables_folder() -> Path | None:
+    """The folder `keep_tables` named, or None when the tables are kept only in memory."""
+    return _table_folder
+
+
+def _table_key(timeconst: float, timestep: float) -> str:
+    """The file name of a table: SHA-256 of MuJoCo's version, this module's source, the damping ratios,
+    the time constant and the step."""
+    h = hashlib.sha256()
+    h.update(f"mujoco {mujoco.__version__} timeconst {timeconst!r} timestep {timestep!r}".encode())
+    h.update(Path(__file__).read_bytes())
+    h.update(TABLE_DAMPRATIOS.tobytes())
+    return h.hexdigest() + ".npy"
+
+
 @functools.lru_cache(maxsize=512)
 def delivered_table(timeconst: float, timestep: float) -> tuple[np.ndarray, np.ndarray]:
     """(damping ratios [K], delivered restitution [K], non-increasing) of a contact with time constant
-    `timeconst` (s) at step `timestep` (s): K drops of `delivered_restitution`, about 0.1 s."""
-    e = np.array([delivered_restitution((timeconst, z), timestep) for z in TABLE_DAMPRATIOS])
-    return TABLE_DAMPRATIOS, np.minimum.accumulate(e)
+    `timeconst` (s) at step `timestep` (s): K drops of `delivered_restitution`, 0.05-0.2 s, or read
+    from the folder `keep_tables` names, bit for bit the same."""
+    entry = None if _table_folder is None else _table_folder / _table_key(float(timeconst), float(timestep))
+    if entry is not None:
+        try:
+            e = np.load(entry, allow_pickle=False)
+            if e.shape == TABLE_DAMPRATIOS.shape and e.dtype == np.float64:
+                return TABLE_DAMPRATIOS, e
+        except (OSError, ValueError):  # missing, truncated or foreign: measured again
+            pass
+    e = np.minimum.accumulate(np.array([delivered_restitution((timeconst, z), timestep) for z in TABLE_DAMPRATIOS]))
+    if entry is not None:
+        buf = io.BytesIO()
+        np.save(buf, e)
+        try:
+            entry.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(str(entry), buf.getvalue())
+        except OSError:
+            pass
+    return TABLE_DAMPRATIOS, e
 
 
 def calibrated_dampratio(restitution: float, timeconst: float, timestep: float) -> float:
