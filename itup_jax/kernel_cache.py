@@ -16,9 +16,12 @@ new entry; a stale entry is never read. An entry that cannot be read is exported
 entries are written atomically; a folder that cannot be written leaves the plain jit.
 
 Static arguments are given by keyword (a call that gives one by position, or any other keyword, is a
-plain jit). Only the arguments are flattened into the exported function (a `Task` or `Grasps` stays on this side);
-a kernel's outputs must be arrays in tuples, lists, dicts or None, which the export format stores
-itself. A kernel whose export fails is called as a plain jit for the rest of the process.
+plain jit). Only the arguments are flattened into the exported function (a `Task` or `Grasps` stays on
+this side); a kernel's outputs must be arrays in tuples, lists, dicts or None, which the export format
+stores itself. A kernel whose export fails is called as a plain jit for the rest of the process.
+
+An entry is 5-35 kB (the scorer's is the largest); entries of other code versions are never read
+again, and the folder may be deleted at any time (the next run exports again).
 
 Off until `enable` is called: notebooks and tests trace as usual unless they ask. The CLI turns it on
 with the compilation cache (`compile_cache.enable`, the subfolder `exported/`).
