@@ -146,7 +146,8 @@ def joint_heights(q: np.ndarray) -> np.ndarray:
     return np.stack(z, axis=-1)
 
 
-def track(T06: np.ndarray, q_start_ref: np.ndarray, min_height: float | None = None) -> np.ndarray:
+def track(T06: np.ndarray, q_start_ref: np.ndarray, min_height: float | None = None, *,
+          solutions: np.ndarray | None = None) -> np.ndarray:
     """Joint trajectory [..., T, 6] for flange poses [..., T, 4, 4], continuous in time.
 
     The first step takes the branch nearest `q_start_ref` [6] (a posture such as 'home') among those
@@ -158,10 +159,12 @@ def track(T06: np.ndarray, q_start_ref: np.ndarray, min_height: float | None = N
     branch is followed for all steps at once (`_follow`), the rule is checked at every step in one
     pass, and only the trajectories where it picks another branch (or meets an unreachable step) are
     stepped one step at a time, together, from the earliest such step (`_sequential`).
+
+    `solutions`: `inverse_kinematics(T06)` [..., T, 8, 6] when the caller has it already (not modified).
     """
     T06 = np.asarray(T06, float)
     batch, T = T06.shape[:-3], T06.shape[-3]
-    sols = inverse_kinematics(T06).reshape((-1, T, 8, 6))  # [B, T, 8, 6]
+    sols = (inverse_kinematics(T06) if solutions is None else np.array(solutions, float)).reshape((-1, T, 8, 6))
     if min_height is not None:
         low = (joint_heights(np.nan_to_num(sols[:, 0]))[..., 1:] < min_height).any(-1)
         sols[:, 0] = np.where(low[..., None], np.nan, sols[:, 0])

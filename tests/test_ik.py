@@ -94,6 +94,10 @@ def test_track_equals_the_step_by_step_rule(rng):
     np.testing.assert_array_equal(np.isnan(got[clear]), np.isnan(ref[clear]))
     np.testing.assert_allclose(got[clear], ref[clear], atol=1e-9, equal_nan=True)
     assert np.isnan(got[:10, 15:25]).all() and np.isfinite(got[:10, 25:]).all()
+    # the caller's own solutions give the same path, bit for bit, and are left as they were
+    kept = sols.copy()
+    np.testing.assert_array_equal(ik.track(T06, home, min_height=0.05, solutions=sols), ik.track(T06, home, min_height=0.05))
+    np.testing.assert_array_equal(sols, kept)
 
 
 def test_joint_heights_equal_the_dh_chain(rng):

@@ -147,8 +147,9 @@ def unreachable_reasons(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndar
     codes, firsts = [], []
     for s in range(0, len(g), REACHABLE_CHUNK):
         T06 = flange_poses(task, g[s: s + REACHABLE_CHUNK])
-        none = np.isnan(ik.inverse_kinematics(T06)).all(axis=-1).all(axis=-1)  # [n, T] no branch at a sample
-        q = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE)
+        sols = ik.inverse_kinematics(T06)
+        none = np.isnan(sols).all(axis=-1).all(axis=-1)  # [n, T] no branch at a sample
+        q = ik.track(T06, HOME_Q, min_height=ARM_CLEARANCE, solutions=sols)
         dips = np.isnan(q).any(-1)
         past = (np.abs(np.nan_to_num(q)) > JOINT_LIMITS).any(-1)
         code = np.full(len(T06), -1)
