@@ -98,6 +98,7 @@ def test_track_equals_the_step_by_step_rule(rng):
     kept = sols.copy()
     np.testing.assert_array_equal(ik.track(T06, home, min_height=0.05, solutions=sols), ik.track(T06, home, min_height=0.05))
     np.testing.assert_array_equal(sols, kept)
+    assert np.isnan(ik.track(T06, home, solutions=np.full_like(sols, np.nan))).all()  # they are what it follows
 
 
 def test_joint_heights_equal_the_dh_chain(rng):
