@@ -30,7 +30,7 @@ import numpy as np
 from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
 from itup_jax.errors import InputError
-from itup_jax.evaluate import data_config, method_scorer, stress_picks
+from itup_jax.evaluate import data_config, method_scorer, split_methods, stress_picks
 from itup_jax.task import TASK_KINDS
 
 PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (arXiv:2505.01399v3, Fig. 4)
@@ -78,7 +78,7 @@ def main() -> None:
     ap.add_argument("--out", default="results/grip_stress")
     a = ap.parse_args()
     tasks = tuple(t for t in a.tasks.split(",") if t)
-    methods = tuple(m for m in a.methods.split(",") if m)
+    methods = split_methods(a.methods)
     grid = tuple(sorted(float(g) for g in a.grid.split(",") if g))
     if a.quick:
         tasks, tools, n, grid, draws, tol = ("hammer",), 1, 32, (15.0, 100.0), 1, 20.0

@@ -33,6 +33,7 @@ from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import GenerateConfig, unit_tool
 from itup_jax.dataset_load import load_dataset, read_manifest
 from itup_jax.errors import InputError
+from itup_jax.evaluate import split_methods
 from itup_jax.heldout import dataset_grasps, quick_dataset, unit_rows, unseen_units
 from itup_jax.sim.scene import build_scene
 from itup_jax.stats import paired_ratio
@@ -129,7 +130,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--out", required=True, help="output folder (headroom.json)")
     ap.add_argument("--quick", action="store_true", help="a tiny dataset made here (tests)")
     a = ap.parse_args(argv)
-    methods = tuple(dict.fromkeys([m for m in a.methods.split(",") if m] + list(BASELINES)))
+    methods = tuple(dict.fromkeys(list(split_methods(a.methods)) + list(BASELINES)))
     if a.draws < 1:
         ap.error(f"--draws must be >= 1, got {a.draws}")
     if os.path.exists(a.out) and not os.path.isdir(a.out):

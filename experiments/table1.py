@@ -33,7 +33,7 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write, atomic_write_json
 from itup_jax.errors import InputError
-from itup_jax.evaluate import COLUMNS, DEFAULT_METHODS, MEASURED, PAIRED_LEVEL, compare_on_tools
+from itup_jax.evaluate import COLUMNS, DEFAULT_METHODS, MEASURED, PAIRED_LEVEL, compare_on_tools, split_methods
 from itup_jax.sim.scene import check_timestep, task_timestep
 from itup_jax.task import TASK_KINDS
 
@@ -107,7 +107,7 @@ def main(argv=None) -> dict:
     if a.quick:
         a.tasks, a.tools_per_task, a.n, a.seeds, a.methods = "hammer", 1, 16, 1, "sdgnet,sdgnet_verified,sdgnet_verified_torque,force_closure,random"
     tasks = [t for t in a.tasks.split(",") if t]
-    methods = tuple(m for m in a.methods.split(",") if m)
+    methods = split_methods(a.methods)
     try:
         if a.timestep is not None:
             check_timestep(a.timestep, "table1: --timestep")

@@ -238,13 +238,10 @@ def cmd_run(args) -> int:
 
 def cmd_evaluate(args) -> int:
     """`evaluate.evaluate` on one tool and task, its table and JSON."""
-    from itup_jax.evaluate import METHODS, evaluate, table
+    from itup_jax.evaluate import evaluate, parse_methods, table
     from itup_jax.grasp_sampler import MAX_CANDIDATES
 
-    methods = tuple(m for m in args.methods.split(",") if m)
-    bad = [m for m in methods if m not in METHODS]
-    if bad or not methods:
-        raise_input(f"--methods: unknown {bad or 'empty list'}; choose from {','.join(METHODS)}")
+    methods = parse_methods(args.methods, "--methods")
     _check_count("--seeds", args.seeds, 1)
     _check_count("--n", args.n, 1, MAX_CANDIDATES)
     if args.json:

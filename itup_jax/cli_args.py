@@ -163,8 +163,8 @@ def add_evaluate(p: argparse.ArgumentParser) -> None:
     p.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                    help=f"comma-separated, from {','.join(METHODS)} (sdgnet_verified: SDG-Net's {VERIFY_K} best rolled "
                    f"out under nominal physics, the best measured kept; sdgnet_verified_torque: its {VERIFY_TORQUE_K} "
-                   f"best by the torque-first total, each under {VERIFY_TORQUE_DRAWS} draws of the priors) "
-                   "(default %(default)s)")
+                   f"best by the torque-first total, each under {VERIFY_TORQUE_DRAWS} draws of the priors), or "
+                   "the network under other weights, e.g. sdgnet@w_align=100,w_grip=0.05 (default %(default)s)")
     p.add_argument("--grip-force", type=float, default=None, metavar="N",
                    help=f"N per pad, fixed, for the measured rollouts (default: {GRIP_FORCE:g}, randomised with the "
                    "priors); below the 2F-85's 20 N a labelled robustness probe")

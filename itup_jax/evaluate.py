@@ -92,6 +92,8 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
              grip_force: float | None = None) -> dict[str, Any]:
     """Each method's pick among the same candidates and its MuJoCo-measured labels over `seeds` rollouts.
 
+    methods: names of `METHODS`, or a network under weights of its own, 'sdgnet@w_align=100,w_grip=0.05'
+      (`method_scorer`; 'sdgnet' is `model` when given).
     grip_force: N per pad of the evaluation's rollouts, fixed (not randomised); None: the default
     (`SimConfig.grip_force`, randomised with the other priors). Below the gripper's 20 N the rollouts
     are a robustness probe (`stress.probe_scene`) and the result's "grip_probe" says so. The picks
@@ -106,9 +108,11 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     their physics from seed + 1 (with `randomize`, or the default spreads when it is None), the
     evaluation's rollouts from seed.
     """
-    unknown = [m for m in methods if m not in METHODS]
+    unknown = [m for m in methods if m not in METHODS and "@" not in m]
     if unknown or not methods:
-        raise InputError(f"evaluate: methods must be among {METHODS}, got {list(methods)}")
+        raise InputError(f"evaluate: methods must be among {METHODS} or a network with weights "
+                         f"('sdgnet@w_align=100,w_grip=0.05'), got {list(methods)}")
+    weighted = {m: method_scorer(m) for m in methods if "@" in m}  # a malformed one is named before any work
     if seeds < 1 or n < 1:
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
     if n > MAX_CANDIDATES:
@@ -129,10 +133,14 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
                            "methods": {}}
     for name in methods:
         t0 = time.perf_counter()
-        sdg = name in ("sdgnet", VERIFIED, VERIFIED_TORQUE)
-        weights = ScoreWeights.torque_first() if name == VERIFIED_TORQUE else ScoreWeights()
-        s = score(tool, task, candidates, model=(model if sdg and model is not None else "sdgnet" if sdg else name),
-                  seed=seed, weights=weights)
+        if name in weighted:  # a network under weights of its own: its pick by that total
+            base, weights = weighted[name]
+            scorer = model if base == "sdgnet" and model is not None else base
+        else:
+            sdg = name in ("sdgnet", VERIFIED, VERIFIED_TORQUE)
+            weights = ScoreWeights.torque_first() if name == VERIFIED_TORQUE else ScoreWeights()
+            scorer = model if sdg and model is not None else "sdgnet" if sdg else name
+        s = score(tool, task, candidates, model=scorer, seed=seed, weights=weights)
         verified = None
         if name == VERIFIED:
             v = best_grasp_verified(tool, task, candidates, k=VERIFY_K, seed=seed, scores=s, scene=scene)
@@ -183,6 +191,41 @@ def reduction(ours: float, theirs: float) -> float:
 # ---------------------------------------------------------------------------------------------------
 # Methods' picks under grip stress (the experiments' grip stress and weight choice)
 # ---------------------------------------------------------------------------------------------------
+def split_methods(text: str) -> tuple[str, ...]:
+    """'sdgnet@w_align=0,w_grip=0,force_closure' -> ('sdgnet@w_align=0,w_grip=0', 'force_closure'): a
+    comma-separated list of methods (`method_scorer`), where a NAME=VALUE item continues the weights of
+    the method before it. InputError for a NAME=VALUE item with no method before it."""
+    out: list[str] = []
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        if "=" in part and "@" not in part:
+            if not out or "@" not in out[-1]:
+                raise InputError(f"methods {text!r}: {part!r} is a weight with no 'method@' before it "
+                                 "(e.g. sdgnet@w_align=0,w_grip=0)")
+            out[-1] += "," + part
+        else:
+            out.append(part)
+    return tuple(out)
+
+
+def parse_methods(text: str, flag: str = "methods") -> tuple[str, ...]:
+    """The methods of a comma-separated list (`split_methods`), each a name of `METHODS` or a network under
+    weights of its own (`method_scorer`). InputError naming `flag` and the bad entry."""
+    try:
+        methods = split_methods(text)
+        for m in methods:
+            if "@" in m:
+                method_scorer(m)
+    except InputError as e:
+        raise InputError(f"{flag}: {e}") from None
+    bad = [m for m in methods if m not in METHODS and "@" not in m]
+    if bad or not methods:
+        raise InputError(f"{flag}: unknown {bad or 'empty list'}; choose from {','.join(METHODS)}, "
+                         "or sdgnet@NAME=VALUE,... (the network under other weights)")
+    return methods
+
+
 def method_scorer(method: str) -> tuple[str, ScoreWeights]:
     """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
     'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->

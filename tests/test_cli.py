@@ -104,7 +104,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     """--w-* flags weigh the analytic cost (CostParams) or SDG-Net's total (ScoreWeights) and are recorded
     as used; a baseline has no weights, the analytic cost no task term: both refused."""
     runs = {}
-    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0", "--w-fail", "0", "--w-weak", "7"])):
+    for name, extra in (("default", []), ("align", ["--w-align", "50", "--w-task", "0", "--w-fail", "0", "--w-weak", "7", "--w-grip", "0.02"])):
         out = tmp_path / f"{name}.json"
         assert main(["plan", "--task", "knock", "--n", "40", "--top", "40", "--json", str(out)] + extra) == 0
         runs[name] = json.loads(out.read_text())
@@ -115,7 +115,7 @@ def test_plan_weights_reach_the_scorer_that_uses_them(tmp_path, capsys):
     assert runs["align"]["weights"]["w_fail"] == 0 and runs["align"]["weights"]["w_weak"] == 7
     for r in runs["align"]["top"]:  # the total is the weighted sum with the given weights
         c = r["costs"]
-        grip = ScoreWeights().w_grip * c["grip"]  # the shipped network predicts the grip demand too
+        grip = 0.02 * c["grip"]  # the shipped network predicts the grip demand too
         weak = 7 * c["p_failed_weak"]  # and the probability of failing in the grip at 25 N per pad
         assert c["total"] == pytest.approx(c["tau"] + 100 * c["slip"] + 50 * c["align"] + grip + weak, rel=1e-4, abs=1e-4)
     out = tmp_path / "a.json"

@@ -39,7 +39,7 @@ def test_a_torque_moved_onto_the_closure_axis_keeps_tau_and_raises_the_demand_an
     y_on = jnp.asarray([[on[0], on[1], on[2], d_on, 0.0, 0.0]])
     y_off = jnp.asarray([[off[0], off[1], off[2], d_off, 0.0, 0.0]])
     assert float(objective.costs_of(y_on, "wrench")[0, 0]) == pytest.approx(float(objective.costs_of(y_off, "wrench")[0, 0]))
-    w = itup.ScoreWeights()
+    w = itup.ScoreWeights(w_grip=0.05)  # a total that weighs the grip demand
     tot = lambda y: float((objective.costs_of(y, "wrench") @ w.costs(jnp.float32))[0])  # noqa: E731
     assert tot(y_on) > tot(y_off)
 

@@ -313,7 +313,7 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
                  progress=False, log=lambda *a: None)
     tool, task = tasks["reach"]
     g = itup.sample_grasps(tool, 16, seed=0)
-    w = ScoreWeights(w_task=7.0, w_fail=3.0, w_weak=5.0)
+    w = ScoreWeights(w_align=40.0, w_task=7.0, w_fail=3.0, w_weak=5.0)  # every term weighed
     s = itup.score(tool, task, g, model=real, weights=w)
     ps, pf, pw = np.asarray(s.p_success), np.asarray(s.p_failed), np.asarray(s.p_failed_weak)
     expect = (w.w_tau * np.asarray(s.tau) + w.w_slip * np.asarray(s.slip) + w.w_align * np.asarray(s.align)

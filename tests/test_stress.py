@@ -180,3 +180,17 @@ def test_weak_grip_rejects_a_grip_outside_the_gripper(tmp_path, monkeypatch):
     with pytest.raises(SystemExit) as e:
         run_experiment("weak_grip", "--quick", "--weak", "0", "--out", str(tmp_path / "x"))
     assert e.value.code == 2 and not (tmp_path / "x").exists()
+
+
+def test_split_methods_keeps_weights_together():
+    """A comma list of methods where NAME=VALUE items continue the weights of the method before them."""
+    from itup_jax.evaluate import method_scorer, split_methods
+
+    assert split_methods("sdgnet@w_align=0,w_grip=0,force_closure,,geometric") == (
+        "sdgnet@w_align=0,w_grip=0", "force_closure", "geometric")
+    assert method_scorer(split_methods("sdgnet@w_align=0,w_grip=0")[0])[1] == itup.ScoreWeights(w_align=0.0, w_grip=0.0)
+    assert split_methods("sdgnet,m.npz@w_weak=3,w_slip=0") == ("sdgnet", "m.npz@w_weak=3,w_slip=0")
+    with pytest.raises(itup.InputError, match="no 'method@' before it"):
+        split_methods("w_align=0,sdgnet")
+    with pytest.raises(itup.InputError, match="no 'method@' before it"):
+        split_methods("sdgnet,w_align=0")
