@@ -993,3 +993,48 @@ def test_headroom_quick(tmp_path, monkeypatch):
     s = doc["summary"]["reach"]
     fc = [t["picks"]["force_closure"]["torque"] for t in doc["per_tool"]]
     assert s["force_closure"]["vs_force_closure"]["ratio"] == pytest.approx(1.0) and s["oracle"]["tools"] == len(fc)
+
+
+def test_sealed_tools_are_drawn_from_the_checkpoint():
+    """Seed = first 8 bytes (big-endian) of SHA-256(checkpoint || task || i); half part-wise variants of the
+    built-in tool, half the task's other families in turn; --quick's tools are never the sealed ones."""
+    import hashlib
+
+    se = load_experiment("sealed_eval")
+    ck = b"checkpoint bytes"
+    assert se.sealed_seed(ck, "knock", 3) == int.from_bytes(hashlib.sha256(b"checkpoint bytesknock3").digest()[:8], "big")
+    assert se.sealed_seed(ck, "knock", 3) != se.sealed_seed(ck + b"x", "knock", 3)
+    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet"] and se.other_families("sweep") == ["squeegee"]
+    tools = se.sealed_tools(ck, "knock", 16)
+    assert [t["kind"] for t in tools] == ["builtin"] * 8 + ["other"] * 8
+    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet"] * 2 + ["screwdriver", "spanner"]
+    assert tools[0]["tool"].name == f"mallet#{se.sealed_seed(ck, 'knock', 0)}"
+    assert tools[9]["tool"].name == f"spanner@{se.sealed_seed(ck, 'knock', 9)}"
+    quick = se.sealed_tools(ck + se.QUICK_SALT, "knock", 2)
+    assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools})
+
+
+@pytest.mark.slow
+def test_sealed_eval_quick(tmp_path, monkeypatch):
+    _run_experiment("sealed_eval.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "sealed.json").read_text())
+    jsonschema.validate(doc, load_schema("sealed"))
+    se = load_experiment("sealed_eval")
+    assert doc["config"]["quick"] and set(doc["summary"]) == {"hammer", "reach"}
+    for r in doc["per_tool"]:
+        assert r["candidates"] > 2 and set(r["picks"]) == set(se.METHODS)
+        # methods that pick the same grasp were measured once: the same numbers
+        by_index = {}
+        for m, p in r["picks"].items():
+            by_index.setdefault(p["index"], []).append(p)
+        for same in by_index.values():
+            assert all(p == same[0] for p in same)
+        assert all(p["weak"]["rollouts"] == doc["config"]["draws"] for p in r["picks"].values())
+        assert r["fidelity"]["valid"] >= 3
+    s = doc["summary"]["hammer"]
+    rows = [r for r in doc["per_tool"] if r["task"] == "hammer"]
+    red = [100 * (1 - r["picks"]["planner"]["peak_torque_induced"] / r["picks"]["force_closure"]["peak_torque_induced"])
+           for r in rows]
+    assert s["vs_force_closure"]["median_pct"] == pytest.approx(np.median(red))
+    assert s["vs_force_closure"]["tools_lower"] == sum(x > 0 for x in red)
+    assert s["weak_grip"]["planner"]["rollouts"] == 2 * doc["config"]["draws"]

@@ -1,0 +1,302 @@
+"""The sealed evaluation: the protocol of docs/results.md ("The sealed evaluation"), run once per checkpoint.
+
+    python experiments/sealed_eval.py --out results/sealed                   # the protocol (once)
+    python experiments/sealed_eval.py --quick --out results/sealed_quick     # 1 tool per task, small (tests)
+
+The test tools are drawn from the checkpoint itself, so no one chooses them and a new checkpoint gets
+new ones: for task k and tool i (0-15) the seed is the first 8 bytes, big-endian, of
+SHA-256(checkpoint bytes || k || i), with k the task's name and i in decimal, both UTF-8 (`sealed_seed`).
+Tools 0-7 are part-wise variants of the task's built-in tool (`tools.variants.part_variant`), tools 8-15
+draws of the task's other families (`tools.families`, those that do the task), one after the other in
+the families' order (--quick draws from the checkpoint's bytes followed by "/quick", never a sealed
+tool). Per tool:
+  * 256 candidates the arm can carry (`sample_reachable`, seed 0; a tool with none is a loss for
+    every method);
+  * the picks: `itup plan`'s default (SDG-Net under the shipped weights; when the out-of-distribution
+    guard fires, its GUARD_VERIFY_K-grasp shortlist, `planning.guard_order`, rolled out under nominal
+    physics and the lowest measured total kept, as `plan_grasp` does), the analytic cost in the paper's
+    and the wrench form, force closure, geometric ranking;
+  * every distinct pick rolled out under the same 5 randomised physics draws (the headline: the mean
+    full induced peak wrist torque; the raw peak and the induced torque's grasp-frame components
+    beside it), and, on tools i % 8 < 5 (10 per task), 5 more at 25 N per pad;
+  * every candidate rolled out once under one randomised draw: the Spearman correlation over the
+    candidates of SDG-Net's and each analytic form's predicted torque with the measured full induced
+    peak torque (the fidelity).
+Reported per task: the planner's reduction of the full induced torque against force closure, geometric
+ranking and the better of the two on each tool (100 (1 - ratio) per tool: the median over the 16 tools
+with a 90 % bootstrap interval, and beside it the paired geometric mean), the share of other-family
+tools on which it is below force closure's; grip failures at 25 N (50 rollouts per method and task)
+against the better baseline's; the median fidelity per task (pooled only beside it). The paper's
+margins: 17.6 / 17.5 / 11.6 / 20.8 % over GQ-CNN, 10.2 / 14.3 / 10.4 / 13.5 % over GraspNet (hammer /
+sweep / knock / reach). Writes sealed.json (schema `itup.sealed/1`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import time
+import warnings
+
+import numpy as np
+
+import itup_jax as itup
+from itup_jax.atomic import atomic_write_json
+from itup_jax.dataset import WEAK_GRIP
+from itup_jax.evaluate import MEASURED
+from itup_jax.grasp_sampler import sample_reachable
+from itup_jax.planning import GUARD_VERIFY_K, guard_order
+from itup_jax.scoring import ScoreWeights
+from itup_jax.sdgnet.config import DEFAULT_MODEL
+from itup_jax.sdgnet.objective import OBJECTIVES
+from itup_jax.sim.physics import Randomization
+from itup_jax.sim.scene import build_scene
+from itup_jax.stats import paired_ratio, spearman
+from itup_jax.stress import rollouts_at_grip
+from itup_jax.task import DEFAULT_TOOL, make_task
+from itup_jax.tools import families
+from itup_jax.tools.variants import part_variant
+from itup_jax.verify import best_grasp_verified
+
+TASKS = ("hammer", "sweep", "knock", "reach")
+PLANNER = "planner"
+METHODS = (PLANNER, "analytic", "analytic_wrench", "force_closure", "geometric")
+BASELINES = ("force_closure", "geometric")
+#: The paper's margins over its baselines (arXiv:2505.01399v3, Table I), % per task.
+PAPER = {"gqcnn": {"hammer": 17.6, "sweep": 17.5, "knock": 11.6, "reach": 20.8},
+         "graspnet": {"hammer": 10.2, "sweep": 14.3, "knock": 10.4, "reach": 13.5}}
+#: Appended to the checkpoint's bytes for --quick's tools: never the sealed ones.
+QUICK_SALT = b"/quick"
+#: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
+PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
+
+
+def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
+    """The seed of test tool `i` of `task`: the first 8 bytes, big-endian, of SHA-256(checkpoint || task || i)."""
+    h = hashlib.sha256(checkpoint + task.encode() + str(int(i)).encode()).digest()
+    return int.from_bytes(h[:8], "big")
+
+
+def other_families(task: str) -> list[str]:
+    """The tool families other than the built-in ones that do `task`, in `families.names()` order."""
+    return [n for n in families.names() if not families.get(n).builtin and task in families.get(n).tasks]
+
+
+def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]:
+    """[{i, seed, kind, family, tool}] of a task: the first half part-wise variants of its built-in tool,
+    the rest draws of its other families in turn."""
+    half, fams, out = per_task // 2, other_families(task), []
+    for i in range(per_task):
+        seed = sealed_seed(checkpoint, task, i)
+        if i < half or not fams:
+            out.append({"i": i, "seed": seed, "kind": "builtin", "family": DEFAULT_TOOL[task],
+                        "tool": part_variant(DEFAULT_TOOL[task], seed)})
+        else:
+            fam = fams[(i - half) % len(fams)]
+            out.append({"i": i, "seed": seed, "kind": "other", "family": fam, "tool": families.draw(fam, seed)})
+    return out
+
+
+def planner_pick(tool, task, grasps, scene) -> tuple[int, dict]:
+    """`itup plan`'s default pick among `grasps`: SDG-Net's lowest total, or, when the guard fires, the
+    lowest measured total of its guard-ordered shortlist under nominal physics (`plan_grasp`)."""
+    from itup_jax import ood
+
+    s = itup.score(tool, task, grasps)
+    total = np.asarray(s.total, float)
+    reading = ood.check(tool, task, grasps)
+    info = {"guard_score": None if reading is None else float(reading.score),
+            "guard_fired": bool(reading is not None and reading.fired)}
+    if not info["guard_fired"]:
+        return int(np.argmin(total)), info
+    analytic = itup.wrench_costs(tool, task, grasps, OBJECTIVES["wrench"].analytic)
+    k = min(GUARD_VERIFY_K, len(grasps))
+    order = guard_order(total, np.asarray(analytic.total), k)
+    v = best_grasp_verified(tool, task, grasps, k=k, scores=s, weights=ScoreWeights(), randomize=None,
+                            order=order, scene=scene)
+    info["verified_succeeded"] = bool(v.succeeded)
+    return int(v.index), info
+
+
+def measure(tool, task, scene, g, i: int, draws: int) -> dict:
+    """The means over `draws` randomised rollouts of grasp i (`evaluate.MEASURED`; NaN where none is valid)."""
+    reps = g[np.full(draws, i)]
+    L = itup.simulate(tool, task, reps, scene=scene, seed=PICK_SEED, randomize=Randomization()).labels
+    ok = np.asarray(L.valid)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        out = {f: float(np.nanmean(np.where(ok, np.asarray(getattr(L, f), float), np.nan))) for f in MEASURED}
+    out["valid"] = int(ok.sum())
+    return out
+
+
+def weak_failures(tool, task, scene, g, i: int, draws: int) -> dict:
+    """Grasp i's rollouts at WEAK_GRIP N per pad: {"rollouts", "failed"} (an invalid rollout counts as failed)."""
+    L = rollouts_at_grip(tool, task, g[i:i + 1], WEAK_GRIP, draws=draws, seed=GRIP_SEED, scene=scene)
+    bad = ~np.asarray(L.valid) | np.asarray(L.failed)
+    return {"rollouts": int(len(bad)), "failed": int(bad.sum())}
+
+
+def fidelity(tool, task, scene, g) -> dict:
+    """Spearman over the candidates of each model's predicted torque with the measured full induced peak."""
+    L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
+    ok = np.asarray(L.valid)
+    y = np.asarray(L.peak_torque_induced, float)[ok]
+    preds = {"sdgnet": itup.score(tool, task, g).tau,
+             "analytic": itup.wrench_costs(tool, task, g, OBJECTIVES["paper"].analytic).tau,
+             "analytic_wrench": itup.wrench_costs(tool, task, g, OBJECTIVES["wrench"].analytic).tau}
+    out = {m: spearman(np.asarray(p, float)[ok], y) for m, p in preds.items()}
+    return {"valid": int(ok.sum()), **{m: (None if not np.isfinite(v) else float(v)) for m, v in out.items()}}
+
+
+def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, with_fidelity: bool) -> dict:
+    tool = entry["tool"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # a drawn tool may swing a little over the speed limit
+        task = make_task(task_kind, tool)
+    row = {k: entry[k] for k in ("i", "seed", "kind", "family")} | {"task": task_kind, "tool": tool.name}
+    found = sample_reachable(tool, task, n, seed=0)
+    g = found.grasps
+    row["candidates"] = int(len(g))
+    if not len(g):
+        row["picks"] = {}
+        return row
+    scene = build_scene(tool, task)
+    index, info = {}, {}
+    index[PLANNER], info = planner_pick(tool, task, g, scene)
+    for m in METHODS[1:]:
+        index[m] = int(np.argmin(np.asarray(itup.score(tool, task, g, m).total, float)))
+    measured = {i: measure(tool, task, scene, g, i, draws) for i in sorted(set(index.values()))}
+    grip = {i: weak_failures(tool, task, scene, g, i, draws) for i in sorted(set(index.values()))} if weak else {}
+    row["planner"] = info
+    row["picks"] = {m: {"index": i, **measured[i], **({"weak": grip[i]} if weak else {})} for m, i in index.items()}
+    if with_fidelity:
+        row["fidelity"] = fidelity(tool, task, scene, g)
+    return row
+
+
+def _bootstrap_median(x: np.ndarray, level: float = 0.9, n: int = 2000, seed: int = 0) -> list[float] | None:
+    if len(x) < 3:
+        return None
+    m = np.median(np.random.default_rng(seed).choice(x, (n, len(x))), axis=1)
+    return [float(np.percentile(m, 50 * (1 - level))), float(np.percentile(m, 100 - 50 * (1 - level)))]
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Per task: the planner's reductions, the grip failures and the fidelity (module docstring)."""
+    out = {}
+    for k in TASKS:
+        rs = [r for r in rows if r["task"] == k]
+        if not rs:
+            continue
+
+        def torque(r, m):
+            return r["picks"][m]["peak_torque_induced"] if r["picks"] else np.nan
+
+        ours = np.array([torque(r, PLANNER) for r in rs])
+        base = {b: np.array([torque(r, b) for r in rs]) for b in BASELINES}
+        better = np.fmin(base["force_closure"], base["geometric"])
+        s = {"tools": len(rs), "no_candidates": sum(not r["picks"] for r in rs),
+             "guard_fired": sum(bool(r.get("planner", {}).get("guard_fired")) for r in rs),
+             "mean_torque": {m: float(np.nanmean([torque(r, m) for r in rs])) for m in METHODS}}
+        for name, ref in (("force_closure", base["force_closure"]), ("geometric", base["geometric"]),
+                          ("better", better)):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                red = 100.0 * (1.0 - ours / ref)
+            red = np.where(np.isnan(ours) & np.isfinite(ref), -np.inf, red)  # no pick: a loss
+            fin = red[~np.isnan(red)]
+            s[f"vs_{name}"] = {"median_pct": float(np.median(fin)) if len(fin) else None,
+                               "interval_pct": _bootstrap_median(np.clip(fin, -1e3, None)),
+                               "paired": paired_ratio(ours, ref, level=0.9), "tools_lower": int(np.sum(fin > 0))}
+        other = [r for r in rs if r["kind"] == "other"]
+        s["other_family_below_fc"] = {"tools": len(other), "lower": int(sum(
+            torque(r, PLANNER) < torque(r, "force_closure") for r in other if r["picks"]))}
+        weak = [r for r in rs if r["picks"] and "weak" in r["picks"][PLANNER]]
+        if weak:
+            s["weak_grip"] = {m: {"rollouts": sum(r["picks"][m]["weak"]["rollouts"] for r in weak),
+                                  "failed": sum(r["picks"][m]["weak"]["failed"] for r in weak)} for m in METHODS}
+            bb = [r["picks"]["geometric" if torque(r, "geometric") < torque(r, "force_closure") else "force_closure"]
+                  for r in weak]
+            s["weak_grip"]["better_baseline"] = {"rollouts": sum(p["weak"]["rollouts"] for p in bb),
+                                                 "failed": sum(p["weak"]["failed"] for p in bb)}
+        fid = [r["fidelity"] for r in rs if r.get("fidelity")]
+        if fid:
+            s["fidelity_median"] = {m: (None if not [f[m] for f in fid if f[m] is not None] else
+                                        float(np.median([f[m] for f in fid if f[m] is not None])))
+                                    for m in ("sdgnet", "analytic", "analytic_wrench")}
+            s["fidelity_median_other_families"] = {m: (None if not v else float(np.median(v))) for m, v in (
+                (m, [r["fidelity"][m] for r in rs if r.get("fidelity") and r["kind"] == "other"
+                     and r["fidelity"][m] is not None]) for m in ("sdgnet", "analytic", "analytic_wrench"))}
+        out[k] = s
+    return out
+
+
+def _commit() -> str | None:
+    """The repository's commit and whether its tree had changes ('<sha>+dirty'), or None outside git."""
+    import subprocess
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True,
+                               text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return sha + ("+dirty" if dirty else "")
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--tools", type=int, default=16, help="test tools per task (default %(default)s)")
+    ap.add_argument("--n", type=int, default=256, help="candidates per tool (default %(default)s)")
+    ap.add_argument("--draws", type=int, default=5, help="randomised rollouts per pick and grip (default %(default)s)")
+    ap.add_argument("--tasks", default=",".join(TASKS))
+    ap.add_argument("--quick", action="store_true", help="hammer and reach, 2 tools each, 24 candidates, 2 draws (tests)")
+    ap.add_argument("--out", default="results/sealed")
+    a = ap.parse_args(argv)
+    if a.quick:
+        a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
+    tasks = tuple(t for t in a.tasks.split(",") if t)
+    bad = [t for t in tasks if t not in TASKS]
+    if bad or a.tools < 1 or a.n < 1 or a.draws < 1:
+        ap.error(f"--tasks among {','.join(TASKS)}, --tools, --n and --draws >= 1; got {a.tasks!r}, {a.tools}, {a.n}, {a.draws}")
+    with open(DEFAULT_MODEL, "rb") as fh:
+        checkpoint = fh.read()
+    # --quick draws its tools from other seeds, so that a test run never rolls out a sealed tool
+    draw_from = checkpoint + QUICK_SALT if a.quick else checkpoint
+    t0, rows = time.perf_counter(), []
+    for k in tasks:
+        for e in sealed_tools(draw_from, k, a.tools):
+            t = time.perf_counter()
+            weak = e["i"] % 8 < 5 if not a.quick else True
+            rows.append(evaluate_tool(e, k, a.n, a.draws, weak, with_fidelity=True))
+            r = rows[-1]
+            picks = "  ".join(f"{m} {p['peak_torque_induced']:.2f}" for m, p in r["picks"].items())
+            print(f"{k:7s} {r['tool']:28s} {r['candidates']:4d} cands  guard "
+                  f"{'fired' if r.get('planner', {}).get('guard_fired') else 'quiet'}  {picks}  ({time.perf_counter() - t:.0f} s)",
+                  flush=True)
+    from itup_jax.bench import machine_info
+
+    out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
+           "version": itup.__version__, "commit": _commit(), "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
+                                                   "quick": a.quick},
+           "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
+           "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}
+    os.makedirs(a.out, exist_ok=True)
+    atomic_write_json(os.path.join(a.out, "sealed.json"), out, indent=1)
+    for k, s in out["summary"].items():
+        v = {b: s[f"vs_{b}"] for b in ("force_closure", "geometric", "better")}
+        txt = "  ".join(f"vs {b} median {x['median_pct']:+.0f}% {x['interval_pct'] or ''} ({x['tools_lower']}/{s['tools']} lower)"
+                        for b, x in v.items() if x["median_pct"] is not None)
+        print(f"{k:7s} {txt}; paper +{PAPER['gqcnn'][k]}% / +{PAPER['graspnet'][k]}%")
+        if "weak_grip" in s:
+            print("        25 N failures: " + "  ".join(f"{m} {w['failed']}/{w['rollouts']}" for m, w in s["weak_grip"].items()))
+        if "fidelity_median" in s:
+            print("        fidelity (median Spearman): " + "  ".join(f"{m} {x if x is None else round(x, 2)}"
+                                                                    for m, x in s["fidelity_median"].items()))
+    return out
+
+
+if __name__ == "__main__":
+    main()
