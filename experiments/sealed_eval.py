@@ -98,9 +98,10 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
     return out
 
 
-def planner_pick(tool, task, grasps, scene) -> tuple[int, dict]:
+def planner_pick(tool, task, grasps, scene) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among `grasps`: SDG-Net's lowest total, or, when the guard fires, the
-    lowest measured total of its guard-ordered shortlist under nominal physics (`plan_grasp`)."""
+    lowest measured total of its guard-ordered shortlist under nominal physics (`plan_grasp`); None when
+    none of that shortlist did the task and held (`itup plan` then recommends no grasp)."""
     from itup_jax import ood
 
     s = itup.score(tool, task, grasps)
@@ -116,7 +117,7 @@ def planner_pick(tool, task, grasps, scene) -> tuple[int, dict]:
     v = best_grasp_verified(tool, task, grasps, k=k, scores=s, weights=ScoreWeights(), randomize=None,
                             order=order, scene=scene)
     info["verified_succeeded"] = bool(v.succeeded)
-    return int(v.index), info
+    return (int(v.index) if v.succeeded else None), info
 
 
 def measure(tool, task, scene, g, i: int, draws: int) -> dict:
@@ -167,8 +168,12 @@ def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, w
     index[PLANNER], info = planner_pick(tool, task, g, scene)
     for m in METHODS[1:]:
         index[m] = int(np.argmin(np.asarray(itup.score(tool, task, g, m).total, float)))
-    measured = {i: measure(tool, task, scene, g, i, draws) for i in sorted(set(index.values()))}
-    grip = {i: weak_failures(tool, task, scene, g, i, draws) for i in sorted(set(index.values()))} if weak else {}
+    picked = sorted({i for i in index.values() if i is not None})
+    measured = {i: measure(tool, task, scene, g, i, draws) for i in picked}
+    grip = {i: weak_failures(tool, task, scene, g, i, draws) for i in picked} if weak else {}
+    # no pick (the planner's verified shortlist all failed): a loss, measured as nothing
+    measured[None] = {f: float("nan") for f in MEASURED} | {"valid": 0}
+    grip[None] = {"rollouts": draws, "failed": draws}
     row["planner"] = info
     row["picks"] = {m: {"index": i, **measured[i], **({"weak": grip[i]} if weak else {})} for m, i in index.items()}
     if with_fidelity:
@@ -199,6 +204,7 @@ def summarise(rows: list[dict]) -> dict:
         better = np.fmin(base["force_closure"], base["geometric"])
         s = {"tools": len(rs), "no_candidates": sum(not r["picks"] for r in rs),
              "guard_fired": sum(bool(r.get("planner", {}).get("guard_fired")) for r in rs),
+             "planner_no_pick": sum(r.get("planner", {}).get("verified_succeeded") is False for r in rs),
              "mean_torque": {m: float(np.nanmean([torque(r, m) for r in rs])) for m in METHODS}}
         for name, ref in (("force_closure", base["force_closure"]), ("geometric", base["geometric"]),
                           ("better", better)):
