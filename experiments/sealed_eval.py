@@ -271,7 +271,7 @@ def main(argv=None) -> dict:
         checkpoint = fh.read()
     # --quick draws its tools from other seeds, so that a test run never rolls out a sealed tool
     draw_from = checkpoint + QUICK_SALT if a.quick else checkpoint
-    t0, rows = time.perf_counter(), []
+    t0, rows, commit = time.perf_counter(), [], _commit()  # the code that runs, before any rollout
     for k in tasks:
         for e in sealed_tools(draw_from, k, a.tools):
             t = time.perf_counter()
@@ -285,7 +285,7 @@ def main(argv=None) -> dict:
     from itup_jax.bench import machine_info
 
     out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
-           "version": itup.__version__, "commit": _commit(), "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
+           "version": itup.__version__, "commit": commit, "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
                                                    "quick": a.quick},
            "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}
