@@ -322,7 +322,7 @@ def test_binary_heads_learn_success_and_failure_and_the_scorer_penalises_both(ta
     for name in ("w_task", "w_fail", "w_weak"):
         with pytest.raises(itup.InputError, match=name):
             ScoreWeights(**{name: -1.0})  # a negative weight would reward a predicted miss or failure
-    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_task=0.0, w_fail=0.0, w_weak=0.0))
+    s0 = itup.score(tool, task, g, model=real, weights=ScoreWeights(w_align=40.0, w_task=0.0, w_fail=0.0, w_weak=0.0))
     np.testing.assert_allclose(np.asarray(s.total) - np.asarray(s0.total), 7.0 * (1 - ps) + 3.0 * pf + 5.0 * pw,
                                rtol=1e-5, atol=1e-5)
     bare = train(_synthetic(f=spec.size), TrainConfig(hidden=(8,), epochs=2, success_weight=0.0, failure_weight=0.0,
