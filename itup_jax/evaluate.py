@@ -108,11 +108,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
     their physics from seed + 1 (with `randomize`, or the default spreads when it is None), the
     evaluation's rollouts from seed.
     """
-    unknown = [m for m in methods if m not in METHODS and "@" not in m]
-    if unknown or not methods:
-        raise InputError(f"evaluate: methods must be among {METHODS} or a network with weights "
-                         f"('sdgnet@w_align=100,w_grip=0.05'), got {list(methods)}")
-    weighted = {m: method_scorer(m) for m in methods if "@" in m}  # a malformed one is named before any work
+    weighted = check_methods(methods, "evaluate: methods")  # a bad one is named before any work
     if seeds < 1 or n < 1:
         raise InputError(f"evaluate: need seeds >= 1 and n >= 1, got seeds={seeds}, n={n}")
     if n > MAX_CANDIDATES:
@@ -209,20 +205,28 @@ def split_methods(text: str) -> tuple[str, ...]:
     return tuple(out)
 
 
-def parse_methods(text: str, flag: str = "methods") -> tuple[str, ...]:
-    """The methods of a comma-separated list (`split_methods`), each a name of `METHODS` or a network under
-    weights of its own (`method_scorer`). InputError naming `flag` and the bad entry."""
+def check_methods(methods: Sequence[str], flag: str = "methods") -> dict[str, tuple[str, ScoreWeights]]:
+    """{name: (network, weights)} of the methods that carry weights of their own (`method_scorer`), after
+    checking that every method is a name of `METHODS` or such a network. InputError naming `flag` and the
+    bad entry."""
     try:
-        methods = split_methods(text)
-        for m in methods:
-            if "@" in m:
-                method_scorer(m)
+        weighted = {m: method_scorer(m) for m in methods if "@" in m}
     except InputError as e:
         raise InputError(f"{flag}: {e}") from None
-    bad = [m for m in methods if m not in METHODS and "@" not in m]
+    bad = [m for m in methods if m not in METHODS and m not in weighted]
     if bad or not methods:
         raise InputError(f"{flag}: unknown {bad or 'empty list'}; choose from {','.join(METHODS)}, "
                          "or sdgnet@NAME=VALUE,... (the network under other weights)")
+    return weighted
+
+
+def parse_methods(text: str, flag: str = "methods") -> tuple[str, ...]:
+    """The methods of a comma-separated list (`split_methods`), checked (`check_methods`)."""
+    try:
+        methods = split_methods(text)
+    except InputError as e:
+        raise InputError(f"{flag}: {e}") from None
+    check_methods(methods, flag)
     return methods
 
 
