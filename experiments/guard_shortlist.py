@@ -110,7 +110,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--n", type=int, default=1000, help="candidates per tool (default %(default)s)")
     ap.add_argument("--k", type=int, default=5, help="shortlist size (default %(default)s)")
     ap.add_argument("--draws", type=int, default=3, help="random-physics rollouts of each pick (default %(default)s)")
-    ap.add_argument("--families", default=",".join(f for f in families.names() if not families.get(f).builtin),
+    ap.add_argument("--families", default=",".join(families.held_out()),
                     help="comma-separated families (default: those SDG-Net was not trained on)")
     ap.add_argument("--quick", action="store_true", help="one family, one tool, 24 candidates (for the tests)")
     ap.add_argument("--out", default="results/guard_shortlist")

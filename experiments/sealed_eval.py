@@ -79,8 +79,8 @@ def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
 
 
 def other_families(task: str) -> list[str]:
-    """The tool families other than the built-in ones that do `task`, in `families.names()` order."""
-    return [n for n in families.names() if not families.get(n).builtin and task in families.get(n).tasks]
+    """The held-out tool families (no training set holds them) that do `task`, in `families.names()` order."""
+    return [n for n in families.held_out() if task in families.get(n).tasks]
 
 
 def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]:

@@ -932,6 +932,18 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
     assert held["verified"] == held["guard_fired"] and held["status"] in ("ok", "no_verified_success")
 
 
+def test_ood_guard_calibration_families():
+    """Calibrated on the training families, the guard is judged on held-out families it was not calibrated
+    on: they are drawn for the test set only, the training families for the calibration set only."""
+    from experiments.ood_guard import family_sets
+
+    names = ["mallet", "screwdriver", "squeegee"]
+    assert family_sets(names, "held_out", ("baton",)) == dict.fromkeys(names, ("calibration", "test"))
+    sets = family_sets(names, "training", ("baton", "hook"))
+    assert sets == {"mallet": ("calibration", "test"), "screwdriver": ("test",), "squeegee": ("test",),
+                    "baton": ("calibration",), "hook": ("calibration",)}
+
+
 @pytest.mark.slow
 def test_guard_shortlist_quick(tmp_path, monkeypatch):
     """One held-out tool: every rule's shortlist of 5 distinct candidates, its pick among them (or none),
@@ -968,6 +980,30 @@ def test_leave_family_out_quick(tmp_path, monkeypatch):
     assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["all"]) == 2
     held = doc["held_out"]["screwdriver"]["without"]
     assert held["tools"] == 1 and 0 <= held["verified_ok"] <= 1
+
+
+@pytest.mark.slow
+def test_training_families_quick(tmp_path, monkeypatch):
+    """A tiny training family's rows and rehearsal rows: the control adapted on rehearsal alone, the trained
+    model on both, every model judged on the same held-out and built-in tools, the reading's margin from
+    the seeds' spread."""
+    _run_experiment("training_families.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    doc = json.loads((tmp_path / "training_families.json").read_text())
+    assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0"}
+    assert doc["held_out"] == ["screwdriver/knock"] and doc["builtin"] == ["mallet/knock"]
+    for name in ("rehearsed_s0", "trained_s0"):
+        assert (tmp_path / "models" / f"{name}.npz").exists()
+        assert (tmp_path / "models" / f"{name}.reference.npz").exists()
+    tools = {name: [(r["tool"], r["task"]) for r in rs] for name, rs in doc["rows"].items()}
+    assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["shipped"]) == 2
+    # the trained model saw the training family's rows, the control did not: their weights differ
+    a, b = (np.load(tmp_path / "models" / f"{n}.npz") for n in ("rehearsed_s0", "trained_s0"))
+    weights = [k for k in a.files if a[k].dtype.kind == "f" and a[k].shape == b[k].shape]
+    assert weights and any(not np.array_equal(a[k], b[k]) for k in weights)
+    reading = doc["reading"]
+    assert reading["trained"]["held_out_spread"] == 0.0  # one seed: no spread
+    assert ("teaches" in reading) == (reading["trained"]["held_out_mean"] is not None
+                                      and reading["rehearsed"]["held_out_mean"] is not None)
 
 
 @pytest.mark.slow

@@ -43,7 +43,7 @@ def test_family_tools_are_closed_with_sane_mass_properties(name):
         _, dist, _ = trimesh.proximity.closest_point(tool.mesh, tool.contact_points)
         assert np.all(dist < 1e-6), (tool.name, dist)  # the contacts on the surface
         np.testing.assert_allclose(tool.contact_normal, CATEGORY_CONTACT_NORMAL[tool.category])
-        assert tool.category == name and name in priors.CATEGORY_PRIORS
+        assert tool.category == families.get(name).tool_category and tool.category in priors.CATEGORY_PRIORS
         # the grasp region holds the handle: the sampler finds grasps in it
         assert len(itup.sample_grasps(tool, 32, seed=0)) == 32
 
@@ -72,7 +72,7 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
     path = tmp_path / f"{name}.stl"
     mesh.export(path)
     lo, hi = tool.grasp_region.lo * 1e3, tool.grasp_region.hi * 1e3
-    spec = {"name": name, "category": name, "units": "mm", "mass": tool.mass,
+    spec = {"name": name, "category": tool.category, "units": "mm", "mass": tool.mass,
             "contact_point": (tool.contact_point * 1e3).tolist(),
             "contact_normal": tool.contact_normal.tolist(),
             "grasp_region": {"min": lo.tolist(), "max": hi.tolist()}}
@@ -80,7 +80,51 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
     assert user.mass == pytest.approx(tool.mass)
     np.testing.assert_allclose(user.contact_point, tool.contact_point, atol=1e-9)
     np.testing.assert_allclose(user.mesh_to_tool, np.eye(3))
-    assert float(user.params.mu) == priors.CATEGORY_PRIORS[name].mu.value
+    assert float(user.params.mu) == priors.CATEGORY_PRIORS[tool.category].mu.value
+
+
+def test_held_out_and_training_families():
+    """The five held-out families and the four training ones; a training family's tools take a built-in
+    category (its priors and tool frame), so its labels teach that category's network."""
+    assert families.held_out() == ("screwdriver", "spanner", "pry_bar", "hatchet", "squeegee")
+    assert families.training() == ("baton", "headed_stick", "hook", "pusher")
+    builtin = {f for f in families.names() if families.get(f).builtin}
+    for name in families.training():
+        fam = families.get(name)
+        assert fam.tool_category in builtin and not fam.held_out
+        assert families.draw(name, 7).category == fam.tool_category
+    assert all(families.get(f).tool_category == f for f in families.held_out())
+
+
+def _span(name, measure, n=24):
+    values = [measure(families.draw(name, s)) for s in range(n)]
+    return min(values), max(values)
+
+
+def test_training_families_span_mass_distribution_size_and_reach():
+    """What the training families are for: across draws, centres of mass from the handle's side to the
+    working end's, light and heavy heads, grasp regions near to and far from the hook's bend, narrow and
+    wide T-heads on short and long handles."""
+    def com_fraction(t):  # centre of mass along the handle axis, as a share of the tool's length
+        lo, hi = t.mesh.bounds
+        return float(t.params.com[2] - lo[2]) / float(hi[2] - lo[2])
+
+    lo, hi = _span("baton", com_fraction)
+    assert lo < 0.35 and hi > 0.6, (lo, hi)  # tip lighter than the handle ... much heavier
+    def head_share(t):
+        return dict((n, m) for n, _, m in t.parts)["head"] / t.mass
+
+    lo, hi = _span("headed_stick", head_share)
+    assert lo < 0.3 and hi > 0.75, (lo, hi)
+
+    def bend_gap(t):  # from the grasp region's top to the hook's underside
+        return float(t.contact_point[2] - t.grasp_region.hi[2])
+
+    lo, hi = _span("hook", bend_gap)
+    assert lo < 0.03 and hi > 0.25, (lo, hi)
+    width = _span("pusher", lambda t: float(np.ptp(t.mesh.vertices[:, 0])))
+    height = _span("pusher", lambda t: float(np.ptp(t.mesh.vertices[:, 2])))
+    assert width[0] < 0.12 and width[1] > 0.35 and height[0] < 0.25 and height[1] > 0.5, (width, height)
 
 
 def _first_contact_step(task) -> int:

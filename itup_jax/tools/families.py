@@ -1,15 +1,17 @@
 """Procedural tool families: parametric builders, their size ranges, and the tasks each can do.
 
     from itup_jax.tools import families
-    families.names()                         # ('hammer', 'broom', ..., 'squeegee')
+    families.names()                         # ('hammer', 'broom', ..., 'squeegee', 'baton', ..., 'pusher')
+    families.held_out()                      # the five no training set holds
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Nine families. The first four are the built-in tools' (`builtin.claw_hammer`, `hand_broom`, `mallet`,
-`l_stick`), drawn part-wise by `variants.part_variant`. The other five are defined here, each assembled
-from primitive parts with their own materials (`builtin.assemble_tool`: mass properties from the parts'
+Thirteen families. The first four are the built-in tools' (`builtin.claw_hammer`, `hand_broom`,
+`mallet`, `l_stick`), drawn part-wise by `variants.part_variant`. The next five are held out of every
+training set (`held_out()`: the evaluations' families the network never saw), each assembled from
+primitive parts with their own materials (`builtin.assemble_tool`: mass properties from the parts'
 meshes and densities, a watertight union for sampling, capsules and boxes for the simulator):
 
   screwdriver  a cellulose-acetate handle and a thin steel shaft; taps with the side of the shaft's tip
@@ -21,6 +23,20 @@ meshes and densities, a watertight union for sampling, capsules and boxes for th
                on the other; strikes with the poll (hammer, knock).
   squeegee     a T-headed long tool: a neoprene blade in a polypropylene holder on a hollow aluminium
                handle; pushes with the blade (sweep).
+
+The last four are training families (`training()`): wide spans of a built-in category's shape and mass
+distribution, each part's material drawn too, made for the network's training data and never used to
+evaluate it:
+
+  baton        a headless stick in two coaxial segments (handle and tip, each its radius and material):
+               uniform, thin-tipped, heavy- or light-tipped; strikes with the tip's side (mallet's
+               category; hammer, knock).
+  headed_stick a handle and a box head, light to heavy, centred or lopsided; strikes with the head's face
+               (hammer's category; hammer, knock).
+  hook         a bar bent at the end, round or square, grasp region up to the bend; pulls with the
+               bend (L-stick's category; reach).
+  pusher       a T-head, short or wide, on a short or long handle; pushes with the head (broom's
+               category; sweep).
 
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin, the contact normal along the category's direction. The ranges are typical
@@ -174,6 +190,115 @@ def squeegee(*, half_width: float = 0.150, blade_height: float = 0.030, handle_r
 
 
 # ---------------------------------------------------------------------------------------------------
+# Training families: wide parametric spans of each category's shape and mass distribution
+# ---------------------------------------------------------------------------------------------------
+#: Materials a training family's parts are drawn from (`priors.MATERIAL_DENSITY`).
+HANDLE_MATERIALS = ("hickory", "beech", "polypropylene", "cellulose_acetate", "aluminium")
+HEAD_MATERIALS = ("steel", "aluminium", "beech", "polypropylene")
+
+
+def baton(*, length: float = 0.320, handle_fraction: float = 0.55, handle_radius: float = 0.014,
+          tip_radius: float = 0.012, handle_material: str = "hickory", tip_material: str = "hickory",
+          name: str = "baton") -> Tool:
+    """A headless stick in two coaxial segments along +z, each with its own radius and material: a handle
+    (handle_fraction of the length, the grasp region) and a tip. A uniform baton, a thin steel shaft on a
+    thick handle (a screwdriver's build), a heavy tip or a light one. It strikes with the side of the tip
+    15 mm short of its end (+x), as a mallet's category (knock, hammer). Default: 0.32 m, ~0.14 kg."""
+    z1 = handle_fraction * length
+    g = max(handle_radius, tip_radius) + 0.006
+    return assemble_tool(
+        name=name, category="mallet",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z1))),
+            ("tip", tip_material, cylinder_part(tip_radius, (0, 0, z1), (0, 0, length))),
+        ],
+        contact_points=[(tip_radius, 0.0, length - 0.015)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, z1)),
+    )
+
+
+def headed_stick(*, handle_length: float = 0.300, handle_radius: float = 0.014, head_back: float = 0.040,
+                 head_front: float = 0.040, head_height: float = 0.030, head_width: float = 0.028,
+                 handle_material: str = "hickory", head_material: str = "steel", name: str = "headed_stick") -> Tool:
+    """A handle along +z and a box head across its top, from x = -head_back to +head_front (head_height
+    tall along z, head_width along y): light or heavy, centred or lopsided (a short back is a hatchet's
+    poll side, a long one its blade). It strikes with the head's +x face (hammer's category: hammer,
+    knock). Default: 0.33 m, ~0.68 kg."""
+    z0 = handle_length
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("head", head_material, box_part((-head_back, -head_width / 2, z0),
+                                             (head_front, head_width / 2, z0 + head_height))),
+        ],
+        contact_points=[(head_front, 0.0, z0 + head_height / 2)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
+    )
+
+
+def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.090, grasp_fraction: float = 0.6,
+         material: str = "aluminium", section: str = "round", name: str = "hook") -> Tool:
+    """A bar along +z bent at a right angle along +x at its far end, round or square in section
+    (`radius` to its flats), of one material. It pulls with the bend's inner face (-z), as the
+    L-stick's category (reach). The grasp region runs from the butt over grasp_fraction of the length, up
+    to the bend for the largest fractions. The contact lies 30 mm from the hook's tip (halfway along a
+    shorter hook). Default: 0.45 m, ~0.29 kg."""
+    r = radius
+    z1 = length - r
+    if section not in ("round", "square"):
+        raise InputError(f"hook {name!r}: section must be 'round' or 'square', got {section!r}")
+
+    def segment(p0, p1):
+        if section == "round":
+            return cylinder_part(r, p0, p1)
+        lo, hi = np.minimum(p0, p1) - r, np.maximum(p0, p1) + r
+        axis = int(np.argmax(np.abs(np.subtract(p1, p0))))
+        lo[axis], hi[axis] = min(p0[axis], p1[axis]), max(p0[axis], p1[axis])
+        return box_part(lo, hi)
+
+    g = r * math.sqrt(2.0) + 0.006
+    return assemble_tool(
+        name=name, category="l_stick",
+        parts=[
+            ("bar", material, segment(np.array([0.0, 0.0, 0.0]), np.array([0.0, 0.0, length]))),
+            ("hook", material, segment(np.array([r, 0.0, z1]), np.array([hook_end, 0.0, z1]))),
+        ],
+        # 30 mm from the hook's tip (halfway along a shorter hook): low on the block's face in the reach
+        contact_points=[(max(hook_end - 0.030, 0.5 * (r + hook_end)), 0.0, z1 - r)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 2 * r))),
+    )
+
+
+def pusher(*, half_width: float = 0.120, head_height: float = 0.040, head_depth: float = 0.030,
+           handle_radius: float = 0.011, handle_length: float = 0.300, grasp_fraction: float = 0.5,
+           head_material: str = "beech", handle_material: str = "polypropylene", name: str = "pusher") -> Tool:
+    """A T-headed pusher: a solid head (2 half_width wide along x, head_depth along y, head_height tall)
+    whose bottom is at z = 0, and a handle along +z from its top; short and wide heads, long and short
+    handles. It pushes along +y with the head's leading face 5 mm above its bottom edge, at x = 0 and
+    +-0.75 half_width, as the broom's category (sweep). The grasp region is the handle's top
+    grasp_fraction. Default: 0.34 m tall, 0.24 m wide, ~0.3 kg."""
+    z0 = head_height
+    g = handle_radius + 0.009
+    top = z0 + handle_length
+    cx = 0.75 * half_width
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[
+            ("head", head_material, box_part((-half_width, -head_depth / 2, 0.0), (half_width, head_depth / 2, z0))),
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, z0), (0, 0, top))),
+        ],
+        contact_points=[(0.0, head_depth / 2, 0.005), (-cx, head_depth / 2, 0.005), (cx, head_depth / 2, 0.005)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
 # The registry
 # ---------------------------------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
@@ -181,13 +306,16 @@ class Family:
     """One procedural tool family.
 
     Attributes:
-      name: the family's name (its category, and `load_tool`'s name for the default).
+      name: the family's name (`load_tool`'s name for the default; its tools' category unless `category`).
       build: keyword dimensions (metres) -> Tool; its defaults are the family's default tool.
       tasks: the task kinds the family's tools can do.
       ranges: {keyword: (low, high)} uniform ranges of a draw (metres, or a count for `sections`);
         empty for the four built-in families, which `variants.part_variant` draws.
       choices: {keyword: (value, ...)} discrete choices of a draw (uniform).
       summary: one line for the docs and `itup tools`.
+      training: a training family: a wide span of a category's shapes and mass distributions, drawn for
+        the network's training data (`itup generate --family`), never for its evaluation.
+      category: its tools' category (priors and tool frame), when not the family's name.
     """
 
     name: str
@@ -196,11 +324,23 @@ class Family:
     ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     choices: Mapping[str, tuple] = dataclasses.field(default_factory=dict)
     summary: str = ""
+    training: bool = False
+    category: str = ""
 
     @property
     def builtin(self) -> bool:
         """One of the four families of the built-in tools (drawn by `variants.part_variant`)."""
         return not self.ranges
+
+    @property
+    def held_out(self) -> bool:
+        """One of the five families kept out of every training set: the evaluation's unseen families."""
+        return not self.builtin and not self.training
+
+    @property
+    def tool_category(self) -> str:
+        """The category of the family's tools."""
+        return self.category or self.name
 
 
 def _ranges(**r: tuple[float, float]) -> Mapping[str, tuple[float, float]]:
@@ -238,12 +378,50 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(half_width=(0.100, 0.200), blade_height=(0.020, 0.040), handle_radius=(0.009, 0.013),
                 handle_length=(0.300, 0.500)),
         summary="T-headed long tool: blade on a long handle; pushes with the blade"),
+    "baton": Family(
+        "baton", baton, ("hammer", "knock"),
+        _ranges(length=(0.180, 0.450), handle_fraction=(0.35, 0.75), handle_radius=(0.010, 0.018),
+                tip_radius=(0.003, 0.020)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "tip_material": HEAD_MATERIALS}),
+        summary="training: headless two-segment stick, thin or thick, light or heavy tip; strikes with the tip's side",
+        training=True, category="mallet"),
+    "headed_stick": Family(
+        "headed_stick", headed_stick, ("hammer", "knock"),
+        _ranges(handle_length=(0.180, 0.450), handle_radius=(0.010, 0.018), head_back=(0.010, 0.070),
+                head_front=(0.015, 0.070), head_height=(0.018, 0.045), head_width=(0.012, 0.040)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": HEAD_MATERIALS}),
+        summary="training: handle and box head, light to heavy, centred or lopsided; strikes with the head",
+        training=True, category="hammer"),
+    "hook": Family(
+        "hook", hook, ("reach",),
+        _ranges(length=(0.300, 0.600), radius=(0.005, 0.010), hook_end=(0.050, 0.140), grasp_fraction=(0.3, 0.95)),
+        MappingProxyType({"material": ("aluminium", "steel", "hickory", "polypropylene"),
+                          "section": ("round", "square")}),
+        summary="training: bar bent at the end, grasp region up to the bend; hooks with the bend",
+        training=True, category="l_stick"),
+    "pusher": Family(
+        "pusher", pusher, ("sweep",),
+        _ranges(half_width=(0.040, 0.220), head_height=(0.020, 0.060), head_depth=(0.015, 0.050),
+                handle_radius=(0.008, 0.014), handle_length=(0.120, 0.550), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"head_material": ("beech", "polypropylene", "neoprene"), "handle_material": HANDLE_MATERIALS}),
+        summary="training: T-head short or wide on a short or long handle; pushes with the head",
+        training=True, category="broom"),
 })
 
 
 def names() -> tuple[str, ...]:
-    """The families, the four built-in ones first."""
+    """The families: the four built-in ones, the five held-out ones, then the training families."""
     return tuple(FAMILIES)
+
+
+def held_out() -> tuple[str, ...]:
+    """The five families no training set holds (the evaluations' unseen families)."""
+    return tuple(f.name for f in FAMILIES.values() if f.held_out)
+
+
+def training() -> tuple[str, ...]:
+    """The training families (`Family.training`)."""
+    return tuple(f.name for f in FAMILIES.values() if f.training)
 
 
 def get(name: str) -> Family:
