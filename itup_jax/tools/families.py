@@ -73,7 +73,7 @@ def _prism(radius: float, p0, p1, sections: int) -> tuple[trimesh.Trimesh, tuple
 
 
 # ---------------------------------------------------------------------------------------------------
-# The five families defined here (the defaults are each family's `load_tool(<family>)` tool)
+# The five held-out families (the defaults are each family's `load_tool(<family>)` tool)
 # ---------------------------------------------------------------------------------------------------
 def screwdriver(*, handle_radius: float = 0.0135, handle_length: float = 0.100, shaft_radius: float = 0.003,
                 shaft_length: float = 0.100, name: str = "screwdriver") -> Tool:
@@ -439,8 +439,9 @@ def for_task(kind: str) -> tuple[str, ...]:
 
 def draw(name: str, seed: int) -> Tool:
     """A tool of family `name` drawn with `seed` (the same tool for the same seed), named '<name>@<seed>'.
-    The five families defined here draw every dimension uniformly in its range (and each choice
-    uniformly); the four built-in families draw their part-wise variants (`variants.part_variant`)."""
+    The nine families defined here (held-out and training) draw every dimension uniformly in its range
+    (and each choice uniformly); the four built-in families draw their part-wise variants
+    (`variants.part_variant`)."""
     fam = get(name)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"families.draw({name!r}): seed must be an integer >= 0, got {seed!r}")
