@@ -567,6 +567,32 @@ def test_adapt_continues_each_network_on_new_data_and_keeps_the_rest(tmp_path, c
         adapt(model, new, epochs=5, feature_spec={"num_points": 7}, **quiet)
 
 
+def test_adapt_holds_out_tools_of_every_task():
+    """Adapting a per-task model draws its held-out tools task by task: a task with few tools, which a
+    draw over all tools can leave without one (and whose network would then be chosen on its training
+    loss), is judged on a held-out tool of its own."""
+    from itup_jax.sdgnet.training import _val_tools, _val_tools_per_task, adapt
+
+    a, b = _synthetic(seed=1), _synthetic(seed=2)
+    b["task"] = np.array(["reach"] * len(b["task"]))
+    cfg = TrainConfig(hidden=(8,), epochs=4, patience=4, lr=3e-3, finetune_epochs=2, finetune_lr=3e-3)
+    quiet = dict(progress=False, log=lambda *_: None)
+    model = train({k: np.concatenate([a[k], b[k]]) for k in a}, cfg, **quiet)
+    new_a, new_b = _synthetic(seed=3), _synthetic(n=100, seed=4)
+    new_b["task"], new_b["tool_id"] = np.array(["reach"] * 100), np.arange(100) % 2  # 8 hammers, 2 reach tools
+    new = {k: np.concatenate([new_a[k], new_b[k]]) for k in new_a}
+    assert not any(t.startswith("reach/") for t in _val_tools(new, cfg.val_fraction, 0))  # a draw over all tools
+    held = _val_tools_per_task(new, cfg.val_fraction, 0)
+    assert {t.split("/")[0] for t in held} == {"hammer", "reach"} and len(held) == 3
+    logs = []
+    out = adapt(model, new, epochs=2, seed=0, progress=False, log=logs.append)
+    assert out.spec["by_task"]["reach"]["n_val"] == 50 and out.spec["by_task"]["hammer"]["n_val"] == 100
+    assert not any("no held-out tool" in m for m in logs)
+    one_tool = {k: v[new["task"] == "hammer"] for k, v in new.items()} | {"tool_id": np.zeros(400, int)}
+    adapt(model, one_tool, epochs=2, seed=0, progress=False, log=logs.append)
+    assert any("no held-out tool among the data's 1 tool(s)" in m for m in logs)
+
+
 def test_train_init_refuses_to_change_the_recipe(tmp_path, capsys):
     from itup_jax.cli import main
 

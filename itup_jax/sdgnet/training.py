@@ -99,6 +99,17 @@ def _val_tools(data: dict, fraction: float, seed: int) -> set:
     return set(rng.choice(names, size=n_val, replace=False).tolist()) if n_val else set()
 
 
+def _val_tools_per_task(data: dict, fraction: float, seed: int) -> set:
+    """The held-out tools drawn task by task (`_val_tools` on each task's rows): every task with more
+    than one tool holds at least one out."""
+    task = np.asarray(data["task"])
+    out: set = set()
+    for kind in sorted(set(task.tolist())):
+        rows = task == kind
+        out |= _val_tools({"task": task[rows], "tool_id": np.asarray(data["tool_id"])[rows]}, fraction, seed)
+    return out
+
+
 def _split_by_tool(data: dict, fraction: float, seed: int, val_tools: set | None = None) -> tuple[np.ndarray, np.ndarray]:
     if val_tools is None:
         val_tools = _val_tools(data, fraction, seed)
@@ -191,16 +202,19 @@ def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np
 
 def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log,
                     init: Model | None = None) -> Model:
-    """One network per task: trained from scratch (`per_task`), or fine-tuned from the shared `init` on
-    the shared network's held-out tools (none of them leaks into a task's training rows)."""
+    """One network per task: trained from scratch (`per_task`), fine-tuned from the shared `init` on
+    the shared network's held-out tools (none of them leaks into a task's training rows), or, when
+    `init` is a per-task model (`adapt`), each task's network fine-tuned on held-out tools drawn task by
+    task, so that every task with more than one tool is judged on one."""
     task = np.asarray(data["task"])
     if init is None:
         one, val_tools = dataclasses.replace(config, per_task=False), None
     else:
         one = dataclasses.replace(config, epochs=config.finetune_epochs, lr=config.finetune_lr, finetune_epochs=0)
         keep = _design(data, config)[2]
-        val_tools = _val_tools({"task": task[keep], "tool_id": np.asarray(data["tool_id"])[keep]},
-                               config.val_fraction, config.seed)
+        draw = _val_tools_per_task if init.tasks is not None else _val_tools
+        val_tools = draw({"task": task[keep], "tool_id": np.asarray(data["tool_id"])[keep]},
+                         config.val_fraction, config.seed)
     params, by_task = [], {}
     t0 = time.perf_counter()
     for kind in sorted(set(task.tolist())):
@@ -320,6 +334,9 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     best = (np.inf, params, 0)
     if init is not None:  # fine-tuning keeps the network it started from unless an epoch beats it
         best = (float(val_loss(params, *val_args)) if len(Xva) else np.inf, params, -1)
+        if not len(Xva):
+            log(f"no held-out tool among the data's {len(np.unique(_tool_names(sub)))} tool(s): the epochs are "
+                f"judged on their training loss, and the last best of them replaces the start")
     history = []
     bar = None
     if progress:
