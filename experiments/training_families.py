@@ -9,6 +9,7 @@
         --seed 31 --variants parts
     python experiments/training_families.py --train data/span/baton data/span/headed_stick data/span/hook \\
         data/span/pusher --rehearse data/families/builtin --out results/training_families
+    python experiments/training_families.py --train ... --rehearse ... --from-scratch --out results/training_families_scratch
     python experiments/training_families.py --quick --out results/tf_quick          # tiny (tests)
 
 The four training families span what users bring to each category: headless two-segment sticks (thin or
@@ -21,6 +22,10 @@ its recipe's fine-tuning epochs, each kept epoch judged on the data's own held-o
   * `rehearsed`: the rehearsal rows alone: what adapting does by itself (the control);
   * `trained`: the training families' rows and the rehearsal rows;
 and `shipped` itself. Each adapted model's guard reference holds the shipped one's rows and its new rows.
+With `--from-scratch`, two more per seed, trained from scratch by the shipped checkpoint's own recipe
+(`Model.train_config`, the seed replaced): `scratch_rehearsed` on the rehearsal rows alone and
+`scratch_trained` on both (a small-data check of whether the families teach a network that learns
+them from the start; the shipped network was trained on ~27,000 rows of the built-in families).
 Evaluation (`itup_jax.family_eval`): `--tools` draws per held-out family and task and per built-in
 family (seeds 200..; no dataset holds them), `--grasps` candidates the arm can carry, rolled out once
 under nominal physics; the same rollouts judge every model. Per model, family and task: the median
@@ -30,12 +35,14 @@ fires, the learned and verified picks' outcomes.
 The reading, fixed before the first run: the training families teach the held-out ones if `trained`'s
 median over the held-out family-task rows (mean over seeds) exceeds `rehearsed`'s by more than twice
 the larger spread between its seeds, while no built-in family loses more than 0.05 against `rehearsed`.
-Writes training_families.json.
+`--from-scratch` reads the scratch pair by the same rule (`reading["scratch"]`), written before its
+first run. Writes training_families.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -81,12 +88,36 @@ def _mean(values: list) -> float | None:
     return float(np.mean(v)) if v else None
 
 
+def _reading(table: dict, seeds: list[int], held: list, builtin: list, pair: tuple[str, str]) -> dict:
+    """The module's reading of a (control, trained) pair of model kinds: per kind the held-out median per
+    seed, its mean and spread, each built-in row's mean; `teaches`, `margin`, `largest_builtin_loss`."""
+    reading = {}
+    for kind in pair:
+        per_seed = [held_out_median(table[f"{kind}_s{s}"], held) for s in seeds]
+        per_seed = [v for v in per_seed if v is not None]
+        reading[kind] = {"held_out_per_seed": per_seed,
+                         "held_out_mean": float(np.mean(per_seed)) if per_seed else None,
+                         "held_out_spread": float(np.ptp(per_seed)) if per_seed else None,
+                         "builtin_mean": {f"{f}/{k}": _mean([table[f"{kind}_s{s}"][f"{f}/{k}"]["median_rho_induced"]
+                                                             for s in seeds])
+                                          for f, k in builtin}}
+    r, t = reading[pair[0]], reading[pair[1]]
+    if r["held_out_mean"] is not None and t["held_out_mean"] is not None:
+        margin = 2 * max(r["held_out_spread"], t["held_out_spread"])
+        losses = [r["builtin_mean"][b] - t["builtin_mean"][b] for b in r["builtin_mean"]
+                  if r["builtin_mean"][b] is not None and t["builtin_mean"][b] is not None]
+        loss = max(losses) if losses else 0.0
+        reading["teaches"] = bool(t["held_out_mean"] - r["held_out_mean"] > margin and loss <= 0.05)
+        reading["margin"], reading["largest_builtin_loss"] = margin, float(loss)
+    return reading
+
+
 def main(argv=None) -> dict:
     from itup_jax.bench import machine_info
     from itup_jax.ood import reference_path
-    from itup_jax.sdgnet.checkpoint import save_model
+    from itup_jax.sdgnet.checkpoint import load_model, save_model
     from itup_jax.sdgnet.config import DEFAULT_MODEL
-    from itup_jax.sdgnet.recipes import adapt_on_datasets
+    from itup_jax.sdgnet.recipes import adapt_on_datasets, train_on_datasets
     from itup_jax.tools import families
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -98,6 +129,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--grasps", type=int, default=64, help="reachable candidates per evaluation tool (default %(default)s)")
     ap.add_argument("--verify", type=int, default=5, metavar="K", help="the verified pick's shortlist (default %(default)s)")
     ap.add_argument("--epochs", type=int, default=None, help="adaptation epochs (default: the checkpoint's recipe)")
+    ap.add_argument("--from-scratch", action="store_true",
+                    help="also train the pair from scratch by the shipped checkpoint's recipe (module docstring)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, one evaluation tool (tests)")
     ap.add_argument("--out", default="results/training_families")
     args = ap.parse_args(argv)
@@ -132,6 +165,17 @@ def main(argv=None) -> dict:
             save_model(path, m)
             models[f"{name}_s{seed}"] = path
             print(f"model {name}_s{seed}: adapted on {len(dirs)} datasets in {time.time() - t1:.0f} s", flush=True)
+            if args.from_scratch:
+                path = os.path.join(args.out, "models", f"scratch_{name}_s{seed}.npz")
+                t1 = time.time()
+                config = dataclasses.replace(load_model(DEFAULT_MODEL).train_config, seed=seed)
+                if args.epochs is not None:
+                    config = dataclasses.replace(config, epochs=args.epochs, patience=min(config.patience, args.epochs))
+                m = train_on_datasets(dirs, config, guard_reference=reference_path(path))
+                save_model(path, m)
+                models[f"scratch_{name}_s{seed}"] = path
+                print(f"model scratch_{name}_s{seed}: trained on {len(dirs)} datasets in {time.time() - t1:.0f} s",
+                      flush=True)
     evals = []
     for fam, kind in held + builtin:
         evals += family_rollouts(fam, (kind,), args.tools, args.grasps)
@@ -140,39 +184,25 @@ def main(argv=None) -> dict:
             for name, path in models.items()}
     table = {name: {f"{f}/{k}": summarise([r for r in rs if r["family"] == f and r["task"] == k])
                     for f, k in held + builtin} for name, rs in rows.items()}
-    reading = {}
-    for kind in ("rehearsed", "trained"):
-        per_seed = [held_out_median(table[f"{kind}_s{s}"], held) for s in seeds]
-        per_seed = [v for v in per_seed if v is not None]
-        reading[kind] = {"held_out_per_seed": per_seed,
-                         "held_out_mean": float(np.mean(per_seed)) if per_seed else None,
-                         "held_out_spread": float(np.ptp(per_seed)) if per_seed else None,
-                         "builtin_mean": {f"{f}/{k}": _mean([table[f"{kind}_s{s}"][f"{f}/{k}"]["median_rho_induced"]
-                                                             for s in seeds])
-                                          for f, k in builtin}}
+    reading = _reading(table, seeds, held, builtin, ("rehearsed", "trained"))
     reading["shipped"] = {"held_out": held_out_median(table["shipped"], held)}
-    r, t = reading["rehearsed"], reading["trained"]
-    if r["held_out_mean"] is not None and t["held_out_mean"] is not None:
-        margin = 2 * max(r["held_out_spread"], t["held_out_spread"])
-        losses = [r["builtin_mean"][b] - t["builtin_mean"][b] for b in r["builtin_mean"]
-                  if r["builtin_mean"][b] is not None and t["builtin_mean"][b] is not None]
-        loss = max(losses) if losses else 0.0
-        reading["teaches"] = bool(t["held_out_mean"] - r["held_out_mean"] > margin and loss <= 0.05)
-        reading["margin"], reading["largest_builtin_loss"] = margin, float(loss)
+    if args.from_scratch:
+        reading["scratch"] = _reading(table, seeds, held, builtin, ("scratch_rehearsed", "scratch_trained"))
     doc = {"schema": "itup.training_families/1", "train": [os.path.abspath(d) for d in args.train],
            "rehearse": [os.path.abspath(d) for d in args.rehearse], "seeds": seeds, "tools": args.tools,
-           "grasps": args.grasps, "verify": args.verify, "epochs": args.epochs,
+           "grasps": args.grasps, "verify": args.verify, "epochs": args.epochs, "from_scratch": args.from_scratch,
            "held_out": [f"{f}/{k}" for f, k in held], "builtin": [f"{f}/{k}" for f, k in builtin],
            "reading": reading, "table": table, "rows": rows, "wall_s": round(time.time() - t0, 1),
            "machine": machine_info()}
     atomic_write_json(os.path.join(args.out, "training_families.json"), doc)
     names = list(models)
-    print(f"{'family/task':22s} " + " ".join(f"{n:>13s}" for n in names))
+    w = max(13, *map(len, names))
+    print(f"{'family/task':22s} " + " ".join(f"{n:>{w}s}" for n in names))
     for f, k in held + builtin:
         cells = [table[n][f"{f}/{k}"] for n in names]
         print(f"{f + '/' + k:22s} " + " ".join(
-            f"{c['median_rho_induced']:+.2f} g{c['guard_fired']:.2f}".rjust(13) if c["median_rho_induced"] is not None
-            else "-".rjust(13) for c in cells))
+            f"{c['median_rho_induced']:+.2f} g{c['guard_fired']:.2f}".rjust(w) if c["median_rho_induced"] is not None
+            else "-".rjust(w) for c in cells))
     print({k: v for k, v in reading.items() if k != "shipped"} | {"shipped": reading["shipped"]})
     return doc
 

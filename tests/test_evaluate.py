@@ -986,10 +986,17 @@ def test_leave_family_out_quick(tmp_path, monkeypatch):
 def test_training_families_quick(tmp_path, monkeypatch):
     """A tiny training family's rows and rehearsal rows: the control adapted on rehearsal alone, the trained
     model on both, every model judged on the same held-out and built-in tools, the reading's margin from
-    the seeds' spread."""
-    _run_experiment("training_families.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
+    the seeds' spread; with --from-scratch the pair trained from scratch beside them."""
+    from itup_jax.sdgnet.checkpoint import load_model
+
+    _run_experiment("training_families.py", ["--quick", "--from-scratch", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "training_families.json").read_text())
-    assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0"}
+    assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0", "scratch_rehearsed_s0", "scratch_trained_s0"}
+    assert {"scratch_rehearsed", "scratch_trained"} <= set(doc["reading"]["scratch"])
+    for name in ("scratch_rehearsed_s0", "scratch_trained_s0"):  # trained from scratch, not adapted
+        assert "adapted_from" not in load_model(str(tmp_path / "models" / f"{name}.npz")).spec
+        assert (tmp_path / "models" / f"{name}.reference.npz").exists()
+    assert "adapted_from" in load_model(str(tmp_path / "models" / "trained_s0.npz")).spec
     assert doc["held_out"] == ["screwdriver/knock"] and doc["builtin"] == ["mallet/knock"]
     for name in ("rehearsed_s0", "trained_s0"):
         assert (tmp_path / "models" / f"{name}.npz").exists()
