@@ -157,25 +157,26 @@ def main(argv=None) -> dict:
         held = [(f, k) for f in families.held_out() for k in families.get(f).tasks]
         builtin = [(f, k) for f in families.names() if families.get(f).builtin for k in families.get(f).tasks]
     models = {"shipped": DEFAULT_MODEL}
+    recipe = load_model(DEFAULT_MODEL).train_config
+    if args.epochs is not None:
+        recipe = dataclasses.replace(recipe, epochs=args.epochs, patience=min(recipe.patience, args.epochs))
+
+    def make(label: str, how: str, dirs: list[str], fit) -> None:
+        """Fit one model (`fit(dirs, guard_reference)`), save it beside its guard reference, record it."""
+        path = os.path.join(args.out, "models", f"{label}.npz")
+        t1 = time.time()
+        save_model(path, fit(dirs, reference_path(path)))
+        models[label] = path
+        print(f"model {label}: {how} on {len(dirs)} datasets in {time.time() - t1:.0f} s", flush=True)
+
     for seed in seeds:
         for name, dirs in (("rehearsed", list(args.rehearse)), ("trained", list(args.train) + list(args.rehearse))):
-            path = os.path.join(args.out, "models", f"{name}_s{seed}.npz")
-            t1 = time.time()
-            m = adapt_on_datasets(DEFAULT_MODEL, dirs, epochs=args.epochs, seed=seed, guard_reference=reference_path(path))
-            save_model(path, m)
-            models[f"{name}_s{seed}"] = path
-            print(f"model {name}_s{seed}: adapted on {len(dirs)} datasets in {time.time() - t1:.0f} s", flush=True)
+            make(f"{name}_s{seed}", "adapted", dirs, lambda d, ref, seed=seed: adapt_on_datasets(
+                DEFAULT_MODEL, d, epochs=args.epochs, seed=seed, guard_reference=ref))
             if args.from_scratch:
-                path = os.path.join(args.out, "models", f"scratch_{name}_s{seed}.npz")
-                t1 = time.time()
-                config = dataclasses.replace(load_model(DEFAULT_MODEL).train_config, seed=seed)
-                if args.epochs is not None:
-                    config = dataclasses.replace(config, epochs=args.epochs, patience=min(config.patience, args.epochs))
-                m = train_on_datasets(dirs, config, guard_reference=reference_path(path))
-                save_model(path, m)
-                models[f"scratch_{name}_s{seed}"] = path
-                print(f"model scratch_{name}_s{seed}: trained on {len(dirs)} datasets in {time.time() - t1:.0f} s",
-                      flush=True)
+                config = dataclasses.replace(recipe, seed=seed)
+                make(f"scratch_{name}_s{seed}", "trained", dirs,
+                     lambda d, ref, config=config: train_on_datasets(d, config, guard_reference=ref))
     evals = []
     for fam, kind in held + builtin:
         evals += family_rollouts(fam, (kind,), args.tools, args.grasps)
