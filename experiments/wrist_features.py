@@ -1,14 +1,20 @@
-"""Does SDG-Net rank new tool families better when it is given the wrist's rigid-body torque as input?
-
+"""Does SDG-Net rank new tool families better when it is given the wrist's rigid-body torque, as input or
+as the prediction it learns the residual of?
 The analytic torque at the wrist, with the closure-axis part capped by the pads' torsional friction
 ('wrist/passed', docs/results.md "Why the ranking does not carry to new families"), ranks the measured
 full induced peak torque at 0.30-0.64 on held-out families where the network, which never saw them, ranks
-at 0.10-0.31; mixing the two rankings after the fact does not help. Here the physics becomes the
-network's input instead: `sdgnet.features.FeatureSpec(wrist=True)` appends six features (the wrist torque's
-peak per grasp-frame axis, its peak norm, the peak the pads pass on, the peak grip demand about the
-grasp; each log1p(x / scale), the targets' own transform), and two networks are trained with the shipped
-checkpoint's recipe on the same rows, one with the block and one without, so that the block is the only
-difference. The datasets' features are made again from their tools, tasks and grasps (no rollout is
+at 0.10-0.31; mixing the two rankings after the fact does not help. Here the physics goes into the
+network, in two ways:
+  * as input: `sdgnet.features.FeatureSpec(wrist=True)` appends six features (the wrist torque's peak per
+    grasp-frame axis, its peak norm, the peak the pads pass on, the peak grip demand about the grasp;
+    each log1p(x / scale), the targets' own transform);
+  * as the residual's base: `FeatureSpec(wrist=True, residual=True)` also appends the rigid-body model's
+    prediction of the torque components and grip demand the network regresses, and the network learns
+    only what it adds to them (`sdgnet.model.residual_base`): where it has learnt nothing, it predicts
+    the physics.
+Every arm is trained with the shipped checkpoint's recipe on the same rows, so the inputs and the
+residual are the only differences; each also without the tool's shape near the grasp (the 64 occupancy
+features). The datasets' features are made again from their tools, tasks and grasps (no rollout is
 repeated; the base features so made are checked against the stored ones).
 
     python experiments/wrist_features.py --train data/train_a data/train_b data/train_c data/train_d \\
@@ -21,8 +27,15 @@ Per evaluation dataset and task, the median over its tools of the Spearman rho b
 predicted full induced peak torque (the norm of its three torque outputs) and the measured one, the same
 for grip demand, and the analytic 'wrist/passed' torque's rho beside them (the block's own feature, no
 training). No evaluation tool is in the training data (the family datasets hold families the training
-rows do not; `eval_s1` holds unseen stretched tools of the built-in families and the built-in tools,
+rows do not; `data/test` holds unseen stretched tools of the built-in families and the built-in tools,
 which the training rows hold too: its `builtin` row reads variants >= 1 only). Writes wrist_features.json.
+
+The reading, written before the residual arms' first run (`reading` in the JSON): an arm carries the
+physics if its median over the held-out family rows (mean over seeds) exceeds both `base`'s and the
+analytic wrist/passed torque's alone by more than twice the larger spread between seeds (the arm's or
+`base`'s; a seed's figure is the median over the rows of that seed's medians), while no built-in row
+loses more than 0.05 against `base`. Of the arms that carry, the one with the highest held-out median
+is chosen (input or residual, with or without the shape); if none carries, the shipped input stays.
 """
 
 from __future__ import annotations
@@ -36,9 +49,18 @@ import numpy as np
 
 from itup_jax.atomic import atomic_write_json
 
-#: The networks compared: (name, the wrist block in the input, the occupancy grid in the input). The third
-#: keeps everything but the tool's shape near the grasp: the loads, contact, physics and wrist blocks.
-ARMS = (("base", False, True), ("wrist", True, True), ("wrist_no_shape", True, False))
+#: The networks compared: (name, the wrist block in the input, the occupancy grid in the input, the
+#: residual block: the network learns the residual on the rigid-body prediction). The `_no_shape` arms keep
+#: everything but the tool's shape near the grasp.
+ARMS = (("base", False, True, False), ("wrist", True, True, False), ("wrist_no_shape", True, False, False),
+        ("residual", True, True, True), ("residual_no_shape", True, False, True))
+
+
+def arm_spec(arm: tuple):
+    """The arm's `FeatureSpec`."""
+    from itup_jax.sdgnet.features import FeatureSpec
+
+    return FeatureSpec(wrist=arm[1], residual=arm[3])
 
 
 def _tools(manifests: list[dict]) -> dict:
@@ -91,15 +113,22 @@ def load(paths: list[str], spec) -> tuple[dict, dict, np.ndarray]:
     return {**data, "features": made}, {**data, "features": wrist}, variant
 
 
-def arm_features(arm: tuple, base: np.ndarray, wrist: np.ndarray) -> np.ndarray:
-    """The rows' features as the arm sees them (its occupancy columns zero when it does without them: a
-    constant column is normalised to zero and carries nothing)."""
-    from itup_jax.sdgnet.features import FeatureSpec
+def arm_features(arm: tuple, base: np.ndarray, full: np.ndarray) -> np.ndarray:
+    """The rows' features as the arm sees them, from the base spec's and the full spec's (wrist and
+    residual blocks) features: the base's, or the full's up to the arm's size (its occupancy columns
+    zero when it does without them: a constant column is normalised to zero and carries nothing)."""
+    from itup_jax.sdgnet.features import RESIDUAL_SIZE, FeatureSpec
 
-    _, with_wrist, with_shape = arm
-    x = (wrist if with_wrist else base).copy()
+    _, with_wrist, with_shape, with_residual = arm
+    if not with_wrist:
+        x = base.copy()
+    elif with_residual:
+        x = full.copy()
+    else:
+        x = full[:, : full.shape[1] - RESIDUAL_SIZE].copy()
     if not with_shape:
         x[:, :FeatureSpec().grid ** 3] = 0.0
+    assert x.shape[1] == arm_spec(arm).size
     return x
 
 
@@ -107,7 +136,7 @@ def evaluate(models: dict, data: dict, variant: np.ndarray, feats: dict, only_ne
     """Per task: the median over tools of each model's Spearman (full induced torque, grip demand) and
     the analytic wrist/passed torque's (the wrist block's feature 4). `models` and `feats` (the rows'
     features as each model sees them) share their keys."""
-    from itup_jax.sdgnet.features import WRIST_SIZE, WRIST_TORQUE_SCALE
+    from itup_jax.sdgnet.features import WRIST_TORQUE_SCALE, FeatureSpec
     from itup_jax.sdgnet.model import predict_costs
     from itup_jax.stats import spearman
 
@@ -125,7 +154,7 @@ def evaluate(models: dict, data: dict, variant: np.ndarray, feats: dict, only_ne
                 p = predict_costs(model, feats[a][rows], kind)
                 per[f"{a}_induced"].append(spearman(np.asarray(p["tau"], float), y))
                 per[f"{a}_grip"].append(spearman(np.asarray(p["grip"], float), data["label_grip_demand"][rows]))
-            passed = WRIST_TORQUE_SCALE * np.expm1(data["wrist_features"][rows][:, -WRIST_SIZE + 4])
+            passed = WRIST_TORQUE_SCALE * np.expm1(data["wrist_features"][rows][:, FeatureSpec().size + 4])
             per["passed_induced"].append(spearman(passed, y))
         out[kind] = {k: float(np.nanmedian(v)) if v else None for k, v in per.items()}
         out[kind]["tools"] = len(per["passed_induced"])
@@ -177,7 +206,7 @@ def main(argv=None) -> dict:
             ap.error(f"--train {d!r}: not an itup generate folder (no manifest.json)")
 
     t0 = time.perf_counter()
-    wspec = FeatureSpec(wrist=True)
+    wspec = FeatureSpec(wrist=True, residual=True)  # every block; each arm takes its columns
     base_rows, wrist_rows, _ = load(args.train, wspec)
     recipe = load_model(DEFAULT_MODEL).train_config
     os.makedirs(args.out, exist_ok=True)
@@ -189,7 +218,7 @@ def main(argv=None) -> dict:
             key = f"{arm[0]}@{seed}"
             arm_of[key] = arm
             rows = {**base_rows, "features": arm_features(arm, base_rows["features"], wrist_rows["features"])}
-            fs = (wspec if arm[1] else FeatureSpec()).to_dict()
+            fs = arm_spec(arm).to_dict()
             t = time.perf_counter()
             models[key] = train(rows, config, feature_spec=fs, progress=False)
             seconds[key] = time.perf_counter() - t
@@ -201,14 +230,56 @@ def main(argv=None) -> dict:
         feats = {k: arm_features(arm_of[k], b["features"], w["features"]) for k in models}
         results[name] = evaluate(models, b, variant, feats, only_new=name == "builtin")
     table = summarise(results, args.seeds)
-    summary = {"schema": "itup.wrist_features/1", "machine": machine_info(), "seconds": time.perf_counter() - t0,
+    verdict = reading(results, table, args.seeds)
+    summary = {"schema": "itup.wrist_features/2", "machine": machine_info(), "seconds": time.perf_counter() - t0,
                "train_seconds": seconds, "train": args.train, "eval": dict(evals), "recipe": recipe.__dict__,
-               "seeds": args.seeds, "arms": {a: {"wrist": w, "shape": sh, "features": (wspec if w else FeatureSpec()).size}
-                                             for a, w, sh in ARMS},
-               "results": results, "table": table}
+               "seeds": args.seeds, "arms": {a[0]: {"wrist": a[1], "shape": a[2], "residual": a[3],
+                                                    "features": arm_spec(a).size} for a in ARMS},
+               "results": results, "table": table, "reading": verdict}
     atomic_write_json(os.path.join(args.out, "wrist_features.json"), summary, indent=2)
     print_table(table)
+    print(f"reading: {verdict['choice']} ({verdict['why']})")
     return summary
+
+
+def reading(results: dict, table: dict, seeds: list[int]) -> dict:
+    """The rule of the module docstring: per arm, its held-out median, spread between seeds, margin over
+    `base`, whether the built-in rows hold, whether it carries the physics; and the choice."""
+    held_sets = [n for n in results if n != "builtin"]
+    rows = [(n, k) for n in held_sets for k in results[n]]
+
+    def per_seed(arm):
+        out = []
+        for s_ in seeds:
+            v = [results[n][k][f"{arm}@{s_}_induced"] for n, k in rows]
+            v = [x for x in v if x is not None]
+            if v:
+                out.append(float(np.median(v)))
+        return out
+
+    key = "held-out families (median of rows)"
+    if key not in table:
+        return {"choice": "base", "why": "no held-out family among the evaluation sets", "arms": {}}
+    spread = {a: (max(v) - min(v) if v else 0.0) for a in (arm[0] for arm in ARMS) for v in [per_seed(a)]}
+    base_mean, passed = table[key]["base"]["mean"], table[key]["passed"]
+    builtin = {k: r for k, r in table.items() if k.startswith("builtin")}
+    arms = {}
+    for a, *_ in ARMS[1:]:
+        mean = table[key][a]["mean"]
+        margin = 2.0 * max(spread[a], spread["base"])
+        losses = {k: r["base"]["mean"] - r[a]["mean"] for k, r in builtin.items()
+                  if r[a]["mean"] is not None and r["base"]["mean"] is not None}
+        holds = all(v <= 0.05 for v in losses.values())
+        arms[a] = {"held_out": mean, "spread": spread[a], "margin": margin, "over_base": mean - base_mean,
+                   "over_passed": mean - passed, "builtin_loss": max(losses.values(), default=0.0),
+                   "carries": bool(mean - base_mean > margin and mean - passed > margin and holds)}
+    carrying = [a for a, r in arms.items() if r["carries"]]
+    if not carrying:
+        return {"choice": "base", "arms": arms, "why": "no arm beats both the shipped input and the physics alone "
+                "on the held-out families by its margin without a built-in loss over 0.05"}
+    best = max(carrying, key=lambda a: arms[a]["held_out"])
+    return {"choice": best, "arms": arms, "why": f"{best}: held-out {arms[best]['held_out']:.2f} against base "
+            f"{base_mean:.2f} and the physics alone {passed:.2f} (margin {arms[best]['margin']:.2f})"}
 
 
 def summarise(results: dict, seeds: list[int]) -> dict:

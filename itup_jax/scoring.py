@@ -27,7 +27,7 @@ from itup_jax.precision import full_precision
 from itup_jax.sdgnet.checkpoint import load_model
 from itup_jax.sdgnet.config import PAPER_MODEL
 from itup_jax.sdgnet.features import batched, cached_tool_field
-from itup_jax.sdgnet.model import Model, predict_from_features
+from itup_jax.sdgnet.model import Model, predict_from_features, residual_base
 from itup_jax.sdgnet.objective import WRENCH, costs_of
 from itup_jax.shapes import to_device
 from itup_jax.task import Task
@@ -143,7 +143,8 @@ def _sdgnet_scores(field, tool_params, task, grasps, params, x_mean, x_std, y_me
                    head_coef, spec, objective):
     loads = task_loads(tool_params, task)
     feats = batched(field, loads, tool_params, grasps, spec)
-    y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats.astype(x_mean.dtype))
+    feats = feats.astype(x_mean.dtype)
+    y, p = predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats, residual_base(feats, spec))
     c = costs_of(y, objective)
     return c[:, 0], c[:, 1], c[:, 2], c[:, 3], sdgnet_total(c, p, w_costs, head_coef), p
 

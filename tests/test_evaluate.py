@@ -685,19 +685,25 @@ def test_analytic_vs_measured_quick(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_wrist_features_quick(tmp_path, monkeypatch):
-    """Both inputs trained on the same rows (the datasets' features made again, checked against the stored
-    ones inside), each judged on a family it never saw."""
+    """Every arm (inputs, residual, each with and without the shape) trained on the same rows (the datasets'
+    features made again, checked against the stored ones inside), each judged on a family it never saw, and
+    the pre-written reading applied."""
     from itup_jax.sdgnet.checkpoint import load_model
 
     _run_experiment("wrist_features.py", ["--quick", "--seeds", "0", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "wrist_features.json").read_text())
     jsonschema.validate(doc, load_schema("wrist_features"))
     assert doc["arms"]["wrist"]["features"] == doc["arms"]["base"]["features"] + 6
+    assert doc["arms"]["residual"]["features"] == doc["arms"]["base"]["features"] + 10
     assert load_model(str(tmp_path / "sdgnet_wrist_seed0.npz")).feature_spec.wrist
     assert not load_model(str(tmp_path / "sdgnet_base_seed0.npz")).feature_spec.wrist
+    assert load_model(str(tmp_path / "sdgnet_residual_seed0.npz")).residual
+    assert not load_model(str(tmp_path / "sdgnet_wrist_seed0.npz")).residual
     row = doc["results"]["spanner"]["hammer"]
-    assert row["tools"] == 1 and {"base@0_induced", "wrist@0_induced", "wrist_no_shape@0_induced"} <= set(row)
+    assert row["tools"] == 1 and {f"{a}@0_induced" for a in doc["arms"]} <= set(row)
     assert -1 <= row["passed_induced"] <= 1 and "held-out families (median of rows)" in doc["table"]
+    verdict = doc["reading"]
+    assert verdict["choice"] in doc["arms"] and set(verdict["arms"]) == set(doc["arms"]) - {"base"}
 
 
 def test_experiments_refuse_a_missing_dataset(tmp_path, monkeypatch, capsys):

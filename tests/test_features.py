@@ -170,3 +170,54 @@ def test_a_spec_without_the_wrist_block_reads_as_before():
     assert FeatureSpec().to_dict() == old and FeatureSpec(**old) == FeatureSpec()
     assert FeatureSpec(wrist=True).to_dict() == old | {"wrist": True}
     assert FeatureSpec(**FeatureSpec(wrist=True).to_dict()).size == FeatureSpec().size + 6
+
+
+RESIDUAL = FeatureSpec(num_points=256, wrist=True, residual=True)
+
+
+def test_residual_block_is_the_passed_torque_by_component(hammer_case):
+    """The residual block is the rigid-body prediction of the wrench objective's targets: the wrist
+    torque's grasp-frame components at the step where the passed-on torque peaks, so the norm of the
+    three (transform undone) is `costs`' 'passed' peak at 100 N per pad; the closure component never
+    exceeds the pads' torsional friction; the grip entry is the grip demand's peak."""
+    from itup_jax.costs import CostParams, wrench_costs
+    from itup_jax.robot import PAD_TORSION
+    from itup_jax.sdgnet.features import RESIDUAL_SCALES, RESIDUAL_SIZE, WRIST_GRIP_FORCE, WRIST_SIZE
+
+    tool, task, g, pts = hammer_case
+    loads, field = task_loads(tool.params, task), density_field(pts, RESIDUAL)
+    f = np.asarray(jax.jit(jax.vmap(lambda x: grasp_features(field, loads, tool.params, x, RESIDUAL)))(g))
+    assert RESIDUAL.size == SPEC.size + WRIST_SIZE + RESIDUAL_SIZE and f.shape == (16, RESIDUAL.size)
+    r = np.asarray(RESIDUAL_SCALES) * np.expm1(f[:, -RESIDUAL_SIZE:])
+
+    def cost(**kw):
+        return np.asarray(wrench_costs(tool, task, g, CostParams(**kw)).tau, float)
+
+    passed = cost(lever_arm="wrist", torque_projection="passed", grip_force=WRIST_GRIP_FORCE)
+    np.testing.assert_allclose(np.linalg.norm(r[:, :3], axis=1), passed, rtol=1e-7)
+    cap = 2 * PAD_TORSION * float(tool.params.mu) * WRIST_GRIP_FORCE
+    assert np.all(r[:, 1] <= cap * (1 + 1e-12)) and np.all(r[:, :3] >= 0)
+    np.testing.assert_allclose(r[:, 3], cost(torque_projection="grip") / (2 * PAD_TORSION), rtol=1e-7)
+    # the blocks before it are unchanged by it
+    np.testing.assert_array_equal(f[:, :SPEC.size], _features(tool.params, pts, task, g))
+
+
+def test_a_spec_records_the_residual_block_only_when_set():
+    base = FeatureSpec().to_dict()
+    assert FeatureSpec(residual=True).to_dict() == base | {"residual": True}
+    assert FeatureSpec(**FeatureSpec(residual=True).to_dict()).size == FeatureSpec().size + 4
+
+
+def test_residual_block_gradient_matches_finite_differences():
+    """d(residual block)/d(loads, width) in float64 against central differences, at loads where the peak
+    step, the cap and the grip demand's branch are each away from a tie."""
+    from jax.test_util import check_grads
+
+    from itup_jax.sdgnet.features import residual_block
+
+    rng = np.random.default_rng(4)
+    F = jnp.asarray(rng.normal(size=(3, 7)) * 20.0)
+    tau = jnp.asarray(rng.normal(size=(3, 7)) * 0.5)
+    f = lambda F, tau, width: residual_block(F, tau, jnp.asarray(0.8), width)  # noqa: E731
+    assert np.all(np.isfinite(np.asarray(f(F, tau, jnp.asarray(0.03)))))
+    check_grads(f, (F, tau, jnp.asarray(0.03)), order=1, modes=("rev",), eps=1e-6, atol=1e-6, rtol=1e-5)

@@ -114,3 +114,77 @@ def test_an_old_checkpoint_without_an_objective_reads_as_the_papers(tmp_path):
     back = load_model(path)
     assert back.objective == "paper" and set(predict_costs(back, X[:3])) == {"tau", "slip", "align", "p_success",
                                                                              "p_failed"}
+
+
+def _residual_spec():
+    from itup_jax.sdgnet.features import FeatureSpec
+
+    return FeatureSpec(num_points=256, residual=True)
+
+
+def test_a_residual_network_that_learnt_nothing_scores_as_the_physics(tasks, tmp_path):
+    """A residual SDG-Net (`FeatureSpec.residual`) adds its outputs to the rigid-body model's prediction: with
+    every weight and offset zero its full induced torque is the analytic torque the pads pass on at the wrist
+    (`costs` 'passed' at 100 N per pad) and its grip demand the analytic one, through the scorer's one jit,
+    `predict_costs` and a saved checkpoint alike."""
+    from itup_jax.costs import CostParams, wrench_costs
+    from itup_jax.robot import PAD_TORSION
+    from itup_jax.sdgnet.features import WRIST_GRIP_FORCE, batched_features, tool_field
+    from itup_jax.sdgnet.model import Model
+    from itup_jax.wrench import task_loads
+
+    tool, task = tasks["hammer"]
+    g = itup.sample_grasps(tool, 24, seed=3)
+    spec = _residual_spec()
+    n_out = len(objective.WRENCH.targets)
+    model = Model(params=[(np.zeros((spec.size, n_out)), np.zeros(n_out))], spec={
+        "feature_spec": spec.to_dict(), "objective": "wrench", "targets": list(objective.WRENCH.targets),
+        "cost_names": list(objective.WRENCH.outputs), "target_scales": [0.02, 0.02, 0.02, 1.0, 1e-3, 0.1],
+        "class_heads": [], "x_mean": [0.0] * spec.size, "x_std": [1.0] * spec.size, "y_mean": [0.0] * n_out,
+        "y_std": [1.0] * n_out, "config": {"objective": "wrench"}})
+    path = str(tmp_path / "residual.npz")
+    save_model(path, model)
+    assert load_model(path).residual
+    passed = np.asarray(wrench_costs(tool, task, g, CostParams(lever_arm="wrist", torque_projection="passed",
+                                                                  grip_force=WRIST_GRIP_FORCE)).tau, float)
+    grip = np.asarray(wrench_costs(tool, task, g, CostParams.wrench()).tau, float) / (2 * PAD_TORSION)
+    s = itup.score(tool, task, g, model=path)
+    np.testing.assert_allclose(np.asarray(s.tau), passed, rtol=1e-4)  # float32 scorer
+    np.testing.assert_allclose(np.asarray(s.grip), grip, rtol=1e-4)
+    feats = batched_features(tool_field(tool, spec), task_loads(tool.params, task), tool.params, g, spec=spec)
+    p = predict_costs(model, np.asarray(feats))
+    np.testing.assert_allclose(np.asarray(p["tau"]), passed, rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(p["slip"]), 0.0, atol=0)  # no base: the network's own output, 0
+
+
+@pytest.mark.slow
+def test_a_residual_network_learns_what_it_adds_to_the_physics():
+    """Trained on targets that are the base (the features' last block) times a factor the other features
+    set, the network regresses the residual (the stored normalisation is the residual's: the base's
+    spread is gone) and predicts the targets; the paper objective, whose targets the base does not
+    predict, is refused by name."""
+    from itup_jax.sdgnet.features import RESIDUAL_SCALES, RESIDUAL_SIZE
+
+    data = _synthetic_wrench(f=10 + RESIDUAL_SIZE)
+    X = data["features"]
+    base = np.abs(X[:, -RESIDUAL_SIZE:]) + 0.5  # log1p(y / scale) of the physics' prediction
+    X[:, -RESIDUAL_SIZE:] = base
+    for i, t in enumerate(objective.WRENCH.targets[:RESIDUAL_SIZE]):
+        data[t] = RESIDUAL_SCALES[i] * np.expm1(base[:, i] + 0.2 * np.tanh(X[:, 0]))
+    fs = _residual_spec().to_dict()
+    model = train(data, TrainConfig(objective="wrench", hidden=(32,), epochs=200, patience=200, lr=3e-3, ema=0.0),
+                  feature_spec=fs,
+                  progress=False, log=lambda *a: None)
+    assert np.all(np.asarray(model.spec["y_std"][:RESIDUAL_SIZE]) < 0.2)  # the residual's spread, 0.2 tanh(.)
+    out = predict_costs(model, X)
+    for i, name in enumerate(objective.WRENCH.outputs[:RESIDUAL_SIZE]):
+        z = np.log1p(np.asarray(out[name]) / RESIDUAL_SCALES[i])  # the target's transform: base + 0.2 tanh(x0)
+        err = np.abs(z - base[:, i] - 0.2 * np.tanh(X[:, 0]))
+        assert np.median(err) < 0.25 * np.median(np.abs(0.2 * np.tanh(X[:, 0])))  # well below the base alone's
+    data["label_peak_torque_projected"] = data["label_peak_induced_third"]
+    with pytest.raises(itup.InputError, match="residual"):
+        train(data, TrainConfig(objective="paper", hidden=(8,), epochs=1), feature_spec=fs, progress=False,
+              log=lambda *a: None)
+    with pytest.raises(itup.InputError, match="residual"):  # torque targets at another scale than the base's
+        train(data, TrainConfig(objective="wrench", torque_scale=1.0, hidden=(8,), epochs=1), feature_spec=fs,
+              progress=False, log=lambda *a: None)

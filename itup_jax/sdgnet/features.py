@@ -24,6 +24,15 @@ the world (property C1) nor under a different choice of the tool's mesh frame:
                    loads about the grasp (`grip_demand`, N per pad); each as log1p(x / scale), the
                    network's own target transform (scales WRIST_TORQUE_SCALE, 1 N), so that the
                    analytic ranking is one linear read-out away.
+  residual [4]     (only with `FeatureSpec.residual`; after the wrist block when both are on) the rigid-body
+                   model's own prediction of the wrench objective's first four targets, in their
+                   transform: the wrist torque's three grasp-frame components at the step where the
+                   torque the pads pass on peaks (the closure-axis one capped by the pads' torsional
+                   friction at WRIST_GRIP_FORCE, so their norm is that passed-on peak), each
+                   log1p(|x| / WRIST_TORQUE_SCALE), and the peak grip demand, log1p(x / 1 N). The
+                   network takes them as inputs and, for such a spec, learns only what its torque and
+                   grip outputs add to them (`model.residual_base`): where it has learnt nothing, its
+                   prediction is the physics'.
 
 Sizes and scales live in `FeatureSpec` (static), stored with a checkpoint so a scorer rebuilds the
 same features.
@@ -45,7 +54,7 @@ from itup_jax.costs import SQRT_TINY, TINY, passed_torque_sq
 from itup_jax.grasp import Grasps
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
-from itup_jax.robot import FLANGE_TO_GRASP
+from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
 from itup_jax.rotations import quat_to_matrix
 from itup_jax.shapes import pad_zeros_high, to_device
 from itup_jax.tools import Tool, ToolParams
@@ -62,17 +71,20 @@ class FeatureSpec:
     seed: int = 0
     field_spacing: float = 0.004  # m, voxel pitch of the tabulated density (Gaussian sigma / 7.5)
     wrist: bool = False  # append the wrist block (module docstring)
+    residual: bool = False  # append the residual block; the network learns the residual on it (docstring)
 
     @property
     def size(self) -> int:
-        return self.grid**3 + 12 + 9 + 4 + (WRIST_SIZE if self.wrist else 0)
+        return (self.grid**3 + 12 + 9 + 4 + (WRIST_SIZE if self.wrist else 0)
+                + (RESIDUAL_SIZE if self.residual else 0))
 
     def to_dict(self) -> dict:
-        """The spec as stored in datasets and checkpoints; `wrist` only when set, so a spec without the
-        block reads and compares as the specs written before the block existed."""
+        """The spec as stored in datasets and checkpoints; `wrist` and `residual` only when set, so a spec
+        without the blocks reads and compares as the specs written before the blocks existed."""
         d = dataclasses.asdict(self)
-        if not self.wrist:
-            d.pop("wrist")
+        for block in ("wrist", "residual"):
+            if not d[block]:
+                d.pop(block)
         return d
 
 
@@ -81,6 +93,10 @@ class FeatureSpec:
 WRIST_SIZE = 6
 WRIST_TORQUE_SCALE = 0.02
 WRIST_GRIP_FORCE = robot.GRIP_FORCE
+#: Size of the optional residual block and the log1p scales of its entries (N m, N m, N m, N per pad): the
+#: wrench objective's scales of its first four targets (`objective.WRENCH`), which a residual network needs.
+RESIDUAL_SIZE = 4
+RESIDUAL_SCALES = (WRIST_TORQUE_SCALE,) * 3 + (1.0,)
 
 
 def surface_sample(tool: Tool, spec: FeatureSpec) -> jax.Array:
@@ -186,9 +202,24 @@ def grasp_features(field: DensityField, loads: Loads, tool: ToolParams, grasp: G
     contact = jnp.concatenate([to_grasp(loads.contact_point_tool - p), to_grasp(loads.normal_tool[k]),
                                to_grasp(tool.com - p)])
     physics = jnp.stack([jnp.log(tool.mass), tool.mu, tool.restitution, jnp.log(tool.contact_duration)])
-    if not spec.wrist:
-        return jnp.concatenate([occ, load_feats, contact, physics])
-    return jnp.concatenate([occ, load_feats, contact, physics, wrist_block(F, tau, tool.mu, grasp.width)])
+    blocks = [occ, load_feats, contact, physics]
+    if spec.wrist:
+        blocks.append(wrist_block(F, tau, tool.mu, grasp.width))
+    if spec.residual:
+        blocks.append(residual_block(F, tau, tool.mu, grasp.width))
+    return jnp.concatenate(blocks)
+
+
+def _wrist_torque(F: jax.Array, tau: jax.Array) -> jax.Array:
+    """[3, T] N m: the torque about the wrist site (-FLANGE_TO_GRASP e_z) of loads F [3, T] (N) and tau
+    [3, T] (N m, about the grasp origin), grasp-frame axes: tau + FLANGE_TO_GRASP e_z x F."""
+    d = FLANGE_TO_GRASP
+    return jnp.stack([tau[0] - d * F[1], tau[1] + d * F[0], tau[2]])
+
+
+def _magnitude(x: jax.Array) -> jax.Array:
+    """|x| with a finite gradient at 0 (as `costs`)."""
+    return jnp.sqrt(x * x + TINY) - SQRT_TINY
 
 
 def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -> jax.Array:
@@ -196,8 +227,7 @@ def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -
     and torque tau [3, T] (N m) in grasp-frame axes (x third, y closure, z approach), pad friction mu []
     and jaw opening width [] (m). The wrist sits at -FLANGE_TO_GRASP e_z, so its torque is
     tau + FLANGE_TO_GRASP e_z x F."""
-    d = FLANGE_TO_GRASP
-    tw = jnp.stack([tau[0] - d * F[1], tau[1] + d * F[0], tau[2]])  # [3, T] about the wrist site
+    tw = _wrist_torque(F, tau)  # [3, T] about the wrist site
     full_sq = tw[0] ** 2 + tw[1] ** 2 + tw[2] ** 2
     # `costs`' 'passed' form: the part off the closure axis (y) from its two components, the part about it
     # capped by the pads' torsional friction at WRIST_GRIP_FORCE
@@ -207,6 +237,20 @@ def wrist_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -
     peaks = jnp.sqrt(peaks + TINY) - SQRT_TINY  # a finite gradient where a load is zero (as `costs`)
     s = WRIST_TORQUE_SCALE
     return jnp.concatenate([jnp.log1p(jnp.abs(tw).max(1) / s), jnp.log1p(peaks[:2] / s), jnp.log1p(peaks[2:])])
+
+
+def residual_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array) -> jax.Array:
+    """[RESIDUAL_SIZE] the residual block of one grasp (arguments as `wrist_block`): the rigid-body
+    prediction of the wrench objective's targets tau_third, tau_closure, tau_approach (the wrist torque's
+    components at the step of its largest passed-on torque, the closure one capped by the pads'
+    torsional friction at WRIST_GRIP_FORCE) and grip (the peak grip demand, N per pad), each
+    log1p(x / RESIDUAL_SCALES)."""
+    tw = _wrist_torque(F, tau)
+    cap = 2.0 * PAD_TORSION * mu * WRIST_GRIP_FORCE
+    k = jnp.argmax(passed_torque_sq(tw[0] ** 2 + tw[2] ** 2, tw[1], mu, WRIST_GRIP_FORCE))
+    comps = jnp.stack([_magnitude(tw[0, k]), jnp.minimum(_magnitude(tw[1, k]), cap), _magnitude(tw[2, k])])
+    grip = jnp.sqrt(grip_demand_sq(F.T, tau.T, mu, width, xp=jnp).max() + TINY) - SQRT_TINY
+    return jnp.log1p(jnp.concatenate([comps, grip[None]]) / jnp.asarray(RESIDUAL_SCALES))
 
 
 def batched(field, loads, tool, grasps, spec):

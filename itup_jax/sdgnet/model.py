@@ -22,7 +22,7 @@ from itup_jax.errors import InputError
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet import mlp, objective
 from itup_jax.sdgnet.config import CLASS_NAMES, CLASS_TARGETS, SUCCESS_TARGET, WEAK_TARGET, TrainConfig
-from itup_jax.sdgnet.features import FeatureSpec
+from itup_jax.sdgnet.features import RESIDUAL_SIZE, FeatureSpec
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,6 +35,12 @@ class Model:
     @property
     def feature_spec(self) -> FeatureSpec:
         return FeatureSpec(**self.spec["feature_spec"])
+
+    @property
+    def residual(self) -> bool:
+        """Whether its torque and grip outputs are residuals on the rigid-body model's prediction
+        (`FeatureSpec.residual`)."""
+        return self.feature_spec.residual
 
     @property
     def objective(self) -> str:
@@ -112,22 +118,37 @@ def _network_outputs(params, x_mean, x_std, y_mean, y_std, feats):
     return out[:, :k] * y_std + y_mean, out[:, k:]
 
 
-def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats):
+def residual_base(feats, spec: FeatureSpec):
+    """[N, RESIDUAL_SIZE] the rigid-body prediction a residual network's first outputs are added to (the
+    features' last block, in the targets' log1p(y / scale)), or None for a spec without it."""
+    return feats[..., -RESIDUAL_SIZE:] if spec.residual else None
+
+
+def _add_base(z, base):
+    """Regression outputs z [..., N, C] plus the residual base [N, R] on their first R columns."""
+    if base is None:
+        return z
+    return z + jnp.pad(base.astype(z.dtype), ((0, 0), (0, z.shape[-1] - base.shape[-1])))
+
+
+def predict_from_features(params, x_mean, x_std, y_mean, y_std, y_scale, feats, base=None):
     """[N, F] features -> ([N, C] regression outputs in SI units, [N, K] probabilities of the binary heads
     or None): normalise, MLP, de-normalise, undo log1p(y / scale) with the checkpoint's own scales
     `y_scale` [C] (the objective's units; `objective.costs_of` makes the scorer's costs of them); the probabilities are the sigmoids of the outputs after the costs (which label each
     is: `Model.class_heads`), None for a network without heads (decided by the last layer's static
     shape). An ensemble (`ensemble`: every array with a leading member axis M, x_mean [M, F]) runs its
     M networks as one batched MLP and averages their log1p(y / scale) and their probabilities. Outputs
-    are >= 0 and probabilities in [0, 1] by construction. Pure;
+    are >= 0 and probabilities in [0, 1] by construction. `base` [N, R] (`residual_base`, a residual
+    network's): added to each network's first R outputs before anything else. Pure;
     `predict` and the scorer's jit wrap it."""
     if x_mean.ndim == 2:  # static: an ensemble's stacked members
         z, logits = jax.vmap(_network_outputs, in_axes=(0, 0, 0, 0, 0, None))(params, x_mean, x_std, y_mean, y_std,
                                                                                feats)
         # each member's prediction held at >= 0 (below), then their mean
-        z, probs = jnp.maximum(z, 0.0).mean(0), jax.nn.sigmoid(logits).mean(0)
+        z, probs = jnp.maximum(_add_base(z, base), 0.0).mean(0), jax.nn.sigmoid(logits).mean(0)
     else:
         z, logits = _network_outputs(params, x_mean, x_std, y_mean, y_std, feats)
+        z = _add_base(z, base)
         probs = jax.nn.sigmoid(logits)
     # every target is a magnitude (torque, grip force, slip, drift >= 0), learnt as log1p(y / scale) >= 0: a
     # network output below 0 (an extrapolation) is held at 0, so no prediction is negative
@@ -148,7 +169,8 @@ def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str
     dt = jnp.asarray(model.params[0][0]).dtype
     out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                      jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
-                     jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt))
+                     jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt),
+                     residual_base(jnp.asarray(feats, dt), model.feature_spec))
     costs = objective.costs_of(out, model.objective)
     derived = {name: costs[:, i] for i, name in enumerate(objective.COST_COLUMNS)
                if name != "grip" or model.objective != "paper"}

@@ -23,7 +23,8 @@ from itup_jax.errors import InputError, is_integer
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet import mlp, objective
 from itup_jax.sdgnet.config import CLASS_NAMES, CLASS_TARGETS, WEAK_TARGET, TrainConfig
-from itup_jax.sdgnet.model import Model, predict_costs
+from itup_jax.sdgnet.features import RESIDUAL_SCALES, RESIDUAL_SIZE, FeatureSpec
+from itup_jax.sdgnet.model import Model, predict_costs, residual_base
 from itup_jax.sdgnet.optim import AdamConfig, adam_init, adam_update
 
 
@@ -186,9 +187,11 @@ def adapt(model: Model, data: dict, *, epochs: int, lr: float | None = None, see
     return out
 
 
-def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Features X [N, F], targets Y [N, 3] = log1p(y / scale), and keep [N] bool: the rows a network is
-    trained on (finite features and targets)."""
+def _design(data: dict, config: TrainConfig, feature_spec: dict | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Features X [N, F], targets Y [N, C] = log1p(y / scale), keep [N] bool: the rows a network is
+    trained on (finite features and targets), and the residual base B [N, R] (`model.residual_base`) or
+    None. For a residual spec (`FeatureSpec.residual`) Y's first R columns are the residuals Y - B."""
     X = np.asarray(data["features"], np.float64)
     missing = [t for t in config.targets if t not in data]
     if missing:
@@ -197,7 +200,18 @@ def _design(data: dict, config: TrainConfig) -> tuple[np.ndarray, np.ndarray, np
                          f"--objective {'paper' if config.objective != 'paper' else 'wrench'})")
     Y = np.log1p(np.stack([np.asarray(data[t], np.float64) for t in config.targets], axis=1)
                  / np.array(config.target_scales))
-    return X, Y, np.isfinite(X).all(1) & np.isfinite(Y).all(1)
+    spec = FeatureSpec(**(feature_spec or {}))
+    B = residual_base(X, spec)
+    if B is not None:
+        scales = tuple(float(v) for v in config.target_scales[:RESIDUAL_SIZE])
+        if config.objective != "wrench" or not np.allclose(scales, RESIDUAL_SCALES):
+            raise InputError(f"train: a residual feature spec predicts the wrench objective's torque and grip "
+                             f"targets at scales {RESIDUAL_SCALES}; this recipe regresses the {config.objective!r} "
+                             f"objective's at {scales} (train with --objective wrench and torque_scale "
+                             f"{RESIDUAL_SCALES[0]})")
+        Y = Y.copy()
+        Y[:, :RESIDUAL_SIZE] -= B
+    return X, Y, np.isfinite(X).all(1) & np.isfinite(Y).all(1), B
 
 
 def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | None, progress: bool, log,
@@ -211,7 +225,7 @@ def _train_per_task(data: dict, config: TrainConfig, *, feature_spec: dict | Non
         one, val_tools = dataclasses.replace(config, per_task=False), None
     else:
         one = dataclasses.replace(config, epochs=config.finetune_epochs, lr=config.finetune_lr, finetune_epochs=0)
-        keep = _design(data, config)[2]
+        keep = _design(data, config, feature_spec)[2]
         draw = _val_tools_per_task if init.tasks is not None else _val_tools
         val_tools = draw({"task": task[keep], "tool_id": np.asarray(data["tool_id"])[keep]},
                          config.val_fraction, config.seed)
@@ -251,7 +265,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
                val_tools: set | None = None, init: Model | None = None) -> Model:
     """One MLP on `data`'s valid rows. `val_tools`: the held-out tools (default: drawn by `config`);
     `init`: start from this network and keep its normalisation (fine-tuning) instead of a fresh one."""
-    X, Y, keep = _design(data, config)
+    X, Y, keep, B = _design(data, config, feature_spec)
     heads = config.class_weights
     missing = [t for t in heads if t not in data]
     if missing:
@@ -264,6 +278,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
          else np.zeros((int(keep.sum()), 0)))
     class_w = jnp.asarray(list(heads.values()), jnp.float32)
     X, Y = X[keep], Y[keep]
+    B0 = np.zeros(len(X)) if B is None else B[keep][:, 0]  # the first output's residual base (listwise term)
     sub = {k: np.asarray(v)[keep] for k, v in data.items() if k in ("task", "tool_id")}
     if len(X) < 8:
         raise InputError(f"train: need at least 8 valid examples, got {len(X)}")
@@ -279,6 +294,9 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
     Xn, Yn = (X - x_mean) / x_std, (Y - y_mean) / y_std
     f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731
     Xtr, Ytr, Str, Xva, Yva, Sva = f32(Xn[tr]), f32(Yn[tr]), f32(S[tr]), f32(Xn[va]), f32(Yn[va]), f32(S[va])
+    # the listwise term ranks the first output itself: a residual network's normalised output plus its base
+    Bn = B0 / y_std[0]
+    Btr, Bva = f32(Bn[tr]), f32(Bn[va])
     n_tr = len(Xtr)
     batch = min(config.batch, n_tr)
     steps_per_epoch = max(1, n_tr // batch)
@@ -295,13 +313,14 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
         names = _tool_names(sub)
         g_order, g_start, g_count = (jnp.asarray(a) for a in _tool_groups(names[tr]))
         va_idx, va_mask = _padded_groups(names[va])
-        Gva, Gva_mask = (Xva[va_idx], Yva[va_idx]), jnp.asarray(va_mask)
+        Gva, Gva_mask = (Xva[va_idx], Yva[va_idx], Bva[va_idx]), jnp.asarray(va_mask)
 
     def loss_fn(p, x, y, s, group=None, mask=None):
         out = training_loss(p, x, y, s, class_w)
-        if group is not None:  # group = (features [T, G, F], targets [T, G, 3]) of T tools' grasps
+        if group is not None:  # group = (features [T, G, F], targets [T, G, C], bases [T, G]) of T tools' grasps
             pred = jax.vmap(jax.vmap(mlp.apply, in_axes=(None, 0)), in_axes=(None, 0))(p, group[0])
-            out = out + config.rank_weight * listwise_loss(pred[..., 0], group[1][..., 0], config.rank_temperature, mask)
+            out = out + config.rank_weight * listwise_loss(pred[..., 0] + group[2], group[1][..., 0] + group[2],
+                                                           config.rank_temperature, mask)
         return out
 
     ema = float(config.ema)
@@ -319,7 +338,7 @@ def _train_one(data: dict, config: TrainConfig, *, feature_spec: dict | None, pr
             group = None
             if rank:
                 gi = _draw_groups(kg, g_order, g_start, g_count, config.rank_tools, config.rank_group)
-                group = (Xtr[gi], Ytr[gi])
+                group = (Xtr[gi], Ytr[gi], Btr[gi])
             l, g = jax.value_and_grad(loss_fn)(p, Xtr[idx], Ytr[idx], Str[idx], group)
             p, s = adam_update(g, s, p, adam)
             # the weights validated and kept: their moving average (TrainConfig.ema), or the step's own
