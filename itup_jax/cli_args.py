@@ -133,6 +133,9 @@ def add_plan(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-guard", action="store_true",
                    help="sdgnet: do not switch to verified picking when the tool lies outside the network's training "
                    "data (the out-of-distribution guard, itup_jax/ood.py; it still reports)")
+    p.add_argument("--guard-threshold", type=float, default=None, metavar="X",
+                   help="sdgnet: the guard's threshold (default: ood.GUARD_THRESHOLD, calibrated for the shipped "
+                   "checkpoint; for a checkpoint of your own, calibrate it with experiments/ood_guard.py)")
     p.add_argument("--scorer", default=default(plan_grasp, "scorer"), choices=SCORERS,
                    help="sdgnet (the shipped checkpoint), sdgnet_paper (the paper objective's checkpoint), analytic "
                    "(the paper's cost), analytic_wrench (its grip-demand form), or a baseline (default %(default)s)")

@@ -283,7 +283,7 @@ def guard_order(scorer_total: np.ndarray, analytic_total: np.ndarray, k: int) ->
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
                weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
                verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
-               budget: int | None = None, guard: bool = True) -> GraspPlan:
+               budget: int | None = None, guard: bool = True, guard_threshold: float | None = None) -> GraspPlan:
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
@@ -309,6 +309,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`), and
         whenever it fired the verified grasps mix the analytic wrench cost's best into SDG-Net's
         (`guard_order`; the plan's `shortlist_rule` "guard_mixed").
+      guard_threshold: the guard's threshold (default `ood.GUARD_THRESHOLD`, calibrated for the shipped
+        checkpoint; a checkpoint of your own: calibrate it with `experiments/ood_guard.py`).
     Returns:
       `GraspPlan`; its status says whether a grasp is recommended.
     Raises:
@@ -340,6 +342,11 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                                or isinstance(budget, bool) or budget < n):
         raise InputError(f"plan_grasp: budget (the most candidates drawn) applies to sampling 'reachable' and must "
                          f"be an integer >= n ({n}), got {budget!r}")
+    if guard_threshold is not None and (isinstance(guard_threshold, bool) or not isinstance(guard_threshold, (int, float))
+                                        or not np.isfinite(guard_threshold) or guard_threshold <= 0):
+        raise InputError(f"plan_grasp: guard_threshold must be a finite number > 0, got {guard_threshold!r}")
+    if guard_threshold is not None and scorer not in SDGNET_SCORERS:
+        raise InputError(f"plan_grasp: guard_threshold applies to the SDG-Net scorers' guard; scorer {scorer!r} has none")
     given = dict(weights or {})
     if torque_first:
         clash = [k for k in ("w_tau", "w_slip", "w_align") if k in given]
@@ -381,7 +388,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         from itup_jax import ood
         from itup_jax.sdgnet.config import PAPER_MODEL
 
-        reading = ood.check(tool, task, grasps, model=PAPER_MODEL if scorer == "sdgnet_paper" else model)
+        reading = ood.check(tool, task, grasps, model=PAPER_MODEL if scorer == "sdgnet_paper" else model,
+                            threshold=guard_threshold)
         if guard and reading.fired and verify == 0:
             verify, guard_verified = GUARD_VERIFY_K, True
     total = np.asarray(scores.total)

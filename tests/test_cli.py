@@ -211,6 +211,8 @@ def test_importing_mjx_prints_nothing_to_stdout():
     (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics 'random'"),
     (["plan", "--torque-first", "--w-slip", "1"], "cannot be combined with --w-slip"),
     (["plan", "--torque-first", "--scorer", "analytic"], "not the 'analytic' scorer's"),
+    (["plan", "--guard-threshold", "-1"], "--guard-threshold must be a finite number > 0, got -1.0"),
+    (["plan", "--guard-threshold", "1.3", "--scorer", "geometric"], "--guard-threshold applies to the SDG-Net"),
     (["bench", "verify", "--draws", "0"], "bench verify: --draws must be an integer >= 1, got 0"),
     (["plan", "--n", "5", "--seed", "-1"], "seed must be an integer >= 0, got -1"),
     (["plan", "--tool", "spoon"], "not a built-in tool"),

@@ -42,6 +42,9 @@ def test_first_reachable_reports_none_when_nothing_is(tasks, monkeypatch):
     (dict(verify_draws=2), "give verify K too"),
     (dict(torque_first=True, scorer="analytic"), "not the 'analytic' scorer's"),
     (dict(weights={"w_task": 1.0}, scorer="analytic"), "w_task/w_fail"),
+    (dict(guard_threshold=0.0), "guard_threshold must be a finite number > 0"),
+    (dict(guard_threshold=float("nan")), "guard_threshold must be a finite number > 0"),
+    (dict(guard_threshold=1.0, scorer="force_closure"), "has none"),
 ])
 def test_bad_options_are_refused_before_any_work(tasks, kw, match, monkeypatch):
     tool, task = tasks["hammer"]
@@ -109,3 +112,15 @@ def test_plan_says_why_when_few_candidates_are_reachable(tasks, monkeypatch):
     monkeypatch.setattr(grasp_sampler, "REACHABLE_NOTE_SHARE", 0.10)
     q = itup.plan_grasp(tool, task, n=8, seed=0, scorer="analytic")
     assert "unreachable" not in q.sampling and "note: the arm can carry" not in q.report()
+
+
+def test_the_guard_threshold_decides_whether_the_plan_verifies(tasks):
+    """The same candidates read by the guard at two thresholds around their score: below it the guard
+    fires and the plan verifies (its reading records the threshold), above it the learned score decides."""
+    tool, task = tasks["hammer"]
+    plan = itup.plan_grasp(tool, task, n=16, seed=2, guard=False)
+    score = plan.guard.score
+    low = itup.plan_grasp(tool, task, n=16, seed=2, guard=False, guard_threshold=0.5 * score)
+    high = itup.plan_grasp(tool, task, n=16, seed=2, guard_threshold=2.0 * score)
+    assert low.guard.fired and low.guard.threshold == pytest.approx(0.5 * score) and low.guard.score == score
+    assert not high.guard.fired and not high.guard_verified and high.pick == plan.pick
