@@ -10,6 +10,10 @@
     python experiments/training_families.py --train data/span/baton data/span/headed_stick data/span/hook \\
         data/span/pusher --rehearse data/families/builtin --out results/training_families
     python experiments/training_families.py --train ... --rehearse ... --from-scratch --out results/training_families_scratch
+    # at full scale: the shipped network's own training sets as the rehearsal rows (docs/results.md "Data")
+    python experiments/training_families.py --train data/span/baton data/span/headed_stick data/span/hook \\
+        data/span/pusher --rehearse data/train_a data/train_b data/train_c data/train_d --from-scratch \\
+        --out results/training_families_full
     python experiments/training_families.py --quick --out results/tf_quick          # tiny (tests)
 
 The four training families span what users bring to each category: headless two-segment sticks (thin or
@@ -24,8 +28,9 @@ its recipe's fine-tuning epochs, each kept epoch judged on the data's own held-o
 and `shipped` itself. Each adapted model's guard reference holds the shipped one's rows and its new rows.
 With `--from-scratch`, two more per seed, trained from scratch by the shipped checkpoint's own recipe
 (`Model.train_config`, the seed replaced): `scratch_rehearsed` on the rehearsal rows alone and
-`scratch_trained` on both (a small-data check of whether the families teach a network that learns
-them from the start; the shipped network was trained on ~27,000 rows of the built-in families).
+`scratch_trained` on both (whether the families teach a network that learns them from the start;
+with the shipped network's own training sets as the rehearsal rows, ~27,000 rows of the built-in
+families, `scratch_rehearsed` is the shipped network made again).
 Evaluation (`itup_jax.family_eval`): `--tools` draws per held-out family and task and per built-in
 family (seeds 200..; no dataset holds them), `--grasps` candidates the arm can carry, rolled out once
 under nominal physics; the same rollouts judge every model. Per model, family and task: the median
