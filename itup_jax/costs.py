@@ -149,12 +149,16 @@ def _off_axis_sq(tau: jax.Array, R: jax.Array) -> jax.Array:
     return (tau @ R[:, 0]) ** 2 + (tau @ R[:, 2]) ** 2
 
 
+def torsion_cap(mu, grip_force):
+    """N m: the most torque about the jaw's closure axis the pads hold by their torsional friction,
+    2 c_t mu f_grip (module docstring)."""
+    return 2.0 * PAD_TORSION * mu * grip_force
+
+
 def passed_torque_sq(off_sq: jax.Array, tau_n: jax.Array, mu, grip_force) -> jax.Array:
     """[T] N^2 m^2: the torque the pads pass on, squared: the part off the closure axis (`off_sq`, its
-    square) in full, the part about it up to the pads' torsional friction, 2 c_t mu f_grip (module
-    docstring)."""
-    cap = 2.0 * PAD_TORSION * mu * grip_force
-    return off_sq + jnp.minimum(jnp.abs(tau_n), cap) ** 2
+    square) in full, the part about it up to the pads' torsional friction (`torsion_cap`)."""
+    return off_sq + jnp.minimum(jnp.abs(tau_n), torsion_cap(mu, grip_force)) ** 2
 
 
 def _grip_torque_sq(F: jax.Array, tau: jax.Array, R: jax.Array, mu, width) -> jax.Array:

@@ -45,9 +45,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
+from itup_jax.costs import torsion_cap
 from itup_jax.errors import InputError
 from itup_jax.grip_demand import grip_demand_sq
-from itup_jax.robot import PAD_SOLIMP, PAD_SOLREF, PAD_TORSION
+from itup_jax.robot import PAD_SOLIMP, PAD_SOLREF
 
 #: s, the pads' contact time constant (their solref's)
 PAD_TIMECONST = PAD_SOLREF[0]
@@ -109,7 +110,7 @@ def pads_pass(W: jax.Array, blow: Blow, pads: str) -> jax.Array:
     if pads == "torsion":
         y = blow.grasp_axes[:, 1]
         c = tau_g @ y
-        cap = 2.0 * PAD_TORSION * blow.mu * blow.grip_force
+        cap = torsion_cap(blow.mu, blow.grip_force)
         return W.at[3:].add((jnp.clip(c, -cap, cap) - c) * y)
     need_sq = grip_demand_sq(F @ blow.grasp_axes, tau_g @ blow.grasp_axes, blow.mu, blow.width, xp=jnp)
     f_sq = blow.grip_force**2

@@ -50,11 +50,11 @@ import numpy as np
 import trimesh
 
 from itup_jax import robot
-from itup_jax.costs import SQRT_TINY, TINY, passed_torque_sq
+from itup_jax.costs import SQRT_TINY, TINY, passed_torque_sq, torsion_cap
 from itup_jax.grasp import Grasps
 from itup_jax.grip_demand import grip_demand_sq
 from itup_jax.precision import full_precision
-from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
+from itup_jax.robot import FLANGE_TO_GRASP
 from itup_jax.rotations import quat_to_matrix
 from itup_jax.shapes import pad_zeros_high, to_device
 from itup_jax.tools import Tool, ToolParams
@@ -246,7 +246,7 @@ def residual_block(F: jax.Array, tau: jax.Array, mu: jax.Array, width: jax.Array
     torsional friction at WRIST_GRIP_FORCE) and grip (the peak grip demand, N per pad), each
     log1p(x / RESIDUAL_SCALES)."""
     tw = _wrist_torque(F, tau)
-    cap = 2.0 * PAD_TORSION * mu * WRIST_GRIP_FORCE
+    cap = torsion_cap(mu, WRIST_GRIP_FORCE)
     k = jnp.argmax(passed_torque_sq(tw[0] ** 2 + tw[2] ** 2, tw[1], mu, WRIST_GRIP_FORCE))
     comps = jnp.stack([_magnitude(tw[0, k]), jnp.minimum(_magnitude(tw[1, k]), cap), _magnitude(tw[2, k])])
     grip = jnp.sqrt(grip_demand_sq(F.T, tau.T, mu, width, xp=jnp).max() + TINY) - SQRT_TINY

@@ -167,10 +167,10 @@ def predict_costs(model: Model, feats: Any, task: str | None = None) -> dict[str
     model = model.for_task(task)
     s = model.spec
     dt = jnp.asarray(model.params[0][0]).dtype
+    feats = jnp.asarray(feats, dt)
     out, p = predict([(jnp.asarray(W), jnp.asarray(b)) for W, b in model.params], jnp.asarray(s["x_mean"]),
                      jnp.asarray(s["x_std"]), jnp.asarray(s["y_mean"]), jnp.asarray(s["y_std"]),
-                     jnp.asarray(s["target_scales"], dt), jnp.asarray(feats, dt),
-                     residual_base(jnp.asarray(feats, dt), model.feature_spec))
+                     jnp.asarray(s["target_scales"], dt), feats, residual_base(feats, model.feature_spec))
     costs = objective.costs_of(out, model.objective)
     derived = {name: costs[:, i] for i, name in enumerate(objective.COST_COLUMNS)
                if name != "grip" or model.objective != "paper"}
