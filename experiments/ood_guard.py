@@ -1,12 +1,14 @@
 """SDG-Net on tool families it never saw, and the out-of-distribution guard calibrated on them.
 
-    python experiments/ood_guard.py --out results/ood_guard                  # 4 draws per family and task
-    python experiments/ood_guard.py --calibrate-on training --out results/ood_guard_training
-    python experiments/ood_guard.py --quick --out results/ood_quick                    # two families, tiny (tests)
+    python experiments/ood_guard.py --out results/ood_guard       # 4 draws per family and task, the calibration families
+    python experiments/ood_guard.py --calibrate-on held_out --out results/ood_guard_held_out
+    python experiments/ood_guard.py --quick --out results/ood_quick                 # three families, tiny (tests)
 
-The shipped checkpoint was trained on four families (claw hammer, hand broom, mallet, L-stick; their
-part-wise and stretched variants). The five families of `itup_jax.tools.families` (screwdriver, spanner, pry
-bar, hatchet, squeegee) are held out by construction. Per family and task it can do, two disjoint sets
+The shipped checkpoint was trained on the four built-in families (claw hammer, hand broom, mallet,
+L-stick; their part-wise and stretched variants) and the four training families of
+`itup_jax.tools.families` (baton, headed stick, hook, pusher). Five families (screwdriver, spanner, pry
+bar, hatchet, squeegee) are held out by construction, and four more (paddle, mace, scraper, T-hook) are
+kept for calibrating the guard. Per family and task it can do, two disjoint sets
 of tools are drawn (`tools.families.draw`): a calibration set (the family's default and seeds 100..) and a test
 set (seeds 200..). Per tool: `--grasps` candidates the arm can carry (`sample_reachable`), each rolled
 out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, and read by the guard
@@ -29,10 +31,10 @@ out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, 
 Calibration rule (fixed before the test set is read): the guard's threshold is the largest tool score t
 such that, on the calibration tools of the calibration families, at least 90 % of the tools with
 rho < 0.5 score above t; with no such tool, the 95th percentile of the built-in families' calibration
-scores. The calibration families are the held-out ones themselves (their calibration draws;
-`--calibrate-on held_out`, the default) or the training families (`--calibrate-on training`: the
-shipped checkpoint never trained on them, and the threshold is then judged on families it was not
-calibrated on). The test set (the built-in and the held-out families) then reports how many of its
+scores. The calibration families are the calibration families (`--calibrate-on calibration`, the
+default: no training set holds them, and the threshold is then judged on held-out families it was not
+calibrated on), the held-out ones themselves (their calibration draws; `--calibrate-on held_out`), or the
+training families (`--calibrate-on training`, for a checkpoint that never trained on them). The test set (the built-in and the held-out families) then reports how many of its
 rho < 0.5 tools the guard catches and how often it fires on the built-in families' tools. Writes
 ood_guard.json.
 """
@@ -184,16 +186,17 @@ def per_family(rows: list[dict]) -> list[dict]:
     return out
 
 
-def family_sets(names: list[str], calibrate_on: str, training: tuple[str, ...]) -> dict[str, tuple[str, ...]]:
+def family_sets(names: list[str], calibrate_on: str, others: tuple[str, ...]) -> dict[str, tuple[str, ...]]:
     """{family: the sets ("calibration", "test") drawn of it}: with `calibrate_on` "held_out" every family
-    of `names` in both; with "training" the built-in families in both, the other families of `names` in
-    the test set only, and the `training` families in the calibration set only."""
+    of `names` in both; with "training" or "calibration" the built-in families in both, the other families
+    of `names` in the test set only, and the `others` families (the training or the calibration ones) in
+    the calibration set only."""
     from itup_jax.tools import families
 
     if calibrate_on == "held_out":
         return {name: ("calibration", "test") for name in names}
     sets = {name: ("calibration", "test") if families.get(name).builtin else ("test",) for name in names}
-    sets.update({name: ("calibration",) for name in training})
+    sets.update({name: ("calibration",) for name in others})
     return sets
 
 
@@ -217,11 +220,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--tools", type=int, default=4, help="drawn tools per family, task and set (default %(default)s)")
     ap.add_argument("--grasps", type=int, default=64, help="reachable candidates per tool (default %(default)s)")
     ap.add_argument("--verify", type=int, default=5, metavar="K", help="the verified pick's shortlist (default %(default)s)")
-    ap.add_argument("--families", default=",".join(f for f in families.names() if not families.get(f).training),
+    ap.add_argument("--families", default=",".join(f for f in families.names()
+                                                   if families.get(f).builtin or families.get(f).held_out),
                     help="comma-separated families (default: the built-in and the held-out ones)")
-    ap.add_argument("--calibrate-on", choices=("held_out", "training"), default="held_out",
-                    help="the calibration families: the held-out ones' calibration draws, or the training "
-                    "families' (then the held-out ones are only tested) (default %(default)s)")
+    ap.add_argument("--calibrate-on", choices=("held_out", "training", "calibration"), default="calibration",
+                    help="the calibration families: the held-out ones' calibration draws, the training "
+                    "families' or the calibration families' (with either of the last two, the held-out ones "
+                    "are only tested) (default %(default)s)")
     ap.add_argument("--plan-n", type=int, default=1000, help="candidates of the planner's run on each test tool "
                     "(0: no planner run; default %(default)s)")
     ap.add_argument("--plan-draws", type=int, default=3, help="random-physics rollouts of the planner's pick")
@@ -236,7 +241,8 @@ def main(argv=None) -> dict:
     if args.tools < 1 or args.grasps < 3 or args.verify < 1:
         print("ood_guard: --tools >= 1, --grasps >= 3 and --verify >= 1 are needed", file=sys.stderr)
         raise SystemExit(2)
-    set_names = family_sets(names, args.calibrate_on, ("baton",) if args.quick else families.training())
+    others = {"held_out": (), "training": families.training(), "calibration": families.calibration()}[args.calibrate_on]
+    set_names = family_sets(names, args.calibrate_on, ("paddle",) if args.quick and others else others)
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
     sets = {"calibration": [], "test": []}

@@ -7,8 +7,8 @@ The test tools are drawn from the checkpoint itself, so no one chooses them and 
 new ones: for task k and tool i (0-15) the seed is the first 8 bytes, big-endian, of
 SHA-256(checkpoint bytes || k || i), with k the task's name and i in decimal, both UTF-8 (`sealed_seed`).
 Tools 0-7 are part-wise variants of the task's built-in tool (`tools.variants.part_variant`), tools 8-15
-draws of the task's other families (`tools.families`, those that do the task), one after the other in
-the families' order (--quick draws from the checkpoint's bytes followed by "/quick", never a sealed
+draws of the task's other families (`tools.families`: the held-out and the sealed-test families that do
+the task), one after the other in the families' order (--quick draws from the checkpoint's bytes followed by "/quick", never a sealed
 tool). Per tool:
   * 256 candidates the arm can carry (`sample_reachable`, seed 0; a tool with none is a loss for
     every method);
@@ -79,8 +79,9 @@ def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
 
 
 def other_families(task: str) -> list[str]:
-    """The held-out tool families (no training set holds them) that do `task`, in `families.names()` order."""
-    return [n for n in families.held_out() if task in families.get(n).tasks]
+    """The families no training set holds that do `task`: the held-out ones, then the sealed-test ones
+    (`families.sealed()`, never rolled out before this evaluation), in `families.names()` order."""
+    return [n for n in families.held_out() + families.sealed() if task in families.get(n).tasks]
 
 
 def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]:

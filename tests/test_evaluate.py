@@ -921,13 +921,15 @@ def test_initial_grip_quick_and_the_pads_overlap_in_closed_form(tmp_path, monkey
 
 @pytest.mark.slow
 def test_ood_guard_quick(tmp_path, monkeypatch):
-    """A built-in family and a held-out one, a calibration and a test tool each: every row measured, the
-    threshold calibrated by the rule, the picks judged."""
+    """A built-in family in both sets, a held-out one in the test set and a calibration family in the
+    calibration set: every row measured, the threshold calibrated by the rule, the picks judged."""
     _run_experiment("ood_guard.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "ood_guard.json").read_text())
     jsonschema.validate(doc, load_schema("ood_guard"))
     rows = doc["rows"]["calibration"] + doc["rows"]["test"]
-    assert {r["family"] for r in rows} == {"mallet", "screwdriver"} and len(doc["rows"]["test"]) == 2
+    assert {r["family"] for r in doc["rows"]["test"]} == {"mallet", "screwdriver"} and len(doc["rows"]["test"]) == 2
+    assert {r["family"] for r in doc["rows"]["calibration"]} == {"mallet", "paddle"}
+    assert doc["calibrate_on"] == "calibration"
     assert {r["builtin"] for r in rows if r["family"] == "mallet"} == {True}
     assert all(r["pred_min"]["tau"] >= 0 and r["candidates"] == 12 for r in rows)
     j = doc["judged"]["test"]
@@ -939,8 +941,8 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
 
 
 def test_ood_guard_calibration_families():
-    """Calibrated on the training families, the guard is judged on held-out families it was not calibrated
-    on: they are drawn for the test set only, the training families for the calibration set only."""
+    """Calibrated on the training or the calibration families, the guard is judged on held-out families it
+    was not calibrated on: they are drawn for the test set only, the others for the calibration set only."""
     from experiments.ood_guard import family_sets
 
     names = ["mallet", "screwdriver", "squeegee"]
@@ -948,6 +950,7 @@ def test_ood_guard_calibration_families():
     sets = family_sets(names, "training", ("baton", "hook"))
     assert sets == {"mallet": ("calibration", "test"), "screwdriver": ("test",), "squeegee": ("test",),
                     "baton": ("calibration",), "hook": ("calibration",)}
+    assert family_sets(names, "calibration", ("paddle",))["paddle"] == ("calibration",)
 
 
 @pytest.mark.slow
@@ -1053,10 +1056,11 @@ def test_sealed_tools_are_drawn_from_the_checkpoint():
     ck = b"checkpoint bytes"
     assert se.sealed_seed(ck, "knock", 3) == int.from_bytes(hashlib.sha256(b"checkpoint bytesknock3").digest()[:8], "big")
     assert se.sealed_seed(ck, "knock", 3) != se.sealed_seed(ck + b"x", "knock", 3)
-    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet"] and se.other_families("sweep") == ["squeegee"]
+    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet", "rolling_pin"]
+    assert se.other_families("sweep") == ["squeegee", "rake"] and se.other_families("reach") == ["pry_bar", "hoe"]
     tools = se.sealed_tools(ck, "knock", 16)
     assert [t["kind"] for t in tools] == ["builtin"] * 8 + ["other"] * 8
-    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet"] * 2 + ["screwdriver", "spanner"]
+    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet", "rolling_pin"] * 2
     assert tools[0]["tool"].name == f"mallet#{se.sealed_seed(ck, 'knock', 0)}"
     assert tools[9]["tool"].name == f"spanner@{se.sealed_seed(ck, 'knock', 9)}"
     quick = se.sealed_tools(ck + se.QUICK_SALT, "knock", 2)

@@ -83,16 +83,22 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
     assert float(user.params.mu) == priors.CATEGORY_PRIORS[tool.category].mu.value
 
 
-def test_held_out_and_training_families():
-    """The five held-out families and the four training ones; a training family's tools take a built-in
-    category (its priors and tool frame), so its labels teach that category's network."""
+def test_held_out_training_calibration_and_sealed_families():
+    """The five held-out families, the four training ones, the four calibration ones and the three
+    sealed-test ones, disjoint; a training, calibration or sealed-test family's tools take a built-in category (its priors and tool frame), so its
+    labels teach (or its draws calibrate on) that category's network."""
     assert families.held_out() == ("screwdriver", "spanner", "pry_bar", "hatchet", "squeegee")
     assert families.training() == ("baton", "headed_stick", "hook", "pusher")
+    assert families.calibration() == ("paddle", "mace", "scraper", "t_hook")
+    assert families.sealed() == ("rolling_pin", "rake", "hoe")
     builtin = {f for f in families.names() if families.get(f).builtin}
-    for name in families.training():
+    for name in families.training() + families.calibration() + families.sealed():
         fam = families.get(name)
         assert fam.tool_category in builtin and not fam.held_out
+        assert fam.training + fam.calibration + fam.sealed == 1
         assert families.draw(name, 7).category == fam.tool_category
+    # every built-in category's tasks have a calibration family
+    assert {k for f in families.calibration() for k in families.get(f).tasks} == {"hammer", "sweep", "knock", "reach"}
     assert all(families.get(f).tool_category == f for f in families.held_out())
 
 

@@ -3,12 +3,15 @@
     from itup_jax.tools import families
     families.names()                         # ('hammer', 'broom', ..., 'squeegee', 'baton', ..., 'pusher')
     families.held_out()                      # the five no training set holds
+    families.training()                      # the four the shipped network trains on beside the built-ins
+    families.calibration()                   # the four the guard is calibrated on
+    families.sealed()                        # the three the shipped checkpoint's sealed evaluation draws
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Thirteen families. The first four are the built-in tools' (`builtin.claw_hammer`, `hand_broom`,
+Twenty families. The first four are the built-in tools' (`builtin.claw_hammer`, `hand_broom`,
 `mallet`, `l_stick`), drawn part-wise by `variants.part_variant`. The next five are held out of every
 training set (`held_out()`: the evaluations' families the network never saw), each assembled from
 primitive parts with their own materials (`builtin.assemble_tool`: mass properties from the parts'
@@ -24,7 +27,7 @@ meshes and densities, a watertight union for sampling, capsules and boxes for th
   squeegee     a T-headed long tool: a neoprene blade in a polypropylene holder on a hollow aluminium
                handle; pushes with the blade (sweep).
 
-The last four are training families (`training()`): wide spans of a built-in category's shape and mass
+The next four are training families (`training()`): wide spans of a built-in category's shape and mass
 distribution, each part's material drawn too, made for the network's training data and never used to
 evaluate it:
 
@@ -37,6 +40,30 @@ evaluate it:
                bend (L-stick's category; reach).
   pusher       a T-head, short or wide, on a short or long handle; pushes with the head (broom's
                category; sweep).
+
+The last four are calibration families (`calibration()`): other shapes of the built-in categories, in
+no training set, drawn only to calibrate the out-of-distribution guard, so that the five held-out
+families stay the set the guard and the network are judged on:
+
+  paddle       a handle and a flat blade, thin along the strike (wood, plastic or aluminium); strikes
+               with the blade's face (mallet's category; hammer, knock).
+  mace         a handle and a tall box head on its axis, light to heavy; strikes with the head's side
+               (hammer's category; hammer, knock).
+  scraper      a thin steel or aluminium plate on a short or long handle; pushes with the plate's face
+               (broom's category; sweep).
+  t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
+               with the crossbar's underside (L-stick's category; reach).
+
+The last three are sealed-test families (`sealed()`): shapes of the built-in categories added after the
+shipped checkpoint, its guard and the planner's weights were frozen, drawn only by the sealed evaluation
+(`experiments/sealed_eval.py`) and never rolled out before it:
+
+  rolling_pin  a handle, a thick barrel and a thin knob past it, of one material; strikes with the
+               barrel's side, with mass beyond the contact (mallet's category; hammer, knock).
+  rake         a crossbar on three flat tines on a handle; pushes with the tines (broom's category;
+               sweep).
+  hoe          a round bar with a thin flat blade across its end; pulls with the blade's underside
+               (L-stick's category; reach).
 
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin, the contact normal along the category's direction. The ranges are typical
@@ -299,6 +326,176 @@ def pusher(*, half_width: float = 0.120, head_height: float = 0.040, head_depth:
 
 
 # ---------------------------------------------------------------------------------------------------
+# Calibration families: shapes of the built-in categories that no training set holds, kept for
+# calibrating the out-of-distribution guard (so that the held-out families stay the judged set)
+# ---------------------------------------------------------------------------------------------------
+def paddle(*, handle_length: float = 0.200, handle_radius: float = 0.013, blade_thickness: float = 0.012,
+           blade_width: float = 0.080, blade_height: float = 0.140, handle_material: str = "hickory",
+           blade_material: str = "beech", name: str = "paddle") -> Tool:
+    """A paddle: a handle along +z and a flat blade on top, thin along x (blade_thickness), wide along y
+    (blade_width) and blade_height tall. It strikes with the blade's flat +x face, 70 % of the way up
+    (mallet's category: hammer, knock). Default: 0.34 m, ~0.19 kg."""
+    z0 = handle_length
+    t = blade_thickness / 2
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="mallet",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("blade", blade_material, box_part((-t, -blade_width / 2, z0), (t, blade_width / 2, z0 + blade_height))),
+        ],
+        contact_points=[(t, 0.0, z0 + 0.7 * blade_height)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.8 * handle_length)),
+    )
+
+
+def mace(*, handle_length: float = 0.280, handle_radius: float = 0.014, head_half_x: float = 0.018,
+         head_half_y: float = 0.018, head_height: float = 0.060, handle_material: str = "hickory",
+         head_material: str = "steel", name: str = "mace") -> Tool:
+    """A mace: a handle along +z and a tall box head on its axis (2 head_half_x along x, 2 head_half_y
+    along y, head_height tall), its mass along the handle's line rather than across it. It strikes with
+    the head's +x side at the head's mid-height (hammer's category: hammer, knock). Default: 0.34 m,
+    ~0.76 kg."""
+    z0 = handle_length
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("head", head_material, box_part((-head_half_x, -head_half_y, z0),
+                                             (head_half_x, head_half_y, z0 + head_height))),
+        ],
+        contact_points=[(head_half_x, 0.0, z0 + head_height / 2)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
+    )
+
+
+def scraper(*, half_width: float = 0.100, blade_height: float = 0.050, blade_thickness: float = 0.0025,
+            handle_radius: float = 0.011, handle_length: float = 0.300, blade_material: str = "steel",
+            handle_material: str = "beech", name: str = "scraper") -> Tool:
+    """A floor scraper: a thin metal plate (2 half_width wide along x, blade_thickness along y,
+    blade_height tall) whose bottom edge is at z = 0, and a handle along +z from its top. It pushes along
+    +y with the plate's leading bottom edge, at x = 0 and +-0.75 half_width (broom's category: sweep; the
+    sweep tilts the tool back, so the plate's trailing edge, a thickness behind, sits lower by under
+    1.5 mm). The grasp region is the handle's top half. Default: 0.35 m tall, 0.2 m wide, ~0.28 kg."""
+    z0 = blade_height
+    t = blade_thickness / 2
+    g = handle_radius + 0.009
+    top = z0 + handle_length
+    cx = 0.75 * half_width
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[
+            ("blade", blade_material, box_part((-half_width, -t, 0.0), (half_width, t, z0))),
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, z0), (0, 0, top))),
+        ],
+        contact_points=[(0.0, t, 0.0), (-cx, t, 0.0), (cx, t, 0.0)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - 0.5 * handle_length), (g, g, top)),
+    )
+
+
+def t_hook(*, length: float = 0.450, radius: float = 0.007, bar_half: float = 0.007, front: float = 0.080,
+           back: float = 0.040, grasp_fraction: float = 0.5, material: str = "aluminium",
+           name: str = "t_hook") -> Tool:
+    """A T-hook: a round bar along +z and a square crossbar (2 bar_half thick) across its end, from
+    x = -back to +front. It pulls with the crossbar's underside (-z) 30 mm short of its front end (halfway
+    along a shorter front arm), as the L-stick's category (reach). The grasp region runs from the butt
+    over grasp_fraction of the length. Default: 0.45 m, ~0.22 kg."""
+    z1 = length - 2 * bar_half
+    g = radius + 0.006
+    return assemble_tool(
+        name=name, category="l_stick",
+        parts=[
+            ("bar", material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
+            ("crossbar", material, box_part((-back, -bar_half, z1), (front, bar_half, length))),
+        ],
+        contact_points=[(max(front - 0.030, 0.5 * (radius + front)), 0.0, z1)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
+# Sealed-test families: added after the shipped checkpoint was frozen, drawn by its sealed evaluation
+# only (never rolled out before it)
+# ---------------------------------------------------------------------------------------------------
+def rolling_pin(*, handle_length: float = 0.110, handle_radius: float = 0.012, barrel_length: float = 0.180,
+                barrel_radius: float = 0.024, knob_length: float = 0.060, material: str = "beech",
+                name: str = "rolling_pin") -> Tool:
+    """A rolling pin held by one end: three coaxial segments along +z of one material, a handle, a thick
+    barrel and a knob as thin as the handle beyond it. It strikes with the barrel's side 15 mm short of
+    the barrel's end (+x), so part of its mass lies past the contact (mallet's category: hammer, knock).
+    Default: 0.35 m, ~0.28 kg."""
+    z1, z2 = handle_length, handle_length + barrel_length
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="mallet",
+        parts=[
+            ("handle", material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z1))),
+            ("barrel", material, cylinder_part(barrel_radius, (0, 0, z1), (0, 0, z2))),
+            ("knob", material, cylinder_part(handle_radius, (0, 0, z2), (0, 0, z2 + knob_length))),
+        ],
+        contact_points=[(barrel_radius, 0.0, z2 - 0.015)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, z1)),
+    )
+
+
+def rake(*, half_width: float = 0.120, bar_depth: float = 0.016, bar_height: float = 0.016,
+         tine_length: float = 0.050, tine_width: float = 0.008, tine_thickness: float = 0.003,
+         handle_radius: float = 0.011, handle_length: float = 0.300, head_material: str = "aluminium",
+         handle_material: str = "hickory", name: str = "rake") -> Tool:
+    """A rake with three tines: a crossbar (2 half_width wide along x, bar_depth along y, bar_height tall)
+    on three flat tines (at x = 0 and +-0.75 half_width, tine_width wide, tine_thickness thick, flush with
+    the crossbar's front face), their tips at z = 0, and a handle along +z from the crossbar's top. It
+    pushes along +y with the tines' front bottom edges (broom's category: sweep). The grasp region is the
+    handle's top half. Default: 0.37 m tall, 0.24 m wide, ~0.26 kg."""
+    z0 = tine_length
+    top = z0 + bar_height + handle_length
+    yf = bar_depth / 2
+    cx = 0.75 * half_width
+    w = tine_width / 2
+    g = handle_radius + 0.009
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[
+            ("tine_centre", head_material, box_part((-w, yf - tine_thickness, 0.0), (w, yf, z0))),
+            ("tine_left", head_material, box_part((-cx - w, yf - tine_thickness, 0.0), (-cx + w, yf, z0))),
+            ("tine_right", head_material, box_part((cx - w, yf - tine_thickness, 0.0), (cx + w, yf, z0))),
+            ("crossbar", head_material, box_part((-half_width, -yf, z0), (half_width, yf, z0 + bar_height))),
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, z0 + bar_height), (0, 0, top))),
+        ],
+        contact_points=[(0.0, yf, 0.0), (-cx, yf, 0.0), (cx, yf, 0.0)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - 0.5 * handle_length), (g, g, top)),
+    )
+
+
+def hoe(*, length: float = 0.450, radius: float = 0.007, blade_end: float = 0.080, blade_half_width: float = 0.035,
+        blade_thickness: float = 0.004, grasp_fraction: float = 0.5, bar_material: str = "aluminium",
+        blade_material: str = "steel", name: str = "hoe") -> Tool:
+    """A hoe: a round bar along +z and a flat blade across its end, thin along z (blade_thickness), from
+    x = -radius to +blade_end and 2 blade_half_width wide along y. It pulls with the blade's underside
+    (-z) 20 mm short of its front edge (L-stick's category: reach). The grasp region runs from the butt
+    over grasp_fraction of the length. Default: 0.45 m, ~0.38 kg."""
+    z1 = length - blade_thickness
+    g = radius + 0.006
+    return assemble_tool(
+        name=name, category="l_stick",
+        parts=[
+            ("bar", bar_material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
+            ("blade", blade_material, box_part((-radius, -blade_half_width, z1), (blade_end, blade_half_width, length))),
+        ],
+        contact_points=[(max(blade_end - 0.020, 0.5 * (radius + blade_end)), 0.0, z1)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
 # The registry
 # ---------------------------------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
@@ -315,6 +512,12 @@ class Family:
       summary: one line for the docs and `itup tools`.
       training: a training family: a wide span of a category's shapes and mass distributions, drawn for
         the network's training data (`itup generate --family`), never for its evaluation.
+      sealed: a sealed-test family: added after the shipped checkpoint was frozen and drawn only by its
+        sealed evaluation (`experiments/sealed_eval.py`), never rolled out before it; a validation
+        family like the held-out ones once that evaluation has run.
+      calibration: a calibration family: a category's shape that no training set holds, drawn to
+        calibrate the out-of-distribution guard (`experiments/ood_guard.py --calibrate-on calibration`),
+        never to train or to judge the network.
       category: its tools' category (priors and tool frame), when not the family's name.
     """
 
@@ -325,6 +528,8 @@ class Family:
     choices: Mapping[str, tuple] = dataclasses.field(default_factory=dict)
     summary: str = ""
     training: bool = False
+    calibration: bool = False
+    sealed: bool = False
     category: str = ""
 
     @property
@@ -335,7 +540,7 @@ class Family:
     @property
     def held_out(self) -> bool:
         """One of the five families kept out of every training set: the evaluation's unseen families."""
-        return not self.builtin and not self.training
+        return not (self.builtin or self.training or self.calibration or self.sealed)
 
     @property
     def tool_category(self) -> str:
@@ -406,11 +611,63 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         MappingProxyType({"head_material": ("beech", "polypropylene", "neoprene"), "handle_material": HANDLE_MATERIALS}),
         summary="training: T-head short or wide on a short or long handle; pushes with the head",
         training=True, category="broom"),
+    "paddle": Family(
+        "paddle", paddle, ("hammer", "knock"),
+        _ranges(handle_length=(0.120, 0.300), handle_radius=(0.010, 0.016), blade_thickness=(0.006, 0.020),
+                blade_width=(0.040, 0.120), blade_height=(0.060, 0.200)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS,
+                          "blade_material": ("beech", "hickory", "polypropylene", "aluminium")}),
+        summary="calibration: handle and flat blade; strikes with the blade's face",
+        calibration=True, category="mallet"),
+    "mace": Family(
+        "mace", mace, ("hammer", "knock"),
+        _ranges(handle_length=(0.180, 0.400), handle_radius=(0.010, 0.017), head_half_x=(0.010, 0.025),
+                head_half_y=(0.010, 0.025), head_height=(0.030, 0.080)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": HEAD_MATERIALS}),
+        summary="calibration: handle and tall box head on its axis; strikes with the head's side",
+        calibration=True, category="hammer"),
+    "scraper": Family(
+        "scraper", scraper, ("sweep",),
+        _ranges(half_width=(0.050, 0.180), blade_height=(0.030, 0.080), blade_thickness=(0.0015, 0.003),
+                handle_radius=(0.008, 0.014), handle_length=(0.150, 0.500)),
+        MappingProxyType({"blade_material": ("steel", "aluminium"), "handle_material": HANDLE_MATERIALS}),
+        summary="calibration: thin metal plate on a handle; pushes with the plate's face",
+        calibration=True, category="broom"),
+    "t_hook": Family(
+        "t_hook", t_hook, ("reach",),
+        _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), bar_half=(0.005, 0.010), front=(0.050, 0.130),
+                back=(0.020, 0.080), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"material": ("aluminium", "steel", "hickory", "polypropylene")}),
+        summary="calibration: bar with a square crossbar on its end; pulls with the crossbar",
+        calibration=True, category="l_stick"),
+    "rolling_pin": Family(
+        "rolling_pin", rolling_pin, ("hammer", "knock"),
+        _ranges(handle_length=(0.080, 0.150), handle_radius=(0.010, 0.015), barrel_length=(0.120, 0.250),
+                barrel_radius=(0.018, 0.032), knob_length=(0.030, 0.100)),
+        MappingProxyType({"material": ("beech", "hickory", "polypropylene", "nylon")}),
+        summary="sealed test: handle, thick barrel and knob; strikes with the barrel's side",
+        sealed=True, category="mallet"),
+    "rake": Family(
+        "rake", rake, ("sweep",),
+        _ranges(half_width=(0.080, 0.200), bar_depth=(0.010, 0.025), bar_height=(0.010, 0.025),
+                tine_length=(0.030, 0.080), tine_width=(0.006, 0.012), tine_thickness=(0.002, 0.004),
+                handle_radius=(0.008, 0.014), handle_length=(0.200, 0.500)),
+        MappingProxyType({"head_material": ("aluminium", "polypropylene", "beech"), "handle_material": HANDLE_MATERIALS}),
+        summary="sealed test: crossbar on three flat tines, on a handle; pushes with the tines",
+        sealed=True, category="broom"),
+    "hoe": Family(
+        "hoe", hoe, ("reach",),
+        _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), blade_end=(0.050, 0.120),
+                blade_half_width=(0.015, 0.050), blade_thickness=(0.002, 0.006), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "blade_material": ("steel", "aluminium")}),
+        summary="sealed test: bar with a flat blade across its end; pulls with the blade's underside",
+        sealed=True, category="l_stick"),
 })
 
 
 def names() -> tuple[str, ...]:
-    """The families: the four built-in ones, the five held-out ones, then the training families."""
+    """The families: the four built-in ones, the five held-out ones, the training families, the
+    calibration families, then the sealed-test families."""
     return tuple(FAMILIES)
 
 
@@ -422,6 +679,16 @@ def held_out() -> tuple[str, ...]:
 def training() -> tuple[str, ...]:
     """The training families (`Family.training`)."""
     return tuple(f.name for f in FAMILIES.values() if f.training)
+
+
+def calibration() -> tuple[str, ...]:
+    """The calibration families (`Family.calibration`)."""
+    return tuple(f.name for f in FAMILIES.values() if f.calibration)
+
+
+def sealed() -> tuple[str, ...]:
+    """The sealed-test families (`Family.sealed`)."""
+    return tuple(f.name for f in FAMILIES.values() if f.sealed)
 
 
 def get(name: str) -> Family:
