@@ -47,11 +47,25 @@ def verdict(measured: dict[str, dict], headline: str) -> tuple[str, float]:
             f"torque than {METHOD_NAMES[high]}'s: {lo_v:.2f} vs {hi_v:.2f} N·m ({abs(red):.0f}% less).", red)
 
 
+def model_record(model: Any) -> dict[str, Any]:
+    """Which SDG-Net checkpoint scored: {"checkpoint": "shipped" or the path given, "sha256": the file's
+    SHA-256}; for a `Model` passed in memory {"checkpoint": None, "sha256": None}."""
+    from itup_jax.dataset_load import sha256_file
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    if model is None:
+        return {"checkpoint": "shipped", "sha256": sha256_file(DEFAULT_MODEL)}
+    if isinstance(model, (str, os.PathLike)):
+        return {"checkpoint": os.fspath(model), "sha256": sha256_file(os.fspath(model))}
+    return {"checkpoint": None, "sha256": None}
+
+
 def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N, seeds: int = DEFAULT_SEEDS,
              seed: int = 0, model: Any = None, out: str = "itup-demo", task: Any = None,
              log=print) -> dict[str, Any]:
-    """Run the demo and write its files into `out` (made if missing): `demo.json` (schema itup.demo/1),
-    `picks.png`, `sdgnet.mcap`, `force_closure.mcap`. Returns the JSON's content.
+    """Run the demo and write its files into `out` (made if missing): `demo.json` (schema itup.demo/1; its
+    `model` names the checkpoint that scored and its SHA-256), `picks.png`, `sdgnet.mcap`,
+    `force_closure.mcap`. Returns the JSON's content.
 
     Args:
       task_kind: a registered task kind.  tool: a `Tool` (default: the task's built-in tool).
@@ -102,7 +116,7 @@ def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N,
     files["png"] = plot_picks(tool, picks, os.path.join(out, "picks.png"), traces=traces,
                               title=f"{tool.name}, {task_kind}: SDG-Net (red) vs force closure (blue)",
                               motion=contact_motion(task))
-    result = {"schema": SCHEMA, **res, "headline": HEADLINE, "torque_reduction_vs_force_closure_pct": red,
+    result = {"schema": SCHEMA, **res, "model": model_record(model), "headline": HEADLINE, "torque_reduction_vs_force_closure_pct": red,
               "verdict": sentence, "files": files, "wall_s": round(time.perf_counter() - t_start, 2)}
     files["json"] = os.path.join(out, "demo.json")
     atomic_write_json(files["json"], result, indent=2)

@@ -172,9 +172,29 @@ def test_cli_demo_writes_png_mcap_and_json(tmp_path):
     assert main(["demo", "--n", "6", "--seeds", "1", "--out", str(out)]) == 0
     doc = json.loads((out / "demo.json").read_text())
     jsonschema.validate(doc, load_schema("demo"))
+    # the JSON names the checkpoint that scored
+    from itup_jax.dataset_load import sha256_file
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    assert doc["model"] == {"checkpoint": "shipped", "sha256": sha256_file(DEFAULT_MODEL)}
     assert (out / "picks.png").stat().st_size > 10_000
     log = read_rollout_mcap(str(out / "sdgnet.mcap"))
     assert log["schemas"]["/tf"] == "foxglove.FrameTransforms" and log["/wrist_wrench"]
+
+
+def test_demo_records_the_checkpoint_given(tmp_path):
+    """A checkpoint path is recorded as given with its file's SHA-256; a model in memory as unknown."""
+    import shutil
+
+    from itup_jax.dataset_load import sha256_file
+    from itup_jax.demo import model_record
+    from itup_jax.sdgnet.checkpoint import load_model
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    path = str(tmp_path / "mine.npz")
+    shutil.copy(DEFAULT_MODEL, path)
+    assert model_record(path) == {"checkpoint": path, "sha256": sha256_file(path)}
+    assert model_record(load_model(DEFAULT_MODEL)) == {"checkpoint": None, "sha256": None}
 
 
 @pytest.mark.parametrize("scorer", ["sdgnet", "analytic", "force_closure"])

@@ -5,7 +5,7 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.sealed()                        # the three the shipped checkpoint's sealed evaluation draws
+    families.sealed()                        # the three added for the shipped checkpoint's sealed evaluation
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
@@ -54,9 +54,9 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last three are sealed-test families (`sealed()`): shapes of the built-in categories added after the
-shipped checkpoint, its guard and the planner's weights were frozen, drawn only by the sealed evaluation
-(`experiments/sealed_eval.py`) and never rolled out before it:
+The last three are sealed-test families (`sealed()`): shapes of the built-in categories added for the
+sealed evaluation of the checkpoint shipped with 0.25.0 (`experiments/sealed_eval.py`) and never rolled
+out before it; that evaluation has run, so they are validation families now, like the held-out ones:
 
   rolling_pin  a handle, a thick barrel and a thin knob past it, of one material; strikes with the
                barrel's side, with mass beyond the contact (mallet's category; hammer, knock).
@@ -245,6 +245,24 @@ def baton(*, length: float = 0.320, handle_fraction: float = 0.55, handle_radius
     )
 
 
+def _handle_and_box_head(*, name: str, category: str, handle_length: float, handle_radius: float,
+                         handle_material: str, head_material: str, lo, hi, contact, grasp_share: float,
+                         head_name: str = "head") -> Tool:
+    """A handle along +z up to handle_length and a box head (lo [3], hi [3], metres) on its top, striking
+    with its +x side at `contact`; the grasp region is the handle's lower grasp_share."""
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category=category,
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, handle_length))),
+            (head_name, head_material, box_part(lo, hi)),
+        ],
+        contact_points=[contact],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, grasp_share * handle_length)),
+    )
+
+
 def headed_stick(*, handle_length: float = 0.300, handle_radius: float = 0.014, head_back: float = 0.040,
                  head_front: float = 0.040, head_height: float = 0.030, head_width: float = 0.028,
                  handle_material: str = "hickory", head_material: str = "steel", name: str = "headed_stick") -> Tool:
@@ -253,18 +271,11 @@ def headed_stick(*, handle_length: float = 0.300, handle_radius: float = 0.014, 
     poll side, a long one its blade). It strikes with the head's +x face (hammer's category: hammer,
     knock). Default: 0.33 m, ~0.68 kg."""
     z0 = handle_length
-    g = handle_radius + 0.006
-    return assemble_tool(
-        name=name, category="hammer",
-        parts=[
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("head", head_material, box_part((-head_back, -head_width / 2, z0),
-                                             (head_front, head_width / 2, z0 + head_height))),
-        ],
-        contact_points=[(head_front, 0.0, z0 + head_height / 2)],
-        contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
-    )
+    return _handle_and_box_head(
+        name=name, category="hammer", handle_length=handle_length, handle_radius=handle_radius,
+        handle_material=handle_material, head_material=head_material,
+        lo=(-head_back, -head_width / 2, z0), hi=(head_front, head_width / 2, z0 + head_height),
+        contact=(head_front, 0.0, z0 + head_height / 2), grasp_share=0.75)
 
 
 def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.090, grasp_fraction: float = 0.6,
@@ -301,6 +312,27 @@ def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.09
     )
 
 
+def _head_on_handle(*, name: str, half_width: float, y0: float, y1: float, head_height: float,
+                    contact_z: float, handle_radius: float, handle_length: float, grasp_fraction: float,
+                    head_material: str, handle_material: str, head_name: str) -> Tool:
+    """A box head (2 half_width wide along x, y0..y1 along y, head_height tall) whose bottom is at z = 0 and
+    a handle along +z from its top, pushing along +y with the head's +y face at height contact_z, at x = 0
+    and +-0.75 half_width (broom's category: sweep); the grasp region is the handle's top grasp_fraction."""
+    g = handle_radius + 0.009
+    top = head_height + handle_length
+    cx = 0.75 * half_width
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[
+            (head_name, head_material, box_part((-half_width, y0, 0.0), (half_width, y1, head_height))),
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, head_height), (0, 0, top))),
+        ],
+        contact_points=[(0.0, y1, contact_z), (-cx, y1, contact_z), (cx, y1, contact_z)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
+    )
+
+
 def pusher(*, half_width: float = 0.120, head_height: float = 0.040, head_depth: float = 0.030,
            handle_radius: float = 0.011, handle_length: float = 0.300, grasp_fraction: float = 0.5,
            head_material: str = "beech", handle_material: str = "polypropylene", name: str = "pusher") -> Tool:
@@ -309,20 +341,11 @@ def pusher(*, half_width: float = 0.120, head_height: float = 0.040, head_depth:
     handles. It pushes along +y with the head's leading face 5 mm above its bottom edge, at x = 0 and
     +-0.75 half_width, as the broom's category (sweep). The grasp region is the handle's top
     grasp_fraction. Default: 0.34 m tall, 0.24 m wide, ~0.3 kg."""
-    z0 = head_height
-    g = handle_radius + 0.009
-    top = z0 + handle_length
-    cx = 0.75 * half_width
-    return assemble_tool(
-        name=name, category="broom",
-        parts=[
-            ("head", head_material, box_part((-half_width, -head_depth / 2, 0.0), (half_width, head_depth / 2, z0))),
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, z0), (0, 0, top))),
-        ],
-        contact_points=[(0.0, head_depth / 2, 0.005), (-cx, head_depth / 2, 0.005), (cx, head_depth / 2, 0.005)],
-        contact_normal=(0.0, 1.0, 0.0),
-        grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
-    )
+    return _head_on_handle(
+        name=name, half_width=half_width, y0=-head_depth / 2, y1=head_depth / 2, head_height=head_height,
+        contact_z=0.005, handle_radius=handle_radius, handle_length=handle_length,
+        grasp_fraction=grasp_fraction, head_material=head_material, handle_material=handle_material,
+        head_name="head")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -337,17 +360,11 @@ def paddle(*, handle_length: float = 0.200, handle_radius: float = 0.013, blade_
     (mallet's category: hammer, knock). Default: 0.34 m, ~0.19 kg."""
     z0 = handle_length
     t = blade_thickness / 2
-    g = handle_radius + 0.006
-    return assemble_tool(
-        name=name, category="mallet",
-        parts=[
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("blade", blade_material, box_part((-t, -blade_width / 2, z0), (t, blade_width / 2, z0 + blade_height))),
-        ],
-        contact_points=[(t, 0.0, z0 + 0.7 * blade_height)],
-        contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-g, -g, 0.0), (g, g, 0.8 * handle_length)),
-    )
+    return _handle_and_box_head(
+        name=name, category="mallet", handle_length=handle_length, handle_radius=handle_radius,
+        handle_material=handle_material, head_material=blade_material,
+        lo=(-t, -blade_width / 2, z0), hi=(t, blade_width / 2, z0 + blade_height),
+        contact=(t, 0.0, z0 + 0.7 * blade_height), grasp_share=0.8, head_name="blade")
 
 
 def mace(*, handle_length: float = 0.280, handle_radius: float = 0.014, head_half_x: float = 0.018,
@@ -358,18 +375,11 @@ def mace(*, handle_length: float = 0.280, handle_radius: float = 0.014, head_hal
     the head's +x side at the head's mid-height (hammer's category: hammer, knock). Default: 0.34 m,
     ~0.76 kg."""
     z0 = handle_length
-    g = handle_radius + 0.006
-    return assemble_tool(
-        name=name, category="hammer",
-        parts=[
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("head", head_material, box_part((-head_half_x, -head_half_y, z0),
-                                             (head_half_x, head_half_y, z0 + head_height))),
-        ],
-        contact_points=[(head_half_x, 0.0, z0 + head_height / 2)],
-        contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
-    )
+    return _handle_and_box_head(
+        name=name, category="hammer", handle_length=handle_length, handle_radius=handle_radius,
+        handle_material=handle_material, head_material=head_material,
+        lo=(-head_half_x, -head_half_y, z0), hi=(head_half_x, head_half_y, z0 + head_height),
+        contact=(head_half_x, 0.0, z0 + head_height / 2), grasp_share=0.75)
 
 
 def scraper(*, half_width: float = 0.100, blade_height: float = 0.050, blade_thickness: float = 0.0025,
@@ -380,20 +390,30 @@ def scraper(*, half_width: float = 0.100, blade_height: float = 0.050, blade_thi
     +y with the plate's leading bottom edge, at x = 0 and +-0.75 half_width (broom's category: sweep; the
     sweep tilts the tool back, so the plate's trailing edge, a thickness behind, sits lower by under
     1.5 mm). The grasp region is the handle's top half. Default: 0.35 m tall, 0.2 m wide, ~0.28 kg."""
-    z0 = blade_height
     t = blade_thickness / 2
-    g = handle_radius + 0.009
-    top = z0 + handle_length
-    cx = 0.75 * half_width
+    return _head_on_handle(
+        name=name, half_width=half_width, y0=-t, y1=t, head_height=blade_height, contact_z=0.0,
+        handle_radius=handle_radius, handle_length=handle_length, grasp_fraction=0.5,
+        head_material=blade_material, handle_material=handle_material, head_name="blade")
+
+
+def _bar_and_end_plate(*, name: str, length: float, radius: float, x0: float, x1: float, half_y: float,
+                       thickness: float, contact_x: float, grasp_fraction: float, bar_material: str,
+                       plate_material: str, plate_name: str) -> Tool:
+    """A round bar along +z and a box plate across its end (x0..x1 along x, 2 half_y along y, `thickness`
+    along z, its top at z = length), pulling with the plate's underside (-z) at x = contact_x, as the
+    L-stick's category (reach); the grasp region runs from the butt over grasp_fraction of the length."""
+    z1 = length - thickness
+    g = radius + 0.006
     return assemble_tool(
-        name=name, category="broom",
+        name=name, category="l_stick",
         parts=[
-            ("blade", blade_material, box_part((-half_width, -t, 0.0), (half_width, t, z0))),
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, z0), (0, 0, top))),
+            ("bar", bar_material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
+            (plate_name, plate_material, box_part((x0, -half_y, z1), (x1, half_y, length))),
         ],
-        contact_points=[(0.0, t, 0.0), (-cx, t, 0.0), (cx, t, 0.0)],
-        contact_normal=(0.0, 1.0, 0.0),
-        grasp_region=((-g, -g, top - 0.5 * handle_length), (g, g, top)),
+        contact_points=[(contact_x, 0.0, z1)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
     )
 
 
@@ -404,23 +424,14 @@ def t_hook(*, length: float = 0.450, radius: float = 0.007, bar_half: float = 0.
     x = -back to +front. It pulls with the crossbar's underside (-z) 30 mm short of its front end (halfway
     along a shorter front arm), as the L-stick's category (reach). The grasp region runs from the butt
     over grasp_fraction of the length. Default: 0.45 m, ~0.22 kg."""
-    z1 = length - 2 * bar_half
-    g = radius + 0.006
-    return assemble_tool(
-        name=name, category="l_stick",
-        parts=[
-            ("bar", material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
-            ("crossbar", material, box_part((-back, -bar_half, z1), (front, bar_half, length))),
-        ],
-        contact_points=[(max(front - 0.030, 0.5 * (radius + front)), 0.0, z1)],
-        contact_normal=(0.0, 0.0, -1.0),
-        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
-    )
+    return _bar_and_end_plate(
+        name=name, length=length, radius=radius, x0=-back, x1=front, half_y=bar_half, thickness=2 * bar_half,
+        contact_x=max(front - 0.030, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
+        bar_material=material, plate_material=material, plate_name="crossbar")
 
 
 # ---------------------------------------------------------------------------------------------------
-# Sealed-test families: added after the shipped checkpoint was frozen, drawn by its sealed evaluation
-# only (never rolled out before it)
+# Sealed-test families: added for the shipped checkpoint's sealed evaluation, never rolled out before it
 # ---------------------------------------------------------------------------------------------------
 def rolling_pin(*, handle_length: float = 0.110, handle_radius: float = 0.012, barrel_length: float = 0.180,
                 barrel_radius: float = 0.024, knob_length: float = 0.060, material: str = "beech",
@@ -481,18 +492,11 @@ def hoe(*, length: float = 0.450, radius: float = 0.007, blade_end: float = 0.08
     x = -radius to +blade_end and 2 blade_half_width wide along y. It pulls with the blade's underside
     (-z) 20 mm short of its front edge (L-stick's category: reach). The grasp region runs from the butt
     over grasp_fraction of the length. Default: 0.45 m, ~0.38 kg."""
-    z1 = length - blade_thickness
-    g = radius + 0.006
-    return assemble_tool(
-        name=name, category="l_stick",
-        parts=[
-            ("bar", bar_material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
-            ("blade", blade_material, box_part((-radius, -blade_half_width, z1), (blade_end, blade_half_width, length))),
-        ],
-        contact_points=[(max(blade_end - 0.020, 0.5 * (radius + blade_end)), 0.0, z1)],
-        contact_normal=(0.0, 0.0, -1.0),
-        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
-    )
+    return _bar_and_end_plate(
+        name=name, length=length, radius=radius, x0=-radius, x1=blade_end, half_y=blade_half_width,
+        thickness=blade_thickness, contact_x=max(blade_end - 0.020, 0.5 * (radius + blade_end)),
+        grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=blade_material,
+        plate_name="blade")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -512,9 +516,9 @@ class Family:
       summary: one line for the docs and `itup tools`.
       training: a training family: a wide span of a category's shapes and mass distributions, drawn for
         the network's training data (`itup generate --family`), never for its evaluation.
-      sealed: a sealed-test family: added after the shipped checkpoint was frozen and drawn only by its
-        sealed evaluation (`experiments/sealed_eval.py`), never rolled out before it; a validation
-        family like the held-out ones once that evaluation has run.
+      sealed: a sealed-test family: added for a checkpoint's sealed evaluation
+        (`experiments/sealed_eval.py`), never rolled out before it; a validation family like the
+        held-out ones once that evaluation has run.
       calibration: a calibration family: a category's shape that no training set holds, drawn to
         calibrate the out-of-distribution guard (`experiments/ood_guard.py --calibrate-on calibration`),
         never to train or to judge the network.
