@@ -220,8 +220,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--tools", type=int, default=4, help="drawn tools per family, task and set (default %(default)s)")
     ap.add_argument("--grasps", type=int, default=64, help="reachable candidates per tool (default %(default)s)")
     ap.add_argument("--verify", type=int, default=5, metavar="K", help="the verified pick's shortlist (default %(default)s)")
-    ap.add_argument("--families", default=",".join(f for f in families.names()
-                                                   if families.get(f).builtin or families.get(f).held_out),
+    ap.add_argument("--families", default=",".join(families.with_role("builtin") + families.with_role("held_out")),
                     help="comma-separated families (default: the built-in and the held-out ones)")
     ap.add_argument("--calibrate-on", choices=("held_out", "training", "calibration"), default="calibration",
                     help="the calibration families: the held-out ones' calibration draws, the training "
@@ -241,7 +240,7 @@ def main(argv=None) -> dict:
     if args.tools < 1 or args.grasps < 3 or args.verify < 1:
         print("ood_guard: --tools >= 1, --grasps >= 3 and --verify >= 1 are needed", file=sys.stderr)
         raise SystemExit(2)
-    others = {"held_out": (), "training": families.training(), "calibration": families.calibration()}[args.calibrate_on]
+    others = () if args.calibrate_on == "held_out" else families.with_role(args.calibrate_on)
     set_names = family_sets(names, args.calibrate_on, ("paddle",) if args.quick and others else others)
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()

@@ -116,8 +116,9 @@ def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N,
     files["png"] = plot_picks(tool, picks, os.path.join(out, "picks.png"), traces=traces,
                               title=f"{tool.name}, {task_kind}: SDG-Net (red) vs force closure (blue)",
                               motion=contact_motion(task))
-    result = {"schema": SCHEMA, **res, "model": model_record(model), "headline": HEADLINE, "torque_reduction_vs_force_closure_pct": red,
-              "verdict": sentence, "files": files, "wall_s": round(time.perf_counter() - t_start, 2)}
+    result = {"schema": SCHEMA, **res, "model": model_record(model), "headline": HEADLINE,
+              "torque_reduction_vs_force_closure_pct": red, "verdict": sentence, "files": files,
+              "wall_s": round(time.perf_counter() - t_start, 2)}
     files["json"] = os.path.join(out, "demo.json")
     atomic_write_json(files["json"], result, indent=2)
     return result

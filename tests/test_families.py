@@ -97,6 +97,14 @@ def test_held_out_training_calibration_and_sealed_families():
         assert fam.tool_category in builtin and not fam.held_out
         assert fam.training + fam.calibration + fam.sealed == 1
         assert families.draw(name, 7).category == fam.tool_category
+    assert families.with_role("builtin") == ("hammer", "broom", "mallet", "l_stick")
+    assert sorted(f for r in families.ROLES for f in families.with_role(r)) == sorted(families.names())
+    with pytest.raises(InputError, match="family role 'test'"):
+        families.with_role("test")
+    with pytest.raises(ValueError, match="role 'test'"):
+        families.Family("x", families.baton, ("knock",), {"length": (0.2, 0.3)}, role="test")
+    with pytest.raises(ValueError, match="only they, have no ranges"):
+        families.Family("x", families.baton, ("knock",), {"length": (0.2, 0.3)}, role="builtin")
     # every built-in category's tasks have a calibration family
     assert {k for f in families.calibration() for k in families.get(f).tasks} == {"hammer", "sweep", "knock", "reach"}
     assert all(families.get(f).tool_category == f for f in families.held_out())

@@ -106,10 +106,13 @@ from itup_jax.tools.family_shapes import (
 from itup_jax.tools.tool import Tool
 from itup_jax.tools.variants import part_variant
 
-
 # ---------------------------------------------------------------------------------------------------
 # The registry
 # ---------------------------------------------------------------------------------------------------
+#: What a family is for (`Family.role`).
+ROLES = ("builtin", "held_out", "training", "calibration", "sealed")
+
+
 @dataclasses.dataclass(frozen=True)
 class Family:
     """One procedural tool family.
@@ -122,14 +125,17 @@ class Family:
         empty for the four built-in families, which `variants.part_variant` draws.
       choices: {keyword: (value, ...)} discrete choices of a draw (uniform).
       summary: one line for the docs and `itup tools`.
-      training: a training family: a wide span of a category's shapes and mass distributions, drawn for
-        the network's training data (`itup generate --family`), never for its evaluation.
-      sealed: a sealed-test family: added for a checkpoint's sealed evaluation
-        (`experiments/sealed_eval.py`), never rolled out before it; a validation family like the
-        held-out ones once that evaluation has run.
-      calibration: a calibration family: a category's shape that no training set holds, drawn to
-        calibrate the out-of-distribution guard (`experiments/ood_guard.py --calibrate-on calibration`),
-        never to train or to judge the network.
+      role: what the family is for (`ROLES`):
+        "builtin": one of the four families of the built-in tools (no `ranges`: `variants.part_variant`
+          draws them);
+        "held_out": kept out of every training set, the evaluations' unseen families;
+        "training": a wide span of a category's shapes and mass distributions, drawn for the network's
+          training data (`itup generate --family`), never for its evaluation;
+        "calibration": a category's shape that no training set holds, drawn to calibrate the
+          out-of-distribution guard (`experiments/ood_guard.py --calibrate-on calibration`), never to
+          train or to judge the network;
+        "sealed": added for a checkpoint's sealed evaluation (`experiments/sealed_eval.py`), never
+          rolled out before it; a validation family like the held-out ones once that evaluation has run.
       category: its tools' category (priors and tool frame), when not the family's name.
     """
 
@@ -139,20 +145,39 @@ class Family:
     ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     choices: Mapping[str, tuple] = dataclasses.field(default_factory=dict)
     summary: str = ""
-    training: bool = False
-    calibration: bool = False
-    sealed: bool = False
+    role: str = "held_out"
     category: str = ""
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise ValueError(f"family {self.name!r}: role {self.role!r} is not one of {ROLES}")
+        if (self.role == "builtin") != (not self.ranges):
+            raise ValueError(f"family {self.name!r}: the built-in families, and only they, have no ranges")
 
     @property
     def builtin(self) -> bool:
         """One of the four families of the built-in tools (drawn by `variants.part_variant`)."""
-        return not self.ranges
+        return self.role == "builtin"
 
     @property
     def held_out(self) -> bool:
         """One of the five families kept out of every training set: the evaluation's unseen families."""
-        return not (self.builtin or self.training or self.calibration or self.sealed)
+        return self.role == "held_out"
+
+    @property
+    def training(self) -> bool:
+        """A training family (role "training")."""
+        return self.role == "training"
+
+    @property
+    def calibration(self) -> bool:
+        """A calibration family (role "calibration")."""
+        return self.role == "calibration"
+
+    @property
+    def sealed(self) -> bool:
+        """A sealed-test family (role "sealed")."""
+        return self.role == "sealed"
 
     @property
     def tool_category(self) -> str:
@@ -165,10 +190,14 @@ def _ranges(**r: tuple[float, float]) -> Mapping[str, tuple[float, float]]:
 
 
 FAMILIES: Mapping[str, Family] = MappingProxyType({
-    "hammer": Family("hammer", claw_hammer, ("hammer",), summary="claw hammer (built-in; part-wise variants)"),
-    "broom": Family("broom", hand_broom, ("sweep",), summary="hand broom (built-in; part-wise variants)"),
-    "mallet": Family("mallet", mallet, ("knock",), summary="wooden mallet (built-in; part-wise variants)"),
-    "l_stick": Family("l_stick", l_stick, ("reach",), summary="L-shaped aluminium stick (built-in; part-wise variants)"),
+    "hammer": Family("hammer", claw_hammer, ("hammer",), summary="claw hammer (built-in; part-wise variants)",
+                       role="builtin"),
+    "broom": Family("broom", hand_broom, ("sweep",), summary="hand broom (built-in; part-wise variants)",
+                      role="builtin"),
+    "mallet": Family("mallet", mallet, ("knock",), summary="wooden mallet (built-in; part-wise variants)",
+                       role="builtin"),
+    "l_stick": Family("l_stick", l_stick, ("reach",), summary="L-shaped aluminium stick (built-in; part-wise variants)",
+                        role="builtin"),
     "screwdriver": Family(
         "screwdriver", screwdriver, ("knock",),
         _ranges(handle_radius=(0.011, 0.018), handle_length=(0.080, 0.130), shaft_radius=(0.0025, 0.004),
@@ -201,28 +230,28 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
                 tip_radius=(0.003, 0.020)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "tip_material": HEAD_MATERIALS}),
         summary="training: headless two-segment stick, thin or thick, light or heavy tip; strikes with the tip's side",
-        training=True, category="mallet"),
+        role="training", category="mallet"),
     "headed_stick": Family(
         "headed_stick", headed_stick, ("hammer", "knock"),
         _ranges(handle_length=(0.180, 0.450), handle_radius=(0.010, 0.018), head_back=(0.010, 0.070),
                 head_front=(0.015, 0.070), head_height=(0.018, 0.045), head_width=(0.012, 0.040)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": HEAD_MATERIALS}),
         summary="training: handle and box head, light to heavy, centred or lopsided; strikes with the head",
-        training=True, category="hammer"),
+        role="training", category="hammer"),
     "hook": Family(
         "hook", hook, ("reach",),
         _ranges(length=(0.300, 0.600), radius=(0.005, 0.010), hook_end=(0.050, 0.140), grasp_fraction=(0.3, 0.95)),
         MappingProxyType({"material": ("aluminium", "steel", "hickory", "polypropylene"),
                           "section": ("round", "square")}),
         summary="training: bar bent at the end, grasp region up to the bend; hooks with the bend",
-        training=True, category="l_stick"),
+        role="training", category="l_stick"),
     "pusher": Family(
         "pusher", pusher, ("sweep",),
         _ranges(half_width=(0.040, 0.220), head_height=(0.020, 0.060), head_depth=(0.015, 0.050),
                 handle_radius=(0.008, 0.014), handle_length=(0.120, 0.550), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"head_material": ("beech", "polypropylene", "neoprene"), "handle_material": HANDLE_MATERIALS}),
         summary="training: T-head short or wide on a short or long handle; pushes with the head",
-        training=True, category="broom"),
+        role="training", category="broom"),
     "paddle": Family(
         "paddle", paddle, ("hammer", "knock"),
         _ranges(handle_length=(0.120, 0.300), handle_radius=(0.010, 0.016), blade_thickness=(0.006, 0.020),
@@ -230,35 +259,35 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         MappingProxyType({"handle_material": HANDLE_MATERIALS,
                           "blade_material": ("beech", "hickory", "polypropylene", "aluminium")}),
         summary="calibration: handle and flat blade; strikes with the blade's face",
-        calibration=True, category="mallet"),
+        role="calibration", category="mallet"),
     "mace": Family(
         "mace", mace, ("hammer", "knock"),
         _ranges(handle_length=(0.180, 0.400), handle_radius=(0.010, 0.017), head_half_x=(0.010, 0.025),
                 head_half_y=(0.010, 0.025), head_height=(0.030, 0.080)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": HEAD_MATERIALS}),
         summary="calibration: handle and tall box head on its axis; strikes with the head's side",
-        calibration=True, category="hammer"),
+        role="calibration", category="hammer"),
     "scraper": Family(
         "scraper", scraper, ("sweep",),
         _ranges(half_width=(0.050, 0.180), blade_height=(0.030, 0.080), blade_thickness=(0.0015, 0.003),
                 handle_radius=(0.008, 0.014), handle_length=(0.150, 0.500)),
         MappingProxyType({"blade_material": ("steel", "aluminium"), "handle_material": HANDLE_MATERIALS}),
         summary="calibration: thin metal plate on a handle; pushes with the plate's face",
-        calibration=True, category="broom"),
+        role="calibration", category="broom"),
     "t_hook": Family(
         "t_hook", t_hook, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), bar_half=(0.005, 0.010), front=(0.050, 0.130),
                 back=(0.020, 0.080), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"material": ("aluminium", "steel", "hickory", "polypropylene")}),
         summary="calibration: bar with a square crossbar on its end; pulls with the crossbar",
-        calibration=True, category="l_stick"),
+        role="calibration", category="l_stick"),
     "rolling_pin": Family(
         "rolling_pin", rolling_pin, ("hammer", "knock"),
         _ranges(handle_length=(0.080, 0.150), handle_radius=(0.010, 0.015), barrel_length=(0.120, 0.250),
                 barrel_radius=(0.018, 0.032), knob_length=(0.030, 0.100)),
         MappingProxyType({"material": ("beech", "hickory", "polypropylene", "nylon")}),
         summary="sealed test: handle, thick barrel and knob; strikes with the barrel's side",
-        sealed=True, category="mallet"),
+        role="sealed", category="mallet"),
     "rake": Family(
         "rake", rake, ("sweep",),
         _ranges(half_width=(0.080, 0.200), bar_depth=(0.010, 0.025), bar_height=(0.010, 0.025),
@@ -266,14 +295,14 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
                 handle_radius=(0.008, 0.014), handle_length=(0.200, 0.500)),
         MappingProxyType({"head_material": ("aluminium", "polypropylene", "beech"), "handle_material": HANDLE_MATERIALS}),
         summary="sealed test: crossbar on three flat tines, on a handle; pushes with the tines",
-        sealed=True, category="broom"),
+        role="sealed", category="broom"),
     "hoe": Family(
         "hoe", hoe, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), blade_end=(0.050, 0.120),
                 blade_half_width=(0.015, 0.050), blade_thickness=(0.002, 0.006), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "blade_material": ("steel", "aluminium")}),
         summary="sealed test: bar with a flat blade across its end; pulls with the blade's underside",
-        sealed=True, category="l_stick"),
+        role="sealed", category="l_stick"),
 })
 
 
@@ -283,24 +312,31 @@ def names() -> tuple[str, ...]:
     return tuple(FAMILIES)
 
 
+def with_role(role: str) -> tuple[str, ...]:
+    """The families of `role` (`ROLES`), in `names()` order."""
+    if role not in ROLES:
+        raise InputError(f"family role {role!r}: unknown; known: {', '.join(ROLES)}")
+    return tuple(f.name for f in FAMILIES.values() if f.role == role)
+
+
 def held_out() -> tuple[str, ...]:
     """The five families no training set holds (the evaluations' unseen families)."""
-    return tuple(f.name for f in FAMILIES.values() if f.held_out)
+    return with_role("held_out")
 
 
 def training() -> tuple[str, ...]:
-    """The training families (`Family.training`)."""
-    return tuple(f.name for f in FAMILIES.values() if f.training)
+    """The training families."""
+    return with_role("training")
 
 
 def calibration() -> tuple[str, ...]:
-    """The calibration families (`Family.calibration`)."""
-    return tuple(f.name for f in FAMILIES.values() if f.calibration)
+    """The calibration families."""
+    return with_role("calibration")
 
 
 def sealed() -> tuple[str, ...]:
-    """The sealed-test families (`Family.sealed`)."""
-    return tuple(f.name for f in FAMILIES.values() if f.sealed)
+    """The sealed-test families."""
+    return with_role("sealed")
 
 
 def get(name: str) -> Family:
