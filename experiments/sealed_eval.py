@@ -2,6 +2,7 @@
 
     python experiments/sealed_eval.py --out results/sealed                   # the protocol (once)
     python experiments/sealed_eval.py --quick --out results/sealed_quick     # 1 tool per task, small (tests)
+    python experiments/sealed_eval.py --reopen results/sealed/sealed.json --out results/reopened   # see below
 
 The test tools are drawn from the checkpoint itself, so no one chooses them and a new checkpoint gets
 new ones: for task k and tool i (0-15) the seed is the first 8 bytes, big-endian, of
@@ -29,6 +30,13 @@ tools on which it is below force closure's; grip failures at 25 N (50 rollouts p
 against the better baseline's; the median fidelity per task (pooled only beside it). The paper's
 margins: 17.6 / 17.5 / 11.6 / 20.8 % over GQ-CNN, 10.2 / 14.3 / 10.4 / 13.5 % over GraspNet (hammer /
 sweep / knock / reach). Writes sealed.json (schema `itup.sealed/1`).
+
+--reopen SEALED_JSON: a finished run's tools, validation tools from then on, with the planner of this
+code: every tool on which the guard fired is planned again (its tool rebuilt from the recorded family
+and seed, the same 256 candidates), first as the run's planner did, checked to give the recorded pick,
+then as `itup plan` does now; a pick that changed is measured on the run's draws (the same seeds), every
+other pick is the run's. Writes sealed.json of the same schema, with `reopened` naming the run, and
+prints the summary beside the run's.
 """
 
 from __future__ import annotations
@@ -99,10 +107,11 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
     return out
 
 
-def planner_pick(tool, task, grasps, scene) -> tuple[int | None, dict]:
+def planner_pick(tool, task, grasps, scene, weak_grip: float | None = WEAK_GRIP) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among `grasps`: SDG-Net's lowest total, or, when the guard fires, the
-    lowest measured total of its guard-ordered shortlist under nominal physics (`plan_grasp`); None when
-    none of that shortlist did the task and held (`itup plan` then recommends no grasp)."""
+    lowest measured total of its guard-ordered shortlist under nominal physics, each rollout repeated at
+    `weak_grip` N per pad (`plan_grasp`'s verify_weak_grip; None: the default grip alone, the planner of
+    0.25.0); None when none of that shortlist did the task and held (`itup plan` then recommends no grasp)."""
     from itup_jax import ood
 
     s = itup.score(tool, task, grasps)
@@ -116,7 +125,7 @@ def planner_pick(tool, task, grasps, scene) -> tuple[int | None, dict]:
     k = min(GUARD_VERIFY_K, len(grasps))
     order = guard_order(total, np.asarray(analytic.total), k)
     v = best_grasp_verified(tool, task, grasps, k=k, scores=s, weights=ScoreWeights(), randomize=None,
-                            order=order, scene=scene)
+                            order=order, scene=scene, weak_grip=weak_grip)
     info["verified_succeeded"] = bool(v.succeeded)
     return (int(v.index) if v.succeeded else None), info
 
@@ -180,6 +189,96 @@ def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, w
     if with_fidelity:
         row["fidelity"] = fidelity(tool, task, scene, g)
     return row
+
+
+def rebuild_tool(row: dict):
+    """The tool of a sealed.json row, from its kind, family and seed (`sealed_tools`' draw)."""
+    if row["kind"] == "builtin":
+        return part_variant(row["family"], int(row["seed"]))
+    return families.draw(row["family"], int(row["seed"]))
+
+
+def replan_row(row: dict, n: int, draws: int) -> dict:
+    """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
+    tool = rebuild_tool(row)
+    if tool.name != row["tool"]:
+        raise RuntimeError(f"--reopen: rebuilt {tool.name!r}, the run has {row['tool']!r}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        task = make_task(row["task"], tool)
+    g = sample_reachable(tool, task, n, seed=0).grasps
+    if len(g) != row["candidates"]:
+        raise RuntimeError(f"--reopen: {tool.name} {row['task']}: {len(g)} candidates, the run had {row['candidates']}")
+    scene = build_scene(tool, task)
+    old, _ = planner_pick(tool, task, g, scene, weak_grip=None)
+    if old != row["picks"][PLANNER]["index"]:
+        raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
+                           f"{row['picks'][PLANNER]['index']}, re-planned {old}")
+    new, info = planner_pick(tool, task, g, scene)
+    out = {**row, "planner": info, "picks": dict(row["picks"]), "replaced": None}
+    if new != old:
+        weak = "weak" in row["picks"][PLANNER]
+        if new is None:
+            m = {f: float("nan") for f in MEASURED} | {"valid": 0}
+            w = {"rollouts": draws, "failed": draws}
+        else:
+            m = measure(tool, task, scene, g, new, draws)
+            w = weak_failures(tool, task, scene, g, new, draws) if weak else None
+        out["picks"][PLANNER] = {"index": new, **m, **({"weak": w} if weak else {})}
+        out["replaced"] = row["picks"][PLANNER]
+    return out
+
+
+def reopen(path: str, out_dir: str) -> dict:
+    """--reopen: the run at `path` with the planner of this code (module docstring)."""
+    import json
+
+    with open(path) as fh:
+        run = json.load(fh)
+    if run.get("schema") != "itup.sealed/1" or run["config"].get("quick"):
+        raise SystemExit(f"--reopen: {path} is not a full sealed run (schema itup.sealed/1, not --quick)")
+    cfg = run["config"]
+    t0, rows = time.perf_counter(), []
+    for row in run["per_tool"]:
+        if row["picks"] and row.get("planner", {}).get("guard_fired"):
+            t = time.perf_counter()
+            rows.append(replan_row(row, cfg["n"], cfg["draws"]))
+            r = rows[-1]
+            was, now = r["replaced"] or r["picks"][PLANNER], r["picks"][PLANNER]
+            print(f"{r['task']:7s} {r['tool']:28s} planner {was['index']} -> {now['index']}  torque "
+                  f"{was['peak_torque_induced']:.2f} -> {now['peak_torque_induced']:.2f}  weak "
+                  f"{was.get('weak', {}).get('failed', '-')} -> {now.get('weak', {}).get('failed', '-')}  "
+                  f"({time.perf_counter() - t:.0f} s)", flush=True)
+        else:
+            rows.append({**row, "replaced": None})
+    from itup_jax.bench import machine_info
+
+    res = {**run, "version": itup.__version__, "commit": _commit(), "summary": summarise(rows), "per_tool": rows,
+           "wall_s": time.perf_counter() - t0, "machine": machine_info(),
+           "reopened": {"from": os.path.abspath(path), "commit": run["commit"], "version": run["version"],
+                        "weak_grip": WEAK_GRIP, "replaced": sum(r["replaced"] is not None for r in rows)}}
+    os.makedirs(out_dir, exist_ok=True)
+    atomic_write_json(os.path.join(out_dir, "sealed.json"), res, indent=1)
+    _print_summary(res["summary"], run["summary"])
+    return res
+
+
+def _print_summary(summary: dict, before: dict | None = None) -> None:
+    for k, s in summary.items():
+        v = {b: s[f"vs_{b}"] for b in ("force_closure", "geometric", "better")}
+        txt = "  ".join(f"vs {b} median {x['median_pct']:+.0f}% {x['interval_pct'] or ''} ({x['tools_lower']}/{s['tools']} lower)"
+                        for b, x in v.items() if x["median_pct"] is not None)
+        print(f"{k:7s} {txt}; paper +{PAPER['gqcnn'][k]}% / +{PAPER['graspnet'][k]}%")
+        if before and k in before:
+            print(f"        before: vs better median {before[k]['vs_better']['median_pct']:+.1f}%  now "
+                  f"{s['vs_better']['median_pct']:+.1f}%; other families below FC {before[k]['other_family_below_fc']['lower']}"
+                  f" -> {s['other_family_below_fc']['lower']}; no pick {before[k]['planner_no_pick']} -> {s['planner_no_pick']}")
+        if "weak_grip" in s:
+            print("        25 N failures: " + "  ".join(f"{m} {w['failed']}/{w['rollouts']}" for m, w in s["weak_grip"].items())
+                  + (f"  (planner before: {before[k]['weak_grip'][PLANNER]['failed']})" if before and k in before else ""))
+        if "fidelity_median" in s:
+            print("        fidelity (median Spearman): " + "  ".join(f"{m} {x if x is None else round(x, 2)}"
+                                                                    for m, x in s["fidelity_median"].items()))
 
 
 def _bootstrap_median(x: np.ndarray, level: float = 0.9, n: int = 2000, seed: int = 0) -> list[float] | None:
@@ -261,7 +360,11 @@ def main(argv=None) -> dict:
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--quick", action="store_true", help="hammer and reach, 2 tools each, 24 candidates, 2 draws (tests)")
     ap.add_argument("--out", default="results/sealed")
+    ap.add_argument("--reopen", default=None, metavar="SEALED_JSON",
+                    help="a finished run's tools (validation tools since) with the planner of this code")
     a = ap.parse_args(argv)
+    if a.reopen:
+        return reopen(a.reopen, a.out)
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)
@@ -292,16 +395,7 @@ def main(argv=None) -> dict:
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "sealed.json"), out, indent=1)
-    for k, s in out["summary"].items():
-        v = {b: s[f"vs_{b}"] for b in ("force_closure", "geometric", "better")}
-        txt = "  ".join(f"vs {b} median {x['median_pct']:+.0f}% {x['interval_pct'] or ''} ({x['tools_lower']}/{s['tools']} lower)"
-                        for b, x in v.items() if x["median_pct"] is not None)
-        print(f"{k:7s} {txt}; paper +{PAPER['gqcnn'][k]}% / +{PAPER['graspnet'][k]}%")
-        if "weak_grip" in s:
-            print("        25 N failures: " + "  ".join(f"{m} {w['failed']}/{w['rollouts']}" for m, w in s["weak_grip"].items()))
-        if "fidelity_median" in s:
-            print("        fidelity (median Spearman): " + "  ".join(f"{m} {x if x is None else round(x, 2)}"
-                                                                    for m, x in s["fidelity_median"].items()))
+    _print_summary(out["summary"])
     return out
 
 

@@ -116,7 +116,7 @@ def _make_task(args, tool) -> Any:
 
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
-PLAN_OPTIONS = ("guard_threshold", "verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align",
+PLAN_OPTIONS = ("guard_threshold", "verify_weak_grip", "verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align",
                 "w_task", "w_fail", "w_weak", "w_grip", "verify", "top", "sampling", "budget", "n")
 
 
@@ -180,7 +180,8 @@ def cmd_plan(args) -> int:
         plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
                           torque_first=args.torque_first, top=args.top, verify=args.verify or 0,
                           verify_draws=args.verify_draws, verify_physics=args.verify_physics, sampling=args.sampling,
-                          budget=args.budget, guard=not args.no_guard, guard_threshold=args.guard_threshold)
+                          budget=args.budget, guard=not args.no_guard, guard_threshold=args.guard_threshold,
+                          verify_weak_grip=args.verify_weak_grip or None)
     except InputError as exc:  # the library's names for the options, written as the flags that set them
         raise_input(_as_flags(str(exc).replace("plan_grasp: ", "")))
     print(plan.report())

@@ -128,6 +128,9 @@ def add_plan(p: argparse.ArgumentParser) -> None:
     p.add_argument("--verify-draws", type=int, default=default(plan_grasp, "verify_draws"), metavar="R",
                    help="roll each of the K grasps out R times under random physics; the pick has the lowest mean "
                    "measured total (default %(default)s)")
+    p.add_argument("--verify-weak-grip", type=float, default=default(plan_grasp, "verify_weak_grip"), metavar="N",
+                   help="repeat every verification rollout at N per pad on the same physics draw; a failure there adds "
+                   "--w-weak to the grasp's measured total (default %(default)g; 0: verify at the default grip alone)")
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
     p.add_argument("--no-guard", action="store_true",
@@ -141,7 +144,7 @@ def add_plan(p: argparse.ArgumentParser) -> None:
                    "(the paper's cost), analytic_wrench (its grip-demand form), or a baseline (default %(default)s)")
     p.add_argument("--model", default=None, help=f"SDG-Net checkpoint for --scorer sdgnet (default: the shipped "
                    f"{DEFAULT_MODEL.rsplit('/', 1)[-1]})")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/6)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/7)")
 
 
 def _verify_args(p: argparse.ArgumentParser) -> None:

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from itup_jax import __version__
+from itup_jax import __version__, robot
 from itup_jax.atomic import atomic_write
 from itup_jax.costs import CostParams, wrench_costs
 from itup_jax.dataset_load import MANIFEST, dataset_timesteps, parse_manifest, sha256_file
@@ -62,11 +62,11 @@ LABEL_VERSION = "0.12.0"
 LOCK = ".manifest.lock"  # the manifest's read-modify-write lock (`_manifest_lock`): an empty file
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed timestamps: byte-reproducible shards
 
-#: N per pad: the weak grip at which `generate` rolls every candidate out a second time (`weak_rollouts`),
-#: a little above the Robotiq 2F-85's least setting of 20 N. At the default grip (100 N, +-20 %) almost
-#: no grasp fails in the grip, and the grasps that fail at a weak grip are not ranked by anything the
-#: default rollout measures (docs/results.md, "What fails under a weak grip"): this rollout labels them.
-WEAK_GRIP = 25.0
+#: N per pad: the weak grip at which `generate` rolls every candidate out a second time (`weak_rollouts`;
+#: `robot.WEAK_GRIP`). At the default grip (100 N, +-20 %) almost no grasp fails in the grip, and the
+#: grasps that fail at a weak grip are not ranked by anything the default rollout measures
+#: (docs/results.md, "What fails under a weak grip"): this rollout labels them.
+WEAK_GRIP = robot.WEAK_GRIP
 #: The labels of the weak-grip rollout, stored per row as `label_weak_<name>` (`sim.labels.Labels`' meaning).
 WEAK_FIELDS = ("failed", "success", "slip_translation", "slip_rotation", "valid")
 

@@ -6,7 +6,7 @@ and optionally check the best ones in MuJoCo. `itup plan` is this function and a
                            # the arm can carry through the task (sampling="all": n drawn, reachability walked)
     plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
     plan.pick              # index into plan.grasps of the recommended grasp (None unless status is "ok")
-    plan.to_json()         # the `itup.plan/6` document (itup_jax/schemas/plan.schema.json)
+    plan.to_json()         # the `itup.plan/7` document (itup_jax/schemas/plan.schema.json)
 
 Host-side orchestration: the scorers and the rollouts it calls jit themselves at their outer calls.
 """
@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from itup_jax import robot
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps, to_graspnet
 from itup_jax.grasp_sampler import MAX_CANDIDATES
@@ -202,9 +203,12 @@ class GraspPlan:
         out(f"MuJoCo ({self.physics} physics{', seed ' + str(self.seed) if self.physics == 'random' else ''}"
             f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
             + ("by the scorer" if self.shortlist_rule == "scorer" else "by SDG-Net and by the analytic wrench cost")
-            + f": the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)")
+            + f": the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)"
+            + (f"; each also at {v.weak_grip:g} N per pad, a failure there adding w_weak" if v.weak_grip else ""))
+        weak = v.weak_grip is not None
         out(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
-            f"{'failed':>6} {'success':>7} {'measured C':>10}")
+            f"{'failed':>6} {'success':>7} " + (f"{'fail@' + format(v.weak_grip, 'g'):>7} " if weak else "")
+            + f"{'measured C':>10}")
         for j, row in enumerate(self.verify_rows):
             r, d = divmod(j, draws)
             i = row["index"]
@@ -213,7 +217,8 @@ class GraspPlan:
             out(f"{(str(r + 1) if d == 0 else ''):>4} {(str(i) if d == 0 else ''):>5} {status:>8} "
                 f"{row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
                 f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
-                f"{str(row['failed']):>6} {str(row['success']):>7} {mean}")
+                f"{str(row['failed']):>6} {str(row['success']):>7} "
+                + (f"{str(row['weak_failed']):>7} " if weak else "") + mean)
         ahead = (int(np.sum(total[v.unreachable] <= total[v.shortlist].max())) if len(v.shortlist)
                  else len(v.unreachable))
         if ahead:
@@ -226,10 +231,10 @@ class GraspPlan:
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
-        """The `itup.plan/6` document."""
+        """The `itup.plan/7` document."""
         s = self.scores
         out = {
-            "schema": "itup.plan/6",
+            "schema": "itup.plan/7",
             "task": self.task.kind,
             "tool": {"name": self.tool.name, "category": self.tool.category, "mass_kg": round(self.tool.mass, 6)},
             "regime": self.regime,
@@ -253,6 +258,7 @@ class GraspPlan:
             ok = self.status == "ok"
             out["verified"] = {
                 "k": self.verify_k, "draws": self.verify_draws, "tried": len(v.shortlist), "backend": v.backend,
+                "weak_grip": v.weak_grip,
                 "unreachable": [int(i) for i in v.unreachable], "physics": self.physics,
                 "weights": dataclasses.asdict(self.measure_weights),
                 "candidates": [{"index": int(i), "measured_total": float(m) if np.isfinite(m) else None}
@@ -283,7 +289,8 @@ def guard_order(scorer_total: np.ndarray, analytic_total: np.ndarray, k: int) ->
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
                weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
                verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
-               budget: int | None = None, guard: bool = True, guard_threshold: float | None = None) -> GraspPlan:
+               budget: int | None = None, guard: bool = True, guard_threshold: float | None = None,
+               verify_weak_grip: float | None = robot.WEAK_GRIP) -> GraspPlan:
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
@@ -304,6 +311,9 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       verify: K > 0 rolls the K best reachable out in MuJoCo and keeps the lowest measured total
         (`verify.best_grasp_verified`); verify_draws R > 1 rolls each out under R draws of the priors
         (verify_physics "random", the default then) and keeps the lowest mean.
+      verify_weak_grip: N per pad (default `robot.WEAK_GRIP`, 25): every verification rollout is
+        repeated at this fixed grip on the same physics draw, and a failure there adds the measured total's
+        w_weak (`verify.best_grasp_verified(weak_grip=...)`); None: verification at the default grip alone.
       guard: an SDG-Net scorer's plan reads the out-of-distribution guard (`ood.check`) always; with guard
         True, when the tool lies outside the network's training data and verify is 0, it verifies
         GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`), and
@@ -334,6 +344,10 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     if verify_draws > 1 and physics == "nominal":
         raise InputError(f"plan_grasp: verify_draws {verify_draws} needs verify_physics 'random': under nominal "
                          "physics every draw of a grasp rolls out the same")
+    if verify_weak_grip is not None:
+        from itup_jax.stress import check_grip
+
+        verify_weak_grip = check_grip(verify_weak_grip, "plan_grasp: verify_weak_grip")
     if verify_draws > 1 and verify == 0:
         raise InputError("plan_grasp: verify_draws applies to the verified pick: give verify K too")
     if sampling not in SAMPLING_MODES:
@@ -431,15 +445,18 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         order, rule = guard_order(total, np.asarray(analytic.total), verify), "guard_mixed"
     v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
                             weights=measure_w, randomize=None if physics == "nominal" else Randomization(),
-                            order=order)
+                            order=order, weak_grip=verify_weak_grip)
     L = v.labels
-    per_rollout = measured_total(L, measure_w, objective_of(scores))
+    weak_failed = v.weak_failed
+    per_rollout = measured_total(L, measure_w, objective_of(scores), weak_failed)
     rows = []
     for r, i in enumerate(v.shortlist):
         for d in range(verify_draws):
             j = r * verify_draws + d
             row = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[j]) for f in VERIFY_FIELDS)}
             row["index"], row["draw"] = int(i), d
+            if weak_failed is not None:
+                row["weak_failed"] = bool(weak_failed[j])
             row["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
             rows.append(row)
     # a verified pick must have done the task and held in every one of its rollouts

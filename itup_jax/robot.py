@@ -48,6 +48,11 @@ GRIPPER_MAX_GRIP_FORCE = 235.0  # N
 #: N per pad, the grip every rollout, pick and analytic wrist load uses unless told otherwise (randomised
 #: +-20 % with the physics draws), within the 2F-85's range.
 GRIP_FORCE = 100.0
+#: N per pad, the weak grip (a little above the 2F-85's least setting of 20 N): every dataset candidate is
+#: rolled out a second time at it (`dataset.weak_rollouts`, the network's weak-grip head), the planner's
+#: verification repeats each rollout at it (`planning.plan_grasp(verify_weak_grip=)`), and the evaluations'
+#: grip stress counts failures at it.
+WEAK_GRIP = 25.0
 GRIPPER_MASS = 0.925  # kg
 PAD_WIDTH = 0.022  # m, pad extent along the grasp x axis
 PAD_LENGTH = 0.0375  # m, pad extent along the approach (z) axis

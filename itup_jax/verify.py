@@ -4,6 +4,7 @@
     v.index, v.grasp, v.labels.peak_torque_induced, v.chosen_by
     v = itup.best_grasp_verified(tool, task, grasps, k=10, weights=itup.ScoreWeights.torque_first())
     v = itup.best_grasp_verified(tool, task, grasps, k=10, draws=3, randomize=itup.Randomization())
+    v = itup.best_grasp_verified(tool, task, grasps, k=5, weak_grip=25.0)  # + each rollout again at 25 N per pad
 
 SDG-Net ranks a tool's candidates fairly well (median Spearman 0.81 per unseen tool against the measured
 full induced peak wrist torque) but its single pick is often not the best. Rolling the k best reachable
@@ -23,7 +24,12 @@ The measured total is the SDG-Net total (`ScoreWeights`)
 with each prediction replaced by what the rollout measured (`measured_total`): the full induced peak
 torque (N m) and the grip demand (N per pad) for the wrench objective, the projected peak torque for the
 paper's, slip (m), alignment drift (rad), whether the task was achieved (1/0) and whether the grasp
-failed in the grip (1/0). Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
+failed in the grip (1/0); with `weak_grip` (`plan_grasp` passes `robot.WEAK_GRIP`, 25 N per pad) each
+rollout is repeated on the same physics draw at that fixed grip and a failure there (slip or turn in the
+pads, or a rollout that diverges) adds w_weak, as the network's weak-grip head adds its predicted
+probability: without it a verified shortlist picks by the default grip alone, and the grasp that carries
+the least there is often one that slips out at 25 N (docs/results.md, "Verification at the weak grip").
+Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
 rollout; a grasp with a rollout that diverges cannot win and is replaced by the next reachable grasp; if
 no grasp has valid rollouts, the scorer's own pick stands (`chosen_by` = "score").
 
@@ -43,10 +49,12 @@ from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.sdgnet.objective import get as get_objective
 from itup_jax.sim.arm import reachability_in_order
+from itup_jax.sim.config import SimConfig
 from itup_jax.sim.labels import LABEL_FIELDS, Labels
 from itup_jax.sim.physics import Randomization
 from itup_jax.sim.rollout import default_backend, simulate
 from itup_jax.sim.scene import Scene, build_scene
+from itup_jax.stress import check_grip, fixed_grip
 from itup_jax.task import Task
 from itup_jax.tools import Tool
 
@@ -64,7 +72,8 @@ class Verified:
     when no candidate had valid rollouts (then the best-scored grasp stands, reachable or not).  backend:
     the rollouts' backend.  unreachable: the candidates skipped because the arm cannot follow their
     trajectory, best score first (those scored ahead of the last one rolled out; every candidate when
-    none is reachable).
+    none is reachable).  weak_grip: N per pad of the weak-grip rollouts, or None when there were none.
+    weak_labels: their `Labels`, each [M * r], row for row with `labels` (the same physics draw), or None.
     """
 
     index: int
@@ -77,6 +86,8 @@ class Verified:
     backend: str
     unreachable: np.ndarray
     draws: int = 1
+    weak_grip: float | None = None
+    weak_labels: Labels | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -88,12 +99,22 @@ class Verified:
         ok = (self.candidate_labels("valid") & self.candidate_labels("success") & ~self.candidate_labels("failed"))[r]
         return bool(ok.all())
 
-    def candidate_labels(self, field: str) -> np.ndarray:
+    def candidate_labels(self, field: str, weak: bool = False) -> np.ndarray:
         """[M, r] one `Labels` field (e.g. "peak_torque_projected", "success") per shortlisted candidate and
-        draw."""
+        draw; weak=True: of the weak-grip rollouts (InputError when there were none)."""
         if field not in LABEL_FIELDS:
             raise InputError(f"Verified.candidate_labels: field must be one of {LABEL_FIELDS}, got {field!r}")
-        return np.asarray(getattr(self.labels, field)).reshape(len(self.shortlist), self.draws)
+        if weak and self.weak_labels is None:
+            raise InputError("Verified.candidate_labels: weak=True, but this pick was verified without weak-grip "
+                             "rollouts (best_grasp_verified(weak_grip=...))")
+        L = self.weak_labels if weak else self.labels
+        return np.asarray(getattr(L, field)).reshape(len(self.shortlist), self.draws)
+
+    @property
+    def weak_failed(self) -> np.ndarray | None:
+        """[M * r] bool per rollout, row for row with `labels`: the weak-grip rollout failed in the grip or
+        was not valid; None without weak-grip rollouts."""
+        return None if self.weak_labels is None else weak_failures(self.weak_labels)
 
 
 def objective_of(scores: Any) -> str:
@@ -102,12 +123,20 @@ def objective_of(scores: Any) -> str:
     return "wrench" if getattr(scores, "grip", None) is not None else "paper"
 
 
-def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objective: str = "paper") -> np.ndarray:
+def weak_failures(weak: Labels) -> np.ndarray:
+    """[N] bool: a weak-grip rollout failed in the grip, or was not valid (diverged: the tool loose in
+    the pads)."""
+    return ~np.asarray(weak.valid, bool) | np.asarray(weak.failed, bool)
+
+
+def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objective: str = "paper",
+                   weak_failed: np.ndarray | None = None) -> np.ndarray:
     """[N] the `ScoreWeights` total of measured labels: SDG-Net's total (`sdgnet_total`) with each
     prediction replaced by its measurement, success and failure counting as probabilities 1 or 0
     (w_tau tau + w_slip slip + w_align drift + w_grip grip + w_task (1 - success) + w_fail failed; tau
     the projected peak torque for the paper's objective, the full induced one for the wrench
-    objective, which alone also counts the grip demand); inf where the rollout is not valid."""
+    objective, which alone also counts the grip demand; + w_weak weak_failed when `weak_failed` [N]
+    (1/0, `weak_failures` of the weak-grip rollouts) is given); inf where the rollout is not valid."""
     tau = get_objective(objective, what="measured_total").measured_tau
     grip = (weights.w_grip * np.asarray(labels.grip_demand, np.float64) if objective == "wrench"
             else np.zeros(len(labels.valid)))
@@ -116,6 +145,12 @@ def measured_total(labels: Labels, weights: ScoreWeights = ScoreWeights(), objec
              + weights.w_align * np.asarray(labels.alignment_drift, np.float64)
              + weights.w_task * (1.0 - np.asarray(labels.success, np.float64))
              + weights.w_fail * np.asarray(labels.failed, np.float64))
+    if weak_failed is not None:
+        weak_failed = np.asarray(weak_failed, np.float64)
+        if weak_failed.shape != total.shape:
+            raise InputError(f"measured_total: weak_failed must have shape {total.shape} like the labels, "
+                             f"got {weak_failed.shape}")
+        total = total + weights.w_weak * weak_failed
     return np.where(np.asarray(labels.valid, bool), total, np.inf)
 
 
@@ -123,7 +158,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
                         seed: int = 0,
                         randomize: Randomization | None = None, weights: ScoreWeights = ScoreWeights(),
                         scores: Any = None, scene: Scene | None = None, backend: str | None = None,
-                        nthread: int | None = None, order: Any = None) -> Verified:
+                        nthread: int | None = None, order: Any = None, weak_grip: float | None = None) -> Verified:
     """Score every grasp, roll the k best reachable ones out in MuJoCo, pick the lowest measured total.
 
     The candidates are walked in score order: a grasp whose task trajectory the arm cannot follow
@@ -148,6 +183,10 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
       order: the candidates in the order to try, [M] distinct indices into grasps (default: by the
         scores' total, lowest first); the pick is still the lowest measured total among those rolled out
         (`planning.guard_order`: the planner's shortlist when the out-of-distribution guard fired).
+      weak_grip: N per pad, or None (default): each rollout repeated on its physics draw at this fixed
+        grip (native MuJoCo, `stress.fixed_grip`, as `dataset.weak_rollouts` labels the network's
+        weak-grip head; the same backend), and `weights.w_weak` added to the measured total where it fails
+        in the grip or diverges. Doubles the rollouts.
     """
     validate_grasps(grasps)
     if not is_integer(k) or k < 1:
@@ -155,6 +194,8 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     if not is_integer(draws) or draws < 1:
         raise InputError(f"best_grasp_verified: draws must be an integer >= 1 (rollouts per verified grasp), "
                          f"got {draws!r}")
+    if weak_grip is not None:
+        weak_grip = check_grip(weak_grip, "best_grasp_verified: weak_grip")
     if draws > 1 and randomize is None:
         raise InputError(f"best_grasp_verified: draws={draws} needs randomize (a Randomization): under nominal "
                          "physics every draw of a grasp rolls out the same")
@@ -179,6 +220,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     unreachable: list[int] = []
     tried: list[int] = []
     parts: list[Labels] = []
+    weak_parts: list[Labels] = []
     n_valid, r, backend_used = 0, 0, backend or default_backend()
     while n_valid < k:
         for i, ok in walk:
@@ -192,19 +234,38 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         res = simulate(tool, task, grasps[np.repeat(np.asarray(batch), draws)], seed=seed + r, randomize=randomize,
                        scene=scene, backend=backend, nthread=nthread)
         parts.append(res.labels)
+        if weak_grip is not None:  # the same grasps on the same physics draws, the grip fixed at weak_grip
+            weak_parts.append(_weak_rollouts(tool, task, grasps[np.repeat(np.asarray(batch), draws)], weak_grip,
+                                             seed=seed + r, randomize=randomize, scene=scene, backend=backend,
+                                             nthread=nthread))
         tried += batch
         ok_all = np.asarray(res.labels.valid, bool).reshape(len(batch), draws).all(axis=1)
         n_valid, r, backend_used = n_valid + int(ok_all.sum()), r + 1, res.backend
-    if parts:
-        labels = Labels(**{f: np.concatenate([getattr(L, f) for L in parts]) for f in LABEL_FIELDS})
-    else:
-        labels = Labels.unmeasured(0)
+    labels = _joined(parts)
+    weak = None if weak_grip is None else _joined(weak_parts)
     # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
-    m = measured_total(labels, weights, objective_of(scores)).reshape(len(tried), draws).mean(axis=1)
+    m = measured_total(labels, weights, objective_of(scores),
+                       None if weak is None else weak_failures(weak)).reshape(len(tried), draws).mean(axis=1)
     if np.isfinite(m).any():
         i, chosen_by = tried[int(np.argmin(m))], "measured"
     else:
         i, chosen_by = int(order[0]), "score"
     return Verified(index=int(i), grasp=grasps[int(i)], scores=scores, shortlist=np.asarray(tried, np.int64),
                     labels=labels, measured_total=m, chosen_by=chosen_by, backend=backend_used,
-                    unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64), draws=int(draws))
+                    unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64), draws=int(draws),
+                    weak_grip=weak_grip, weak_labels=weak)
+
+
+def _joined(parts: list[Labels]) -> Labels:
+    if not parts:
+        return Labels.unmeasured(0)
+    return Labels(**{f: np.concatenate([getattr(L, f) for L in parts]) for f in LABEL_FIELDS})
+
+
+def _weak_rollouts(tool: Tool, task: Task, grasps: Grasps, grip: float, *, seed: int, randomize: Randomization | None,
+                   scene: Scene, backend: str | None, nthread: int | None) -> Labels:
+    """`grasps` rolled out at `grip` N per pad, row r on the physics draw of row r of the default
+    rollout (same seed, the grip not randomised; `dataset.weak_rollouts`' rule)."""
+    weak_scene, spread = fixed_grip(scene, randomize, grip)
+    return simulate(tool, task, grasps, seed=seed, randomize=spread, scene=weak_scene, backend=backend,
+                    config=SimConfig(grip_force=grip), nthread=nthread).labels
