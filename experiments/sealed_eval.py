@@ -13,10 +13,11 @@ the task), one after the other in the families' order (--quick draws from the ch
 tool). Per tool:
   * 256 candidates the arm can carry (`sample_reachable`, seed 0; a tool with none is a loss for
     every method);
-  * the picks: `itup plan`'s default (SDG-Net under the shipped weights; when the out-of-distribution
-    guard fires, its GUARD_VERIFY_K-grasp shortlist, `planning.guard_order`, rolled out under nominal
-    physics and the lowest measured total kept, as `plan_grasp` does), the analytic cost in the paper's
-    and the wrench form, force closure, geometric ranking;
+  * the picks: `itup plan`'s default (`planning.default_pick`: SDG-Net under the shipped weights, its
+    DEFAULT_VERIFY best rolled out under nominal physics and again at 25 N per pad, the lowest measured
+    total kept; when the out-of-distribution guard fires, the shortlist mixes in the analytic wrench
+    cost's best, `planning.guard_order`), the analytic cost in the paper's and the wrench form, force
+    closure, geometric ranking;
   * every distinct pick rolled out under the same 5 randomised physics draws (the headline: the mean
     full induced peak wrist torque; the raw peak and the induced torque's grasp-frame components
     beside it), and, on tools i % 8 < 5 (10 per task), 5 more at 25 N per pad;
@@ -32,11 +33,17 @@ margins: 17.6 / 17.5 / 11.6 / 20.8 % over GQ-CNN, 10.2 / 14.3 / 10.4 / 13.5 % ov
 sweep / knock / reach). Writes sealed.json (schema `itup.sealed/1`).
 
 --reopen SEALED_JSON: a finished run's tools, validation tools from then on, with the planner of this
-code: every tool on which the guard fired is planned again (its tool rebuilt from the recorded family
-and seed, the same 256 candidates), first as the run's planner did, checked to give the recorded pick,
+code: every tool is planned again (its tool rebuilt from the recorded family and seed, the same 256
+candidates), first as the run's planner did (its `config.verify` and `config.verify_weak_grip`; none
+recorded: verified only where the guard fired, at the default grip alone), checked to give the recorded pick,
 then as `itup plan` does now; a pick that changed is measured on the run's draws (the same seeds), every
 other pick is the run's. Writes sealed.json of the same schema, with `reopened` naming the run, and
-prints the summary beside the run's.
+prints the summary beside the run's. With --headroom R (and --tasks), the tools of those tasks are also
+asked what a perfect predictor would pick: every candidate rolled out R more times (their own draws),
+the *oracle* the candidate with the lowest mean full induced peak torque among those that did the task
+and held in all R, measured on the run's draws like every pick (so its luck in the R draws does not
+flatter it); per tool its torque and the rank among the R-draw means of the planner's and the
+baselines' picks; per task its reduction against the better baseline (`summary[task]["oracle"]`).
 """
 
 from __future__ import annotations
@@ -54,7 +61,7 @@ from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import WEAK_GRIP
 from itup_jax.evaluate import MEASURED
 from itup_jax.grasp_sampler import sample_reachable
-from itup_jax.planning import GUARD_VERIFY_K, guard_order
+from itup_jax.planning import DEFAULT_VERIFY, default_pick
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet.config import DEFAULT_MODEL
 from itup_jax.sdgnet.objective import OBJECTIVES
@@ -65,7 +72,6 @@ from itup_jax.stress import rollouts_at_grip
 from itup_jax.task import DEFAULT_TOOL, make_task
 from itup_jax.tools import families
 from itup_jax.tools.variants import part_variant
-from itup_jax.verify import best_grasp_verified
 
 TASKS = ("hammer", "sweep", "knock", "reach")
 PLANNER = "planner"
@@ -78,6 +84,8 @@ PAPER = {"gqcnn": {"hammer": 17.6, "sweep": 17.5, "knock": 11.6, "reach": 20.8},
 QUICK_SALT = b"/quick"
 #: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
+#: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.
+HEADROOM_SEED = 100
 
 
 def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
@@ -107,27 +115,16 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
     return out
 
 
-def planner_pick(tool, task, grasps, scene, weak_grip: float | None = WEAK_GRIP) -> tuple[int | None, dict]:
-    """`itup plan`'s default pick among `grasps`: SDG-Net's lowest total, or, when the guard fires, the
-    lowest measured total of its guard-ordered shortlist under nominal physics, each rollout repeated at
-    `weak_grip` N per pad (`plan_grasp`'s verify_weak_grip; None: the default grip alone, the planner of
-    0.25.0); None when none of that shortlist did the task and held (`itup plan` then recommends no grasp)."""
-    from itup_jax import ood
-
-    s = itup.score(tool, task, grasps)
-    total = np.asarray(s.total, float)
-    reading = ood.check(tool, task, grasps)
-    info = {"guard_score": None if reading is None else float(reading.score),
-            "guard_fired": bool(reading is not None and reading.fired)}
-    if not info["guard_fired"]:
-        return int(np.argmin(total)), info
-    analytic = itup.wrench_costs(tool, task, grasps, OBJECTIVES["wrench"].analytic)
-    k = min(GUARD_VERIFY_K, len(grasps))
-    order = guard_order(total, np.asarray(analytic.total), k)
-    v = best_grasp_verified(tool, task, grasps, k=k, scores=s, weights=ScoreWeights(), randomize=None,
-                            order=order, scene=scene, weak_grip=weak_grip)
-    info["verified_succeeded"] = bool(v.succeeded)
-    return (int(v.index) if v.succeeded else None), info
+def planner_pick(tool, task, grasps, scene, verify: int = DEFAULT_VERIFY,
+                 weak_grip: float | None = WEAK_GRIP) -> tuple[int | None, dict]:
+    """`itup plan`'s default pick among `grasps` (`planning.default_pick`): SDG-Net's scores, the guard,
+    `verify` grasps rolled out under nominal physics (the guard's shortlist when it fired), each again at
+    `weak_grip` N per pad, the lowest measured total kept; None when none of them did the task and held
+    (`itup plan` then recommends no grasp). verify 0 and weak_grip None: the planner of 0.25.0 (verified
+    only when the guard fired, at the default grip alone)."""
+    index, info = default_pick(tool, task, grasps, scene=scene, verify=verify, weak_grip=weak_grip)
+    info.pop("shortlist", None)
+    return index, info
 
 
 def measure(tool, task, scene, g, i: int, draws: int) -> dict:
@@ -198,7 +195,7 @@ def rebuild_tool(row: dict):
     return families.draw(row["family"], int(row["seed"]))
 
 
-def replan_row(row: dict, n: int, draws: int) -> dict:
+def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None) -> dict:
     """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
     tool = rebuild_tool(row)
     if tool.name != row["tool"]:
@@ -210,7 +207,7 @@ def replan_row(row: dict, n: int, draws: int) -> dict:
     if len(g) != row["candidates"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: {len(g)} candidates, the run had {row['candidates']}")
     scene = build_scene(tool, task)
-    old, _ = planner_pick(tool, task, g, scene, weak_grip=None)
+    old, _ = planner_pick(tool, task, g, scene, verify=was_verify, weak_grip=was_weak_grip)
     if old != row["picks"][PLANNER]["index"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
                            f"{row['picks'][PLANNER]['index']}, re-planned {old}")
@@ -229,20 +226,67 @@ def replan_row(row: dict, n: int, draws: int) -> dict:
     return out
 
 
-def reopen(path: str, out_dir: str) -> dict:
+def headroom_row(row: dict, n: int, draws: int, repeats: int) -> dict:
+    """--headroom: the oracle pick of a finished run's tool (module docstring)."""
+    tool = rebuild_tool(row)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        task = make_task(row["task"], tool)
+    g = sample_reachable(tool, task, n, seed=0).grasps
+    scene = build_scene(tool, task)
+    tau, ok = np.zeros(len(g)), np.ones(len(g), bool)
+    for r in range(repeats):
+        L = itup.simulate(tool, task, g, scene=scene, seed=HEADROOM_SEED + r, randomize=Randomization()).labels
+        ok &= np.asarray(L.valid) & np.asarray(L.success) & ~np.asarray(L.failed)
+        tau += np.where(np.asarray(L.valid), np.asarray(L.peak_torque_induced, float), np.inf) / repeats
+    if not ok.any():
+        return {"oracle": None, "held": 0}
+    i = int(np.argmin(np.where(ok, tau, np.inf)))
+    order = np.argsort(np.where(np.isfinite(tau), tau, np.inf), kind="stable")
+    rank = {m: (None if p.get("index") is None else int(np.nonzero(order == p["index"])[0][0]) + 1)
+            for m, p in row["picks"].items()}
+    return {"oracle": {"index": i, **measure(tool, task, scene, g, i, draws)}, "held": int(ok.sum()),
+            "rank_of_picks": rank, "candidates": int(len(g))}
+
+
+def _oracle_summary(rows: list[dict]) -> dict:
+    """Per task: the oracle's reduction against the better baseline per tool, as `summarise` gives the planner's."""
+    out = {}
+    for k in TASKS:
+        rs = [r for r in rows if r["task"] == k and r.get("headroom") and r["headroom"]["oracle"]]
+        if not rs:
+            continue
+        o = np.array([r["headroom"]["oracle"]["peak_torque_induced"] for r in rs])
+        p = np.array([r["picks"][PLANNER]["peak_torque_induced"] for r in rs])
+        b = np.array([min(r["picks"][m]["peak_torque_induced"] for m in BASELINES) for r in rs])
+        red, red_p = 100.0 * (1.0 - o / b), 100.0 * (1.0 - p / b)
+        out[k] = {"tools": len(rs), "oracle_vs_better_median_pct": float(np.median(red)),
+                  "interval_pct": _bootstrap_median(red), "planner_vs_better_median_pct": float(np.median(red_p)),
+                  "by_kind": {kind: {"tools": int(np.sum(sel)), "oracle": float(np.median(red[sel])),
+                                     "planner": float(np.median(red_p[sel]))}
+                              for kind in ("builtin", "other")
+                              for sel in [np.array([r["kind"] == kind for r in rs])] if sel.any()}}
+    return out
+
+
+def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = ()) -> dict:
     """--reopen: the run at `path` with the planner of this code (module docstring)."""
     import json
 
     with open(path) as fh:
         run = json.load(fh)
-    if run.get("schema") != "itup.sealed/1" or run["config"].get("quick"):
-        raise SystemExit(f"--reopen: {path} is not a full sealed run (schema itup.sealed/1, not --quick)")
+    if run.get("schema") != "itup.sealed/1":
+        raise SystemExit(f"--reopen: {path} is not a sealed run (schema itup.sealed/1)")
     cfg = run["config"]
     t0, rows = time.perf_counter(), []
     for row in run["per_tool"]:
-        if row["picks"] and row.get("planner", {}).get("guard_fired"):
+        # the run's planner: verify and weak grip as recorded (none recorded: 0.25.0's, verified only where
+        # the guard fired, at the default grip alone); a tool it did not verify is re-planned only when
+        # the planner of this code verifies every tool
+        was = (cfg.get("verify", 0), cfg.get("verify_weak_grip"))
+        if row["picks"] and (DEFAULT_VERIFY > 0 or row.get("planner", {}).get("guard_fired")):
             t = time.perf_counter()
-            rows.append(replan_row(row, cfg["n"], cfg["draws"]))
+            rows.append(replan_row(row, cfg["n"], cfg["draws"], *was))
             r = rows[-1]
             was, now = r["replaced"] or r["picks"][PLANNER], r["picks"][PLANNER]
             print(f"{r['task']:7s} {r['tool']:28s} planner {was['index']} -> {now['index']}  torque "
@@ -251,15 +295,30 @@ def reopen(path: str, out_dir: str) -> dict:
                   f"({time.perf_counter() - t:.0f} s)", flush=True)
         else:
             rows.append({**row, "replaced": None})
+        if headroom and row["picks"] and row["task"] in headroom_tasks:
+            t = time.perf_counter()
+            rows[-1]["headroom"] = h = headroom_row(rows[-1], cfg["n"], cfg["draws"], headroom)
+            o = h["oracle"]
+            print(f"{row['task']:7s} {row['tool']:28s} oracle {o and o['index']} {o and round(o['peak_torque_induced'], 2)}"
+                  f"  planner {rows[-1]['picks'][PLANNER]['peak_torque_induced']:.2f}  fc "
+                  f"{row['picks']['force_closure']['peak_torque_induced']:.2f}  geo "
+                  f"{row['picks']['geometric']['peak_torque_induced']:.2f}  held {h['held']}  ranks "
+                  f"{h.get('rank_of_picks')}  ({time.perf_counter() - t:.0f} s)", flush=True)
     from itup_jax.bench import machine_info
 
     res = {**run, "version": itup.__version__, "commit": _commit(), "summary": summarise(rows), "per_tool": rows,
            "wall_s": time.perf_counter() - t0, "machine": machine_info(),
            "reopened": {"from": os.path.abspath(path), "commit": run["commit"], "version": run["version"],
-                        "weak_grip": WEAK_GRIP, "replaced": sum(r["replaced"] is not None for r in rows)}}
+                        "weak_grip": WEAK_GRIP, "replaced": sum(r["replaced"] is not None for r in rows),
+                        "headroom": {"repeats": headroom, "tasks": list(headroom_tasks),
+                                     "summary": _oracle_summary(rows)} if headroom else None}}
     os.makedirs(out_dir, exist_ok=True)
     atomic_write_json(os.path.join(out_dir, "sealed.json"), res, indent=1)
     _print_summary(res["summary"], run["summary"])
+    if headroom:
+        for k, h in res["reopened"]["headroom"]["summary"].items():
+            print(f"{k:7s} oracle vs better median {h['oracle_vs_better_median_pct']:+.0f}% {h['interval_pct']}; planner "
+                  f"{h['planner_vs_better_median_pct']:+.0f}%; by kind {h['by_kind']}")
     return res
 
 
@@ -362,9 +421,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--out", default="results/sealed")
     ap.add_argument("--reopen", default=None, metavar="SEALED_JSON",
                     help="a finished run's tools (validation tools since) with the planner of this code")
+    ap.add_argument("--headroom", type=int, default=0, metavar="R",
+                    help="with --reopen: the oracle pick of the --tasks' tools from R rollouts of every candidate")
     a = ap.parse_args(argv)
+    if a.headroom and not a.reopen:
+        ap.error("--headroom applies to --reopen")
     if a.reopen:
-        return reopen(a.reopen, a.out)
+        return reopen(a.reopen, a.out, a.headroom, tuple(t for t in a.tasks.split(",") if t))
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)
@@ -390,7 +453,8 @@ def main(argv=None) -> dict:
 
     out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
            "version": itup.__version__, "commit": commit, "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
-                                                   "quick": a.quick},
+                                                   "quick": a.quick, "verify": DEFAULT_VERIFY,
+                                                   "verify_weak_grip": WEAK_GRIP},
            "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}
     os.makedirs(a.out, exist_ok=True)

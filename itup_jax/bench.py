@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from itup_jax import robot
 from itup_jax.costs import CostParams, wrench_costs_jit
 from itup_jax.grasp import Grasps
 from itup_jax.numpy_reference import numpy_wrench_costs, to_numpy_inputs
@@ -278,10 +279,11 @@ def bench_score(n: int = 10_000, repeats: int = 20, task_kind: str = "hammer", m
 
 
 def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None, draws: int = 1,
-                 torque_first: bool = False) -> dict[str, Any]:
+                 torque_first: bool = False, weak_grip: float | None = robot.WEAK_GRIP) -> dict[str, Any]:
     """Per task (its built-in tool, its own time step): the cost of a verified pick
     (`verify.best_grasp_verified`, SDG-Net's k best rolled out under nominal physics; with `draws` r > 1,
-    each r times under random physics; `torque_first`: `ScoreWeights.torque_first`) against SDG-Net's
+    each r times under random physics; each rollout again at `weak_grip` N per pad, as `itup plan`
+    verifies, None: not; `torque_first`: `ScoreWeights.torque_first`) against SDG-Net's
     scoring of the n sampled candidates (`score`, warm), measured in the same run. The scene is built once
     per task and reused, as a planner would; its build time is reported apart, like the scorer's compile."""
     from itup_jax.grasp_sampler import sample_grasps
@@ -294,7 +296,7 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
     from itup_jax.verify import best_grasp_verified
 
     m = model if isinstance(model, Model) else load_model(model)
-    kw = {"weights": ScoreWeights.torque_first() if torque_first else ScoreWeights()}
+    kw = {"weights": ScoreWeights.torque_first() if torque_first else ScoreWeights(), "weak_grip": weak_grip}
     if draws > 1:
         kw.update(draws=draws, randomize=Randomization())
     rows = []
@@ -320,7 +322,8 @@ def bench_verify(n: int = 1000, k: int = 5, repeats: int = 5, model: Any = None,
                      "rollouts": int(len(v.labels.valid)), "valid_rollouts": int(v.labels.valid.sum()),
                      "verify_over_score": round(verify_s / score_s, 1),
                      "pick_changed": bool(v.index != int(np.argmin(np.asarray(s.total))))})
-    return {"benchmark": "verify", "n": n, "k": k, "draws": draws, "torque_first": torque_first, "repeats": repeats,
+    return {"benchmark": "verify", "n": n, "k": k, "draws": draws, "torque_first": torque_first, "weak_grip": weak_grip,
+            "repeats": repeats,
             "physics": "nominal" if draws == 1 else "random", "tasks": rows,
             "machine": machine_info()}
 

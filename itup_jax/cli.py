@@ -1,7 +1,7 @@
 """The `itup` command line: it parses (`cli_args`), calls the library and prints.
 
   itup demo [--task hammer] [--out itup-demo/]
-  itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--verify 5] [--json OUT]
+  itup plan  --task hammer [--tool NAME | --tool MESH --tool-spec SPEC] [--n 1000] [--verify K | --no-verify] [--json OUT]
   itup run "drive the nail with the hammer" [--add-tool MESH SPEC] [--clutter N]
   itup evaluate --task T --methods sdgnet,force_closure,... --seeds K --json OUT
   itup generate --out DIR ...;  itup train --data DIR --out M.npz;  itup ensemble --models ... --out E.npz
@@ -116,8 +116,8 @@ def _make_task(args, tool) -> Any:
 
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
-PLAN_OPTIONS = ("guard_threshold", "verify_weak_grip", "verify_draws", "verify_physics", "torque_first", "w_tau", "w_slip", "w_align",
-                "w_task", "w_fail", "w_weak", "w_grip", "verify", "top", "sampling", "budget", "n")
+PLAN_OPTIONS = ("guard_threshold", "verify_weak_grip", "verify_draws", "verify_physics", "torque_first", "w_tau",
+                "w_slip", "w_align", "w_task", "w_fail", "w_weak", "w_grip", "verify", "top", "sampling", "budget", "n")
 
 
 def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
@@ -133,7 +133,7 @@ def _as_flags(message: str, names=PLAN_OPTIONS) -> str:
 # ---------------------------------------------------------------------------------------------------
 def cmd_demo(args) -> int:
     """The main job (`demo.run_demo`) and its table."""
-    from itup_jax.demo import QUICK, run_demo
+    from itup_jax.demo import METHODS, QUICK, run_demo
     from itup_jax.evaluate import table
 
     if args.quick:  # a smoke run: few candidates, two draws per pick
@@ -149,11 +149,11 @@ def cmd_demo(args) -> int:
     print(f"scored {c['used']} candidates ({c['feasible']} of {c['sampled']} sampled were reachable); each pick rolled "
           f"out {args.seeds}x in native MuJoCo with randomised physics (mean ± std):")
     print(table(res))
-    s, f = (res["methods"][m]["measured"] for m in ("sdgnet", "force_closure"))
+    s, f = (res["methods"][m]["measured"] for m in METHODS)
     print(res["verdict"] + f" Beside it: raw peak {s['peak_torque']['mean']:.2f} vs {f['peak_torque']['mean']:.2f} "
           f"N·m; projected (C_tau's component) {s['peak_torque_projected']['mean']:.2f} vs "
           f"{f['peak_torque_projected']['mean']:.2f} N·m; slip {1e3 * s['slip_translation']['mean']:.1f} vs "
-          f"{1e3 * f['slip_translation']['mean']:.1f} mm (SDG-Net vs force closure)")
+          f"{1e3 * f['slip_translation']['mean']:.1f} mm (the planner vs force closure)")
     print(f"wrote {', '.join(res['files'].values())} ({res['wall_s']:.0f} s)")
     return 0
 
@@ -168,9 +168,9 @@ def cmd_plan(args) -> int:
         _check_out_folder("--json", args.json)
     _check_count("--n", args.n, 1, MAX_CANDIDATES, why=f"{MAX_CANDIDATES:,} candidates take ~45 s to sample, check "
                  "for reach and score on a 2-core CPU")
-    if args.verify is not None and args.verify < 1:
-        raise_input(f"--verify K rolls the K best grasps out and must be >= 1, got {args.verify}; leave --verify out to "
-                    "pick by the score alone (the out-of-distribution guard may still verify; --no-guard stops it)")
+    if args.verify < 1:
+        raise_input(f"--verify K rolls the K best grasps out and must be >= 1, got {args.verify}; --no-verify picks "
+                    "by the score alone (the out-of-distribution guard may still verify; --no-guard stops it)")
     model = _check_model_arg(args) if args.scorer == "sdgnet" else args.model
     given = {k: getattr(args, k) for k in ("w_tau", "w_slip", "w_align", "w_task", "w_fail", "w_weak", "w_grip")
              if getattr(args, k) is not None}
@@ -178,7 +178,7 @@ def cmd_plan(args) -> int:
     task = _make_task(args, tool)
     try:
         plan = plan_grasp(tool, task, n=args.n, seed=args.seed, scorer=args.scorer, model=model, weights=given,
-                          torque_first=args.torque_first, top=args.top, verify=args.verify or 0,
+                          torque_first=args.torque_first, top=args.top, verify=0 if args.no_verify else args.verify,
                           verify_draws=args.verify_draws, verify_physics=args.verify_physics, sampling=args.sampling,
                           budget=args.budget, guard=not args.no_guard, guard_threshold=args.guard_threshold,
                           verify_weak_grip=args.verify_weak_grip or None)
@@ -439,7 +439,7 @@ def cmd_bench(args) -> int:
         else:
             _check_count(f"{flag} --k", args.k, 1)
             _check_count(f"{flag} --draws", args.draws, 1)
-            kw.update(k=args.k, draws=args.draws, torque_first=args.torque_first)
+            kw.update(k=args.k, draws=args.draws, torque_first=args.torque_first, weak_grip=args.weak_grip or None)
     elif name in ("sample", "reachable"):
         _check_count(f"{flag} --n", args.n, 1)
         kw.update(n=args.n)

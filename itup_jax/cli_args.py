@@ -20,10 +20,11 @@ EXAMPLES = {
   itup demo --quick                           # a smoke run: 32 candidates, 2 draws per pick
   itup demo --tool my.stl --tool-spec my.toml --task knock""",
     "plan": """examples:
-  itup plan                                   # hammer task, built-in claw hammer, 1000 candidates, SDG-Net
+  itup plan                                   # hammer, built-in claw hammer, 1000 candidates, SDG-Net, 5 verified
   itup plan --scorer analytic                 # the analytic wrench cost instead
   itup plan --task reach --n 2000 --json best.json
-  itup plan --task hammer --verify 5          # roll the 5 best out in MuJoCo, pick the best measured
+  itup plan --task hammer --no-verify         # the best-scored grasp, no MuJoCo rollout
+  itup plan --task hammer --verify 10 --verify-draws 3   # the 10 best, 3 random draws each
   itup plan --task hammer --tool my.stl --tool-spec my.toml
   itup plan --task knock --tool spanner@3     # a drawn tool of a family (itup tools lists them)""",
     "evaluate": """examples:
@@ -119,9 +120,12 @@ def add_plan(p: argparse.ArgumentParser) -> None:
     p.add_argument("--w-grip", type=float, default=None,
                    help="sdgnet (wrench objective): weight of the predicted grip demand, N m per N of normal force "
                    f"per pad (default {W_GRIP:g})")
-    p.add_argument("--verify", type=int, default=None, metavar="K",
-                   help="roll the K >= 1 best grasps out in MuJoCo and pick the lowest measured total (5 is a good "
-                   "choice; default: no rollouts, unless the out-of-distribution guard fires)")
+    p.add_argument("--verify", type=int, default=default(plan_grasp, "verify"), metavar="K",
+                   help="roll the K >= 1 best reachable grasps out in MuJoCo and pick the lowest measured total "
+                   "(default %(default)s)")
+    p.add_argument("--no-verify", action="store_true",
+                   help="no rollouts: the best-scored reachable grasp is the pick (unless the out-of-distribution "
+                   "guard fires: it then verifies 5; --no-guard stops it)")
     p.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
                    help="physics of the --verify rollouts: the priors' nominal values (the default for one draw) or one "
                    "draw each from --seed (the default with --verify-draws > 1)")
@@ -397,6 +401,8 @@ def add_bench(p: argparse.ArgumentParser) -> None:
                     help="rollouts per verified grasp (> 1: random physics; default %(default)s)")
     bp.add_argument("--torque-first", action="store_true",
                     help="the torque-first weights (ScoreWeights.torque_first; `itup plan --torque-first`)")
+    bp.add_argument("--weak-grip", type=float, default=default(bench.bench_verify, "weak_grip"), metavar="N",
+                    help="each rollout repeated at N per pad, as `itup plan` verifies (default %(default)g; 0: none)")
     bp.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     bp = bench_parser("sample", bench.bench_sample, "the flat-pad sampler and its collision kernel")
     bp.add_argument("--n", type=int, default=default(bench.bench_sample, "n"), help="grasps (default %(default)s)")

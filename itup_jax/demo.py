@@ -1,10 +1,11 @@
-"""The main job: SDG-Net's pick against force closure's on one tool and task, verified in MuJoCo.
+"""The main job: the planner's pick against force closure's on one tool and task, measured in MuJoCo.
 
     from itup_jax.demo import run_demo
     result = run_demo("hammer", out="itup-demo")     # the demo.json it writes, as a dict
 
-The tool's reachable candidates (`evaluate.feasible_candidates`) are scored by the shipped SDG-Net and by
-force closure; each pick is rolled out `seeds` times under randomised physics (paired draws,
+The tool's reachable candidates (`evaluate.feasible_candidates`) are picked from by `itup plan`'s default
+(the shipped SDG-Net's 5 best checked in MuJoCo, `evaluate.VERIFIED`) and by force closure; each pick is
+rolled out `seeds` times under randomised physics (paired draws,
 `evaluate.evaluate`), and once more under nominal physics with traces for the picture (`picks.png`: the
 picks on the tool and the wrist torque over the motion) and one MCAP log per pick. `verdict` says which
 pick carries less of the headline, the full induced peak wrist torque. `itup demo` is this function and a
@@ -21,20 +22,20 @@ import numpy as np
 
 from itup_jax.errors import InputError
 
-#: The two methods compared, SDG-Net first.
-METHODS = ("sdgnet", "force_closure")
+#: The two methods compared, the planner's default pick (`evaluate.VERIFIED`, as `itup plan` picks) first.
+METHODS = ("sdgnet_verified", "force_closure")
 #: How each is named in the verdict.
-METHOD_NAMES = {"sdgnet": "SDG-Net", "force_closure": "force closure"}
+METHOD_NAMES = {"sdgnet_verified": "the planner", "force_closure": "force closure"}
 #: Reachable candidates both methods choose from, and rollouts per pick: the defaults, and `--quick`'s.
 DEFAULT_N, DEFAULT_SEEDS = 256, 5
 QUICK = (32, 2)
-SCHEMA = "itup.demo/1"
+SCHEMA = "itup.demo/2"
 
 
 def verdict(measured: dict[str, dict], headline: str) -> tuple[str, float]:
-    """(one sentence naming the method whose pick carries less of `headline`, with both means; SDG-Net's
-    reduction against force closure in %, > 0 when SDG-Net's is lower). `measured`: {method: its
-    `evaluate` summary}."""
+    """(one sentence naming the method whose pick carries less of `headline`, with both means; the
+    planner's reduction against force closure in %, > 0 when the planner's is lower). `measured`: {method:
+    its `evaluate` summary}."""
     from itup_jax.evaluate import reduction
 
     s, f = (measured[m][headline]["mean"] for m in METHODS)
@@ -63,8 +64,8 @@ def model_record(model: Any) -> dict[str, Any]:
 def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N, seeds: int = DEFAULT_SEEDS,
              seed: int = 0, model: Any = None, out: str = "itup-demo", task: Any = None,
              log=print) -> dict[str, Any]:
-    """Run the demo and write its files into `out` (made if missing): `demo.json` (schema itup.demo/1; its
-    `model` names the checkpoint that scored and its SHA-256), `picks.png`, `sdgnet.mcap`,
+    """Run the demo and write its files into `out` (made if missing): `demo.json` (schema itup.demo/2; its
+    `model` names the checkpoint that scored and its SHA-256), `picks.png`, `sdgnet_verified.mcap`,
     `force_closure.mcap`. Returns the JSON's content.
 
     Args:
@@ -114,7 +115,7 @@ def run_demo(task_kind: str = "hammer", *, tool: Any = None, n: int = DEFAULT_N,
     traces = {m: (t_motion, np.linalg.norm(d_tau[k], axis=-1), np.linalg.norm(tau[k, tr.plan.n_settle:], axis=-1))
               for k, m in enumerate(METHODS)}
     files["png"] = plot_picks(tool, picks, os.path.join(out, "picks.png"), traces=traces,
-                              title=f"{tool.name}, {task_kind}: SDG-Net (red) vs force closure (blue)",
+                              title=f"{tool.name}, {task_kind}: the planner's pick (red) vs force closure's (blue)",
                               motion=contact_motion(task))
     result = {"schema": SCHEMA, **res, "model": model_record(model), "headline": HEADLINE,
               "torque_reduction_vs_force_closure_pct": red, "verdict": sentence, "files": files,

@@ -9,8 +9,8 @@ Candidates are antipodal samples whose task trajectory the arm can reach (closed
 `sim.arm.reachable`): an unreachable grasp is flagged and dropped here before any method sees the set, so no
 method is credited or blamed for reachability. Each pick is rolled out `seeds` times; rollout k of
 every method uses the same physics draw (`simulate(seed=...)` samples physics per row, and row k is
-the same draw for every method). `sdgnet_verified` is SDG-Net's shortlist checked in MuJoCo
-(`VERIFIED`), and `sdgnet_verified_torque` the torque-first verified pick (`VERIFIED_TORQUE`: a longer
+the same draw for every method). `sdgnet_verified` is `itup plan`'s default pick, SDG-Net's shortlist
+checked in MuJoCo (`VERIFIED`), and `sdgnet_verified_torque` the torque-first verified pick (`VERIFIED_TORQUE`: a longer
 shortlist by the torque-first total, `ScoreWeights.torque_first`, each grasp under three draws of the
 priors); their times (`score_s`) include those check rollouts, which never share a physics draw with
 the evaluation's rollouts.
@@ -26,12 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from itup_jax import robot, stress
+from itup_jax import ood, robot, stress
 from itup_jax.dataset import GenerateConfig, unit_tool
 from itup_jax.dataset_load import read_manifest
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import MAX_CANDIDATES, sample_grasps
+from itup_jax.planning import DEFAULT_VERIFY, verified_pick
 from itup_jax.scoring import SCORERS, ScoreWeights, score
 from itup_jax.sim.arm import reachable
 from itup_jax.sim.config import SimConfig
@@ -52,10 +53,12 @@ MEASURED = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_
 #: holding torque removed), the paper's measure. The projected torque is the C_tau component a scorer
 #: trained on it can lower by turning the jaw, so it is reported beside it, never ranked on.
 HEADLINE = "peak_torque_induced"
-#: SDG-Net's VERIFY_K best rolled out once more under nominal physics, the best measured kept
-#: (`verify.best_grasp_verified`); its check rollouts are not among the evaluation's draws.
+#: `itup plan`'s default pick (`planning.verified_pick`): SDG-Net's VERIFY_K best rolled out once more
+#: under nominal physics and again at the weak grip (`robot.WEAK_GRIP`), the best measured kept; when the
+#: out-of-distribution guard fires, the shortlist mixes in the analytic wrench cost's best. Its check
+#: rollouts are not among the evaluation's draws.
 VERIFIED = "sdgnet_verified"
-VERIFY_K = 5
+VERIFY_K = DEFAULT_VERIFY
 #: The torque-first verified pick: SDG-Net's VERIFY_TORQUE_K best by the torque-first total
 #: (`ScoreWeights.torque_first`: torque, and the task and grip penalties), each rolled out under
 #: VERIFY_TORQUE_DRAWS draws of the priors, the lowest mean measured total kept (`itup plan --verify 10
@@ -139,8 +142,10 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         s = score(tool, task, candidates, model=scorer, seed=seed, weights=weights)
         verified = None
         if name == VERIFIED:
-            v = best_grasp_verified(tool, task, candidates, k=VERIFY_K, seed=seed, scores=s, scene=scene)
-            verified = {"k": VERIFY_K, "draws": 1, "weights": "default", "physics": "nominal"}
+            fired = bool(ood.check(tool, task, candidates, model=model).fired)
+            v, rule = verified_pick(tool, task, candidates, s, k=VERIFY_K, guard_fired=fired, seed=seed, scene=scene)
+            verified = {"k": VERIFY_K, "draws": 1, "weights": "default", "physics": "nominal",
+                        "weak_grip": v.weak_grip, "guard_fired": fired, "shortlist_rule": rule}
         elif name == VERIFIED_TORQUE:
             v = best_grasp_verified(tool, task, candidates, k=VERIFY_TORQUE_K, draws=VERIFY_TORQUE_DRAWS, seed=seed + 1,
                                     randomize=randomize or Randomization(), weights=weights, scores=s, scene=scene)

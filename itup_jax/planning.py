@@ -1,7 +1,8 @@
 """Planning a grasp for a task: sample, score, walk the ranking to the best grasp the arm can carry,
 and optionally check the best ones in MuJoCo. `itup plan` is this function and a printout.
 
-    plan = plan_grasp(tool, task, n=1000, verify=5)
+    plan = plan_grasp(tool, task, n=1000)     # SDG-Net ranks, MuJoCo checks the 5 best (verify=5, the default)
+    plan = plan_grasp(tool, task, verify=0)   # the best-scored reachable grasp, no rollout (unless the guard fires)
     plan.sampling          # {"requested", "reachable", "drawn", "budget", "complete"}: every candidate is one
                            # the arm can carry through the task (sampling="all": n drawn, reachability walked)
     plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
@@ -32,7 +33,12 @@ DEFAULT_TOP = 5
 #: arm can carry through the task (`grasp_sampler.sample_reachable`); "all" draws n and walks the ranking to
 #: the first reachable one.
 SAMPLING_MODES = ("reachable", "all")
-#: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and no --verify was asked for.
+#: Grasps rolled out in MuJoCo by default (`plan_grasp(verify=)`): the pick is the lowest measured total of
+#: the scorer's DEFAULT_VERIFY best reachable grasps (each also at the weak grip). Chosen on validation
+#: tools: the verified pick carries less full induced torque than the best-scored one on every task
+#: (docs/results.md, "The planner verifies its pick").
+DEFAULT_VERIFY = 5
+#: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and verification was turned off.
 GUARD_VERIFY_K = 5
 #: The share of a verified shortlist the analytic wrench cost chooses when the guard fired (`guard_order`):
 #: 2 of 5. Chosen on the held-out families' calibration tools (`experiments/guard_shortlist.py`, rule
@@ -148,7 +154,7 @@ class GraspPlan:
                 what = (f"{self.verify_k} grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
                         "trust the learned score)")
             else:
-                what = ("the --verify rollouts decide the pick" if self.verified is not None
+                what = ("the verification rollouts decide the pick" if self.verified is not None
                         else "--no-guard: the learned score decides the pick")
             if self.shortlist_rule == "guard_mixed":
                 m = int(GUARD_ANALYTIC_SHARE * self.verify_k)
@@ -286,8 +292,54 @@ def guard_order(scorer_total: np.ndarray, analytic_total: np.ndarray, k: int) ->
     return np.concatenate([head, np.asarray(physics, np.int64), [i for i in net if int(i) not in taken]]).astype(np.int64)
 
 
+def verified_pick(tool: Tool, task, grasps: Grasps, scores: Any, *, k: int = DEFAULT_VERIFY, guard_fired: bool = False,
+                  draws: int = 1, seed: int = 0, randomize: Any = None, weights: Any = None,
+                  weak_grip: float | None = robot.WEAK_GRIP, scene: Any = None) -> tuple[Any, str]:
+    """The planner's MuJoCo check of scored candidates: (`verify.Verified`, the shortlist rule).
+
+    The k best reachable by `scores.total` are rolled out (`verify.best_grasp_verified`; when the guard
+    fired, `guard_order`'s mix of them and the analytic wrench cost's best, rule "guard_mixed", else
+    "scorer"), each `draws` times (physics `randomize`, None: nominal) and again at `weak_grip` N per pad,
+    and the lowest measured total under `weights` (default `ScoreWeights()`) wins. Host side."""
+    import itup_jax as itup
+    from itup_jax.scoring import ScoreWeights
+    from itup_jax.sdgnet.objective import OBJECTIVES
+    from itup_jax.verify import best_grasp_verified
+
+    order, rule = None, "scorer"
+    if guard_fired:
+        analytic = itup.wrench_costs(tool, task, grasps, OBJECTIVES["wrench"].analytic)
+        order, rule = guard_order(np.asarray(scores.total), np.asarray(analytic.total), k), "guard_mixed"
+    v = best_grasp_verified(tool, task, grasps, k=k, draws=draws, seed=seed, scores=scores,
+                            weights=ScoreWeights() if weights is None else weights, randomize=randomize, order=order,
+                            weak_grip=weak_grip, scene=scene)
+    return v, rule
+
+
+def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: int = 0, scene: Any = None,
+                 verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP) -> tuple[int | None, dict]:
+    """`itup plan`'s default pick among given candidates (the arm can carry them): SDG-Net's scores under
+    the default weights, the out-of-distribution guard read, `verified_pick` of `verify` grasps under
+    nominal physics (the guard's shortlist when it fired; verify 0: the best-scored grasp unless the guard
+    fired, then GUARD_VERIFY_K). Returns (the pick's index, or None when no verified grasp did the task
+    and held, as `itup plan` then recommends none; {"guard_score", "guard_fired", "verified_succeeded"
+    (when verified), "shortlist": [the grasps rolled out]}). Host side; the scorer jits itself."""
+    import itup_jax as itup
+    from itup_jax import ood
+
+    s = itup.score(tool, task, grasps, model=model, seed=seed)
+    reading = ood.check(tool, task, grasps, model=model)
+    info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
+    if verify == 0 and not reading.fired:
+        return int(np.argmin(np.asarray(s.total, float))), info
+    v, _ = verified_pick(tool, task, grasps, s, k=min(verify or GUARD_VERIFY_K, len(grasps)), guard_fired=reading.fired,
+                         seed=seed, weak_grip=weak_grip, scene=scene)
+    info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist])
+    return (int(v.index) if v.succeeded else None), info
+
+
 def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: str = "sdgnet", model: Any = None,
-               weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = 0,
+               weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = DEFAULT_VERIFY,
                verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
                budget: int | None = None, guard: bool = True, guard_threshold: float | None = None,
                verify_weak_grip: float | None = robot.WEAK_GRIP) -> GraspPlan:
@@ -308,17 +360,19 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       torque_first: SDG-Net's total weighs torque alone with the task and grip penalties
         (`ScoreWeights.torque_first`).
       top: ranking rows to report (their reachability is checked too).
-      verify: K > 0 rolls the K best reachable out in MuJoCo and keeps the lowest measured total
-        (`verify.best_grasp_verified`); verify_draws R > 1 rolls each out under R draws of the priors
-        (verify_physics "random", the default then) and keeps the lowest mean.
+      verify: K > 0 (default DEFAULT_VERIFY, 5) rolls the K best reachable out in MuJoCo and keeps the
+        lowest measured total (`verify.best_grasp_verified`; ~0.3-0.7 s per 5 on a 2-core CPU, twice that
+        with the weak-grip rollouts); 0: the best-scored reachable grasp, no rollout (unless the guard
+        fires). verify_draws R > 1 rolls each out under R draws of the priors (verify_physics "random",
+        the default then) and keeps the lowest mean.
       verify_weak_grip: N per pad (default `robot.WEAK_GRIP`, 25): every verification rollout is
         repeated at this fixed grip on the same physics draw, and a failure there adds the measured total's
         w_weak (`verify.best_grasp_verified(weak_grip=...)`); None: verification at the default grip alone.
       guard: an SDG-Net scorer's plan reads the out-of-distribution guard (`ood.check`) always; with guard
-        True, when the tool lies outside the network's training data and verify is 0, it verifies
-        GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's `guard_verified`), and
-        whenever it fired the verified grasps mix the analytic wrench cost's best into SDG-Net's
-        (`guard_order`; the plan's `shortlist_rule` "guard_mixed").
+        True, when the tool lies outside the network's training data the verified grasps mix the analytic
+        wrench cost's best into SDG-Net's (`guard_order`; the plan's `shortlist_rule` "guard_mixed"), and
+        with verify 0 it verifies GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's
+        `guard_verified`).
       guard_threshold: the guard's threshold (default `ood.GUARD_THRESHOLD`, calibrated for the shipped
         checkpoint; a checkpoint of your own: calibrate it with `experiments/ood_guard.py`).
     Returns:
@@ -349,7 +403,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
 
         verify_weak_grip = check_grip(verify_weak_grip, "plan_grasp: verify_weak_grip")
     if verify_draws > 1 and verify == 0:
-        raise InputError("plan_grasp: verify_draws applies to the verified pick: give verify K too")
+        raise InputError("plan_grasp: verify_draws applies to the verified pick, and verification is off")
     if sampling not in SAMPLING_MODES:
         raise InputError(f"plan_grasp: sampling must be one of {', '.join(SAMPLING_MODES)}, got {sampling!r}")
     if budget is not None and (sampling != "reachable" or not isinstance(budget, (int, np.integer))
@@ -434,18 +488,15 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
         return GraspPlan(**base, pick_rank=rank_found, pick=pick, status="ok", advice=())
 
     from itup_jax.sim.physics import Randomization
-    from itup_jax.verify import best_grasp_verified, measured_total, objective_of
+    from itup_jax.verify import measured_total, objective_of
 
     # the measured total weighs measured torque (N m), slip (m), drift (rad) and the outcomes: SDG-Net's
     # weights, whatever the scorer (the analytic cost's weights are for N, not m)
     measure_w = sw if scorer in SDGNET_SCORERS else ScoreWeights()
-    order, rule = None, "scorer"
-    if guard and reading is not None and reading.fired:
-        analytic = itup.wrench_costs(tool, task, grasps, OBJECTIVES["wrench"].analytic)
-        order, rule = guard_order(total, np.asarray(analytic.total), verify), "guard_mixed"
-    v = best_grasp_verified(tool, task, grasps, k=verify, draws=verify_draws, seed=seed, scores=scores,
-                            weights=measure_w, randomize=None if physics == "nominal" else Randomization(),
-                            order=order, weak_grip=verify_weak_grip)
+    v, rule = verified_pick(tool, task, grasps, scores, k=verify, guard_fired=bool(guard and reading is not None
+                                                                                   and reading.fired),
+                            draws=verify_draws, seed=seed, randomize=None if physics == "nominal" else Randomization(),
+                            weights=measure_w, weak_grip=verify_weak_grip)
     L = v.labels
     weak_failed = v.weak_failed
     per_rollout = measured_total(L, measure_w, objective_of(scores), weak_failed)

@@ -21,7 +21,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     # the seeded random scorer: its ranking has no ties and does not move when the shipped checkpoint is
     # retrained, so the premise below (the scorer's first grasp is unreachable) holds whatever the checkpoint
     assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random", "--sampling", "all",
-                 "--json", str(out)]) == 0
+                 "--no-verify", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
     assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/7" and res["status"] == "ok"
     assert res["sampling"]["mode"] == "all" and res["sampling"]["drawn"] == res["n_candidates"] == 40
@@ -137,7 +137,8 @@ def test_plan_verifies_its_best_grasps_in_mujoco(tmp_path, capsys):
     assert ver["backend"] == "native" and ver["physics"] == "nominal" and ver["k"] == 2
     # unreachable grasps are skipped: 2 reachable ones are rolled out
     assert sum(r["valid"] for r in ver["labels"]) == 2 and not {r["index"] for r in ver["labels"]} & set(ver["unreachable"])
-    assert {"valid", "peak_torque_induced", "slip_translation", "failed", "measured_total"} <= set(ver["labels"][0])
+    assert {"valid", "peak_torque_induced", "slip_translation", "failed", "weak_failed", "measured_total"} <= set(ver["labels"][0])
+    assert ver["weak_grip"] == 25.0
     # the pick is the tried grasp with the lowest measured total
     tried = [r for r in ver["labels"] if r["measured_total"] is not None]
     assert ver["pick"]["index"] == min(tried, key=lambda r: r["measured_total"])["index"]
@@ -155,12 +156,15 @@ def test_plan_verifies_over_draws_with_the_torque_first_weights(tmp_path, capsys
     res = json.loads(out.read_text())
     ver = res["verified"]
     assert ver["physics"] == "random" and ver["draws"] == 2 and res["weights"]["w_slip"] == 0.0
+    assert ver["weak_grip"] == 25.0 and res["weights"]["w_weak"] == 30.0
     assert res["weights"]["w_align"] == 0.0 and res["weights"]["w_task"] > 0 and ver["weights"] == res["weights"]
     assert res["weights"]["w_grip"] == 0.0
     assert len(ver["labels"]) == 2 * len(ver["candidates"]) and [r["draw"] for r in ver["labels"][:2]] == [0, 1]
     for c in ver["candidates"]:
         rows = [r for r in ver["labels"] if r["index"] == c["index"]]
-        mean = sum(r["peak_torque_induced"] + 10.0 * (not r["success"]) + 10.0 * r["failed"] for r in rows) / 2
+        # each rollout repeated at 25 N per pad: a failure there weighs w_weak (30)
+        mean = sum(r["peak_torque_induced"] + 10.0 * (not r["success"]) + 10.0 * r["failed"] + 30.0 * r["weak_failed"]
+                   for r in rows) / 2
         assert c["measured_total"] == pytest.approx(mean, rel=1e-9)
     assert ver["pick"]["index"] == min(ver["candidates"], key=lambda c: c["measured_total"])["index"]
     assert "2 draws per grasp" in capsys.readouterr().out
@@ -202,12 +206,13 @@ def test_importing_mjx_prints_nothing_to_stdout():
     (["plan", "--task", "hammer", "--n", "0"], "--n must be an integer in 1..100,000, got 0"),
     (["plan", "--top", "0"], "--top must be an integer >= 1"),
     (["plan", "--verify", "-1"], "--verify K rolls the K best grasps out and must be >= 1, got -1"),
-    (["plan", "--verify", "0"], "leave --verify out to pick by the score alone"),
+    (["plan", "--verify", "0"], "--no-verify picks by the score alone"),
     (["plan", "--n", "10000000"], "--n must be an integer in 1..100,000, got 10,000,000"),
     (["evaluate", "--n", "200000"], "--n must be an integer in 1..100,000"),
     (["run", "drive the nail", "--samples", "0"], "--samples must be an integer in 1..100,000"),
     (["plan", "--verify", "2", "--verify-draws", "0"], "--verify-draws must be an integer >= 1"),
-    (["plan", "--verify-draws", "3"], "give --verify K too"),
+    (["plan", "--no-verify", "--verify-draws", "3"], "--verify-draws applies to the verified pick, and verification is off"),
+    (["plan", "--verify", "2", "--verify-weak-grip", "300"], "--verify-weak-grip: grip force must be in (0, 235"),
     (["plan", "--verify", "2", "--verify-draws", "3", "--verify-physics", "nominal"], "needs --verify-physics 'random'"),
     (["plan", "--torque-first", "--w-slip", "1"], "cannot be combined with --w-slip"),
     (["plan", "--torque-first", "--scorer", "analytic"], "not the 'analytic' scorer's"),
@@ -258,12 +263,14 @@ def test_cli_defaults_are_the_librarys():
     from itup_jax.cli import build_parser
     from itup_jax.dataset import GenerateConfig
     from itup_jax.evaluate import DEFAULT_METHODS
-    from itup_jax.planning import DEFAULT_N, DEFAULT_TOP
+    from itup_jax.planning import DEFAULT_N, DEFAULT_TOP, DEFAULT_VERIFY
     from itup_jax.sdgnet.config import TrainConfig
 
     p = build_parser()
     plan = p.parse_args(["plan"])
-    assert (plan.n, plan.top, plan.verify, plan.verify_draws, plan.scorer) == (DEFAULT_N, DEFAULT_TOP, None, 1, "sdgnet")
+    assert (plan.n, plan.top, plan.verify, plan.verify_draws, plan.scorer) == (DEFAULT_N, DEFAULT_TOP, DEFAULT_VERIFY, 1,
+                                                                               "sdgnet")
+    assert not plan.no_verify and plan.verify_weak_grip == 25.0
     assert p.parse_args(["evaluate"]).methods == ",".join(DEFAULT_METHODS)
     gen, cfg = p.parse_args(["generate", "--out", "x"]), GenerateConfig()
     assert (gen.tools_per_task, gen.grasps, gen.seed, gen.variants, gen.contact, gen.weak_grip) == (

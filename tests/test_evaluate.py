@@ -178,7 +178,9 @@ def test_cli_demo_writes_png_mcap_and_json(tmp_path):
 
     assert doc["model"] == {"checkpoint": "shipped", "sha256": sha256_file(DEFAULT_MODEL)}
     assert (out / "picks.png").stat().st_size > 10_000
-    log = read_rollout_mcap(str(out / "sdgnet.mcap"))
+    assert set(doc["methods"]) == {"sdgnet_verified", "force_closure"} and doc["schema"] == "itup.demo/2"
+    assert doc["methods"]["sdgnet_verified"]["verified"]["weak_grip"] == 25.0
+    log = read_rollout_mcap(str(out / "sdgnet_verified.mcap"))
     assert log["schemas"]["/tf"] == "foxglove.FrameTransforms" and log["/wrist_wrench"]
 
 
@@ -1111,3 +1113,17 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     assert s["vs_force_closure"]["median_pct"] == pytest.approx(np.median(red))
     assert s["vs_force_closure"]["tools_lower"] == sum(x > 0 for x in red)
     assert s["weak_grip"]["planner"]["rollouts"] == 2 * doc["config"]["draws"]
+    # --reopen: the run's tools planned again (each checked to give the recorded pick), with the oracle
+    # of the hammer's tools from one more rollout of every candidate
+    _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--headroom", "1", "--tasks", "hammer",
+                                       "--out", str(tmp_path / "re")], monkeypatch)
+    re = json.loads((tmp_path / "re" / "sealed.json").read_text())
+    jsonschema.validate(re, load_schema("sealed"))
+    assert re["reopened"]["replaced"] == 0 and re["summary"] == doc["summary"]  # the same planner: nothing changes
+    for r in re["per_tool"]:
+        h = r.get("headroom")
+        assert (h is not None) == (r["task"] == "hammer")
+        if h and h["oracle"]:
+            assert 1 <= h["held"] <= r["candidates"] and h["oracle"]["valid"] >= 1
+            assert all(k is None or 1 <= k <= r["candidates"] for k in h["rank_of_picks"].values())
+    assert set(re["reopened"]["headroom"]["summary"]) <= {"hammer"}

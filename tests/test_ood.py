@@ -99,18 +99,28 @@ def test_plan_switches_to_verified_picking_when_the_guard_fires(tmp_path, capsys
 
     monkeypatch.setattr(cli, "_load_tool_arg", lambda args: far_tool)
     out = tmp_path / "p.json"
+    # verification on (the default): the guard mixes the analytic cost's best into the shortlist
     code = main(["plan", "--task", "knock", "--n", "24", "--json", str(out)])
     res = json.loads(out.read_text())
     g = res["guard"]
-    assert g["fired"] and g["verified"] and g["score"] > g["threshold"]
+    assert g["fired"] and not g["verified"] and g["score"] > g["threshold"]
     assert res["verified"]["k"] == 5 and len(res["verified"]["labels"]) >= 5
+    assert res["verified"]["shortlist_rule"] == "guard_mixed"
     text = capsys.readouterr().out
-    assert "outside SDG-Net's training data" in text and "5 grasps are rolled out in MuJoCo" in text
+    assert "outside SDG-Net's training data" in text and "the verification rollouts decide the pick" in text
     assert "SDG-Net's 3 best and the analytic wrench cost's 2 best" in text
+    assert code == (0 if res["status"] == "ok" else 3)
+    # --no-verify: the guard turns verification on
+    code = main(["plan", "--task", "knock", "--n", "24", "--no-verify", "--json", str(out)])
+    res = json.loads(out.read_text())
+    g = res["guard"]
+    assert g["fired"] and g["verified"] and res["verified"]["k"] == 5
+    text = capsys.readouterr().out
+    assert "5 grasps are rolled out in MuJoCo" in text and "SDG-Net's 3 best and the analytic wrench cost's 2 best" in text
     assert res["verified"]["shortlist_rule"] == "guard_mixed"
     assert code == (0 if res["status"] == "ok" else 3)
     # --no-guard reports the reading and trusts the learned score
-    assert main(["plan", "--task", "knock", "--n", "24", "--no-guard", "--json", str(out)]) == 0
+    assert main(["plan", "--task", "knock", "--n", "24", "--no-guard", "--no-verify", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
     assert res["guard"]["fired"] and not res["guard"]["verified"] and "verified" not in res
     assert "--no-guard: the learned score decides the pick" in capsys.readouterr().out
@@ -123,7 +133,7 @@ def test_the_guards_shortlist_mixes_in_the_analytic_costs_best(far_tool):
     from itup_jax.sdgnet.objective import OBJECTIVES
 
     task = itup.make_task("knock", far_tool)
-    plan = plan_grasp(far_tool, task, n=24)
+    plan = plan_grasp(far_tool, task, n=24, verify=0)  # the guard turns verification on
     assert plan.guard.fired and plan.guard_verified and plan.shortlist_rule == "guard_mixed"
     net = np.asarray(plan.scores.total)
     physics = np.asarray(itup.wrench_costs(far_tool, task, plan.grasps, OBJECTIVES["wrench"].analytic).total)

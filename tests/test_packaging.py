@@ -59,4 +59,4 @@ def test_the_installed_wheel_runs_the_demo_from_another_folder(wheel, tmp_path):
     run = subprocess.run([str(py), "-m", "itup_jax.cli", "demo", "--quick", "--out", "demo"], capture_output=True,
                          text=True, cwd=work, env=env, timeout=600)
     assert run.returncode == 0, run.stderr[-2000:]
-    assert {"picks.png", "demo.json", "sdgnet.mcap", "force_closure.mcap"} <= {p.name for p in (work / "demo").iterdir()}
+    assert {"picks.png", "demo.json", "sdgnet_verified.mcap", "force_closure.mcap"} <= {p.name for p in (work / "demo").iterdir()}

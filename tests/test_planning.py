@@ -11,8 +11,8 @@ from itup_jax.sim.arm import first_reachable, reachable
 
 def test_the_pick_is_the_best_scored_reachable_candidate(tasks):
     tool, task = tasks["reach"]
-    plan = itup.plan_grasp(tool, task, n=40, scorer="random", top=3)
-    assert plan.status == "ok" and plan.pick == plan.best_index
+    plan = itup.plan_grasp(tool, task, n=40, scorer="random", top=3, verify=0)
+    assert plan.status == "ok" and plan.pick == plan.best_index and plan.verified is None
     ok = reachable(task, plan.grasps[plan.ranking])
     assert plan.pick_rank == int(np.argmax(ok)) and ok[plan.pick_rank]
     assert all(plan.reachable[int(i)] == bool(reachable(task, plan.grasps[int(i)][None])[0]) for i in plan.top)
@@ -39,7 +39,7 @@ def test_first_reachable_reports_none_when_nothing_is(tasks, monkeypatch):
 @pytest.mark.parametrize("kw,match", [
     (dict(n=0), "n must be an integer >= 1"),
     (dict(verify=2, verify_draws=2, verify_physics="nominal"), "verify_draws 2 needs verify_physics 'random'"),
-    (dict(verify_draws=2), "give verify K too"),
+    (dict(verify=0, verify_draws=2), "verify_draws applies to the verified pick, and verification is off"),
     (dict(torque_first=True, scorer="analytic"), "not the 'analytic' scorer's"),
     (dict(weights={"w_task": 1.0}, scorer="analytic"), "w_task/w_fail"),
     (dict(guard_threshold=0.0), "guard_threshold must be a finite number > 0"),

@@ -45,6 +45,12 @@ def test_measured_total_closed_form_and_sdgnet_total():
     assert mw[0] == pytest.approx(2 * 0.7 + 100 * 0.001 + 0.1 + 0.5)
     assert mw[1] == pytest.approx(2 * 0.3 + 100 * 0.004 + 0.05 + 1.2 + 10.0 + 5.0)
     assert measured_total(Lw, w, "paper")[0] != mw[0]
+    # a failure at the weak grip adds w_weak, as the weak-grip head's predicted probability does
+    ww = ScoreWeights(w_tau=2.0, w_slip=100.0, w_align=1.0, w_task=10.0, w_fail=5.0, w_grip=0.01, w_weak=30.0)
+    mk = measured_total(Lw, ww, "wrench", weak_failed=np.array([True, False, True]))
+    assert mk[0] == pytest.approx(mw[0] + 30.0) and mk[1] == pytest.approx(mw[1]) and mk[2] == np.inf
+    with pytest.raises(itup.InputError, match="weak_failed must have shape"):
+        measured_total(Lw, ww, "wrench", weak_failed=np.zeros(2))
 
 
 @pytest.fixture(scope="module")
@@ -162,3 +168,43 @@ def test_verified_pick_refuses_bad_draws(hammer_case, kw, match):
     tool, task, scene, g, _ = hammer_case
     with pytest.raises(itup.InputError, match=match):
         best_grasp_verified(tool, task, g, k=1, scores=_scores(np.zeros(len(g))), scene=scene, **kw)
+
+
+def test_verified_pick_at_the_weak_grip_repeats_each_rollout_as_the_dataset_labels_it(hammer_case):
+    """weak_grip=25: every verification rollout repeated at 25 N per pad on its own physics draw, the rows
+    `dataset.weak_rollouts` gives the same grasps on the same seed (the rule that labels the network's
+    weak-grip head); a weak-grip failure adds w_weak to the measured total, and the pick is its lowest."""
+    from itup_jax.dataset import WEAK_GRIP, GenerateConfig, weak_rollouts
+
+    tool, task, scene, g, reach = hammer_case
+    good = np.nonzero(reach)[0][:2]
+    total = np.full(len(g), 10.0)
+    total[good] = [1.0, 2.0]
+    rnd, w = itup.Randomization(), ScoreWeights()
+    v = best_grasp_verified(tool, task, g, k=2, draws=2, seed=5, randomize=rnd, weights=w, scores=_scores(total),
+                            scene=scene, weak_grip=WEAK_GRIP)
+    assert v.weak_grip == 25.0 and len(v.weak_labels.valid) == len(v.labels.valid) == 4
+    ref = weak_rollouts(tool, task, g[np.repeat(good, 2)], GenerateConfig(tasks=("hammer",)), seed=5, scene=scene)
+    for f in ("failed", "valid", "slip_translation"):
+        np.testing.assert_allclose(np.asarray(getattr(v.weak_labels, f), float), np.asarray(ref[f"label_weak_{f}"], float),
+                                   rtol=1e-9)
+    assert v.candidate_labels("failed", weak=True).shape == (2, 2)
+    per_rollout = measured_total(v.labels, w, "paper", v.weak_failed).reshape(2, 2)
+    np.testing.assert_allclose(v.measured_total, per_rollout.mean(axis=1), rtol=1e-12)
+    assert v.measured_total[list(v.shortlist).index(v.index)] == v.measured_total.min()
+    # at a grip of 1 N per pad the tool slips out in every rollout: each weighs w_weak more than at 100 N
+    loose = best_grasp_verified(tool, task, g, k=2, draws=2, seed=5, randomize=rnd, weights=w, scores=_scores(total),
+                                scene=scene, weak_grip=1.0)
+    plain = best_grasp_verified(tool, task, g, k=2, draws=2, seed=5, randomize=rnd, weights=w, scores=_scores(total),
+                                scene=scene)
+    assert loose.weak_failed.all() and plain.weak_labels is None and plain.weak_failed is None
+    np.testing.assert_allclose(loose.measured_total, plain.measured_total + w.w_weak, rtol=1e-12)
+    with pytest.raises(itup.InputError, match="without weak-grip rollouts"):
+        plain.candidate_labels("failed", weak=True)
+
+
+@pytest.mark.parametrize("grip", [0.0, -5.0, 300.0])
+def test_verified_pick_refuses_a_weak_grip_out_of_range(hammer_case, grip):
+    tool, task, scene, g, _ = hammer_case
+    with pytest.raises(itup.InputError, match="weak_grip: grip force must be in"):
+        best_grasp_verified(tool, task, g, k=1, scene=scene, weak_grip=grip)
