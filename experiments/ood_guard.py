@@ -24,8 +24,9 @@ out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, 
     total, the lowest measured total among them, as `itup plan --verify K` picks under nominal
     physics): task success and grip failure; whether any candidate did the task and held;
   * the guard's score and groups;
-  * on the test set, the planner end to end (`--plan-n` reachable candidates, its defaults: the guard
-    verifies 5 grasps when it fires), its pick rolled out `--plan-draws` times under random physics:
+  * on the test set, the planner end to end (`--plan-n` reachable candidates, its defaults: 5 grasps
+    verified in MuJoCo, the guard's shortlist when it fires), its pick rolled out `--plan-draws` times
+    under random physics:
     whether it did the task and held in every draw.
 
 Calibration rule (fixed before the test set is read): the guard's threshold is the largest tool score t
@@ -59,8 +60,9 @@ RHO_FAIL, CATCH = 0.5, 0.9
 
 
 def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
-    """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, the guard, which
-    verifies 5 grasps when it fires), its pick then rolled out `draws` times under random physics."""
+    """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, 5 verified in
+    MuJoCo, the guard's shortlist when it fires), its pick then rolled out `draws` times under random
+    physics."""
     from itup_jax.planning import plan_grasp
     from itup_jax.sim.physics import Randomization
     from itup_jax.sim.rollout import simulate

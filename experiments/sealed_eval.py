@@ -33,17 +33,19 @@ margins: 17.6 / 17.5 / 11.6 / 20.8 % over GQ-CNN, 10.2 / 14.3 / 10.4 / 13.5 % ov
 sweep / knock / reach). Writes sealed.json (schema `itup.sealed/1`).
 
 --reopen SEALED_JSON: a finished run's tools, validation tools from then on, with the planner of this
-code: every tool is planned again (its tool rebuilt from the recorded family and seed, the same 256
-candidates), first as the run's planner did (its `config.verify` and `config.verify_weak_grip`; none
-recorded: verified only where the guard fired, at the default grip alone), checked to give the recorded pick,
-then as `itup plan` does now; a pick that changed is measured on the run's draws (the same seeds), every
-other pick is the run's. Writes sealed.json of the same schema, with `reopened` naming the run, and
+code: every tool that either planner verifies is planned again (its tool rebuilt from the recorded
+family and seed, the same 256 candidates), first as the run's planner did (its `config.verify` and
+`config.verify_weak_grip`; none recorded: verified only where the guard fired, at the default grip
+alone), checked to give the recorded pick, then as `itup plan` does now (or with --planner-verify K,
+0: verified only where the guard fires, and --planner-weak-grip N, 0: at the default grip alone); a
+pick that changed is measured on the run's draws (the same seeds), every other pick is the run's.
+Writes sealed.json of the same schema, with `reopened` naming the run and the planner, and
 prints the summary beside the run's. With --headroom R (and --tasks), the tools of those tasks are also
 asked what a perfect predictor would pick: every candidate rolled out R more times (their own draws),
 the *oracle* the candidate with the lowest mean full induced peak torque among those that did the task
 and held in all R, measured on the run's draws like every pick (so its luck in the R draws does not
 flatter it); per tool its torque and the rank among the R-draw means of the planner's and the
-baselines' picks; per task its reduction against the better baseline (`summary[task]["oracle"]`).
+baselines' picks; per task its reduction against the better baseline (`reopened.headroom.summary`).
 """
 
 from __future__ import annotations
@@ -195,7 +197,8 @@ def rebuild_tool(row: dict):
     return families.draw(row["family"], int(row["seed"]))
 
 
-def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None) -> dict:
+def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, verify: int = DEFAULT_VERIFY,
+               weak_grip: float | None = WEAK_GRIP) -> dict:
     """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
     tool = rebuild_tool(row)
     if tool.name != row["tool"]:
@@ -211,7 +214,7 @@ def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: fl
     if old != row["picks"][PLANNER]["index"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
                            f"{row['picks'][PLANNER]['index']}, re-planned {old}")
-    new, info = planner_pick(tool, task, g, scene)
+    new, info = planner_pick(tool, task, g, scene, verify=verify, weak_grip=weak_grip)
     out = {**row, "planner": info, "picks": dict(row["picks"]), "replaced": None}
     if new != old:
         weak = "weak" in row["picks"][PLANNER]
@@ -269,7 +272,8 @@ def _oracle_summary(rows: list[dict]) -> dict:
     return out
 
 
-def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = ()) -> dict:
+def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (), verify: int = DEFAULT_VERIFY,
+           weak_grip: float | None = WEAK_GRIP) -> dict:
     """--reopen: the run at `path` with the planner of this code (module docstring)."""
     import json
 
@@ -284,9 +288,9 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
         # the guard fired, at the default grip alone); a tool it did not verify is re-planned only when
         # the planner of this code verifies every tool
         was = (cfg.get("verify", 0), cfg.get("verify_weak_grip"))
-        if row["picks"] and (DEFAULT_VERIFY > 0 or row.get("planner", {}).get("guard_fired")):
+        if row["picks"] and (verify > 0 or was[0] > 0 or row.get("planner", {}).get("guard_fired")):
             t = time.perf_counter()
-            rows.append(replan_row(row, cfg["n"], cfg["draws"], *was))
+            rows.append(replan_row(row, cfg["n"], cfg["draws"], *was, verify=verify, weak_grip=weak_grip))
             r = rows[-1]
             was, now = r["replaced"] or r["picks"][PLANNER], r["picks"][PLANNER]
             print(f"{r['task']:7s} {r['tool']:28s} planner {was['index']} -> {now['index']}  torque "
@@ -309,7 +313,7 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
     res = {**run, "version": itup.__version__, "commit": _commit(), "summary": summarise(rows), "per_tool": rows,
            "wall_s": time.perf_counter() - t0, "machine": machine_info(),
            "reopened": {"from": os.path.abspath(path), "commit": run["commit"], "version": run["version"],
-                        "weak_grip": WEAK_GRIP, "replaced": sum(r["replaced"] is not None for r in rows),
+                        "verify": verify, "weak_grip": weak_grip, "replaced": sum(r["replaced"] is not None for r in rows),
                         "headroom": {"repeats": headroom, "tasks": list(headroom_tasks),
                                      "summary": _oracle_summary(rows)} if headroom else None}}
     os.makedirs(out_dir, exist_ok=True)
@@ -421,13 +425,21 @@ def main(argv=None) -> dict:
     ap.add_argument("--out", default="results/sealed")
     ap.add_argument("--reopen", default=None, metavar="SEALED_JSON",
                     help="a finished run's tools (validation tools since) with the planner of this code")
+    ap.add_argument("--planner-verify", type=int, default=DEFAULT_VERIFY, metavar="K",
+                    help="with --reopen: the planner to re-plan with verifies K grasps (0: only where the guard fires; "
+                    "default %(default)s, `itup plan`'s)")
+    ap.add_argument("--planner-weak-grip", type=float, default=WEAK_GRIP, metavar="N",
+                    help="with --reopen: its verification repeats each rollout at N per pad (0: none; default %(default)g)")
     ap.add_argument("--headroom", type=int, default=0, metavar="R",
                     help="with --reopen: the oracle pick of the --tasks' tools from R rollouts of every candidate")
     a = ap.parse_args(argv)
-    if a.headroom and not a.reopen:
-        ap.error("--headroom applies to --reopen")
+    if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP) and not a.reopen:
+        ap.error("--headroom, --planner-verify and --planner-weak-grip apply to --reopen")
+    if a.planner_verify < 0:
+        ap.error(f"--planner-verify must be >= 0, got {a.planner_verify}")
     if a.reopen:
-        return reopen(a.reopen, a.out, a.headroom, tuple(t for t in a.tasks.split(",") if t))
+        return reopen(a.reopen, a.out, a.headroom, tuple(t for t in a.tasks.split(",") if t), a.planner_verify,
+                      a.planner_weak_grip or None)
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)

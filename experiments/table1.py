@@ -155,8 +155,8 @@ def main(argv=None) -> dict:
                 f"vs {m} {v:+.0f}%" for m, v in res["table"][kind]["sdgnet_induced_torque_reduction_pct"].items()))
             print(f"{'':7s} SDG-Net projected-torque reduction (C_tau's component): " + ", ".join(
                 f"vs {m} {v:+.0f}%" for m, v in res["table"][kind]["sdgnet_torque_reduction_pct"].items()))
-    for who, kind, by_meas in [(who, k, v) for who, key in (("sdgnet", "paired"), ("sdgnet_paper", "paired_paper_objective"))
-                               for k, v in res.get(key, {}).items()]:
+    pairs = (("sdgnet", "paired"), ("sdgnet_paper", "paired_paper_objective"), ("sdgnet_verified", "paired_planner"))
+    for who, kind, by_meas in [(who, k, v) for who, key in pairs for k, v in res.get(key, {}).items()]:
         for meas, by_m in by_meas.items():
             cells = []
             for m, e in by_m.items():

@@ -138,8 +138,9 @@ def add_plan(p: argparse.ArgumentParser) -> None:
     p.add_argument("--torque-first", action="store_true",
                    help="sdgnet: weigh torque alone, with the task and grip penalties kept (ScoreWeights.torque_first)")
     p.add_argument("--no-guard", action="store_true",
-                   help="sdgnet: do not switch to verified picking when the tool lies outside the network's training "
-                   "data (the out-of-distribution guard, itup_jax/ood.py; it still reports)")
+                   help="sdgnet: when the tool lies outside the network's training data (the out-of-distribution "
+                   "guard, itup_jax/ood.py; it still reports), neither mix the analytic wrench cost's best into the "
+                   "verified grasps nor, with --no-verify, verify 5 anyway")
     p.add_argument("--guard-threshold", type=float, default=None, metavar="X",
                    help="sdgnet: the guard's threshold (default: ood.GUARD_THRESHOLD, calibrated for the shipped "
                    "checkpoint; for a checkpoint of your own, calibrate it with experiments/ood_guard.py)")

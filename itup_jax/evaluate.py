@@ -378,7 +378,8 @@ def compare_on_tools(tasks, tools_per_task: int, n: int, seeds: int, methods, se
     (every method's pick among the same `n` reachable candidates, `seeds` paired draws). Returns {"table":
     per task and method the mean and std over tools and draws of `COLUMNS` and SDG-Net's reductions against
     every other method, "paired": `paired_reductions` of SDG-Net, "paired_paper_objective": those of its
-    paper-objective checkpoint, "per_tool": each tool's `evaluate` result}. `experiments/table1.py` is this
+    paper-objective checkpoint, "paired_planner": those of `itup plan`'s default pick (VERIFIED), "per_tool":
+    each tool's `evaluate` result}. `experiments/table1.py` is this
     and its tables and plots."""
     per_tool = []
     for kind in tasks:
@@ -425,7 +426,7 @@ def compare_on_tools(tasks, tools_per_task: int, n: int, seeds: int, methods, se
                 for m in others}
     return {"table": table, "paired": paired_reductions(per_tool, tasks, methods),
             "paired_paper_objective": paired_reductions(per_tool, tasks, methods, ours="sdgnet_paper"),
-            "per_tool": per_tool}
+            "paired_planner": paired_reductions(per_tool, tasks, methods, ours=VERIFIED), "per_tool": per_tool}
 
 
 #: The interval of the paired reductions: 90 % over tools.
@@ -433,8 +434,8 @@ PAIRED_LEVEL = 0.90
 
 
 def paired_reductions(per_tool: list, tasks, methods, measures=PAIRED_MEASURES, ours: str = "sdgnet") -> dict:
-    """Per task, measure and baseline: the reduction of `ours` (SDG-Net, or its paper-objective
-    checkpoint "sdgnet_paper") against the baseline, paired tool by tool (each
+    """Per task, measure and baseline: the reduction of `ours` (SDG-Net, its paper-objective
+    checkpoint "sdgnet_paper", or `itup plan`'s default pick VERIFIED) against the baseline, paired tool by tool (each
     tool's mean over its draws; the same candidates and draws for both), as 100 (1 - geometric-mean ratio)
     with a PAIRED_LEVEL bootstrap interval over tools (`stats.paired_ratio`), on the unseen variants alone
     and on every tool."""

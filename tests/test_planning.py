@@ -124,3 +124,18 @@ def test_the_guard_threshold_decides_whether_the_plan_verifies(tasks):
     high = itup.plan_grasp(tool, task, n=16, seed=2, guard_threshold=2.0 * score)
     assert low.guard.fired and low.guard.threshold == pytest.approx(0.5 * score) and low.guard.score == score
     assert not high.guard.fired and not high.guard_verified and high.pick == plan.pick
+
+
+def test_default_pick_is_itup_plans_pick_among_given_candidates(tasks):
+    """`default_pick` among the candidates `plan_grasp` drew gives `plan_grasp`'s pick: the verified one by
+    default (each rollout again at 25 N per pad), the best-scored one with verify=0 (the guard quiet)."""
+    from itup_jax.planning import default_pick
+
+    tool, task = tasks["hammer"]
+    plan = itup.plan_grasp(tool, task, n=12, verify=2)
+    assert plan.verified is not None and plan.verified.weak_grip == 25.0 and not plan.guard.fired
+    i, info = default_pick(tool, task, plan.grasps, verify=2)
+    assert i == plan.pick and info["shortlist"] == plan.verified.shortlist.tolist() and info["verified_succeeded"]
+    assert not info["guard_fired"] and info["guard_score"] == pytest.approx(float(plan.guard.score))
+    j, info0 = default_pick(tool, task, plan.grasps, verify=0)
+    assert j == int(np.argmin(np.asarray(plan.scores.total))) and "shortlist" not in info0
