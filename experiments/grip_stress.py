@@ -8,10 +8,11 @@ holding grip, per task and method, on the same candidates and physics draws.
 Per task, the built-in tool and `--tools-per-task - 1` unseen stretched variants (`tools.variants.vary_tool`,
 seeds 10,000 + v, as `table1.py`: the test tools); with `--data DIR`, that dataset's unseen tools instead
 (variants 1 .. --tools-per-task of its manifest, `dataset.unit_tool`: e.g. the validation tools). A
-method is a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
+method is `itup plan`'s pick ('sdgnet_verified': SDG-Net's 5 best checked in MuJoCo, `evaluate.planner_check`),
+a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
 'sdgnet@w_NAME=V,...': the shipped SDG-Net under `ScoreWeights` with those weights changed
 (`method_scorer`); methods that pick the same candidate share its rollouts. On each tool every method
-picks one of the same reachable candidates (its lowest total score). Each pick is rolled out `--draws` times at every force of `--grid` (N per pad;
+picks one of the same reachable candidates (its lowest total score, or the one its check chose). Each pick is rolled out `--draws` times at every force of `--grid` (N per pad;
 the grip fixed, the other priors randomised; draw d the same physics for every pick), and its least
 holding grip (no grip failure and the task done in every draw) is found by bisection
 (`stress.min_holding_grip`, the grid's answers reused). Forces below the 2F-85's 20 N are a labelled
@@ -35,7 +36,7 @@ from itup_jax.task import TASK_KINDS
 
 PAPER_TAU50 = 6.9  # N m, the paper's empirical 50 % failure torque (arXiv:2505.01399v3, Fig. 4)
 DEFAULT_GRID = (10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 100.0)
-DEFAULT_METHODS = ("sdgnet", "sdgnet_paper", "force_closure", "geometric")
+DEFAULT_METHODS = ("sdgnet_verified", "sdgnet", "sdgnet_paper", "force_closure", "geometric")
 
 
 def plot(summary, tasks, methods, grid, path):

@@ -142,8 +142,7 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         s = score(tool, task, candidates, model=scorer, seed=seed, weights=weights)
         verified = None
         if name == VERIFIED:
-            fired = bool(ood.check(tool, task, candidates, model=model).fired)
-            v, rule = verified_pick(tool, task, candidates, s, k=VERIFY_K, guard_fired=fired, seed=seed, scene=scene)
+            v, fired, rule = planner_check(tool, task, candidates, s, model=model, seed=seed, scene=scene)
             verified = {"k": VERIFY_K, "draws": 1, "weights": "default", "physics": "nominal",
                         "weak_grip": v.weak_grip, "guard_fired": fired, "shortlist_rule": rule}
         elif name == VERIFIED_TORQUE:
@@ -235,6 +234,16 @@ def parse_methods(text: str, flag: str = "methods") -> tuple[str, ...]:
     return methods
 
 
+def planner_check(tool: Tool, task: Task, candidates: Grasps, scores: Any, *, model: Any = None, seed: int = 0,
+                  scene: Scene | None = None) -> tuple[Any, bool, str]:
+    """`itup plan`'s check of SDG-Net's `scores` of the candidates (VERIFIED): the guard read, then
+    `planning.verified_pick` of VERIFY_K grasps (the guard's shortlist when it fired). Returns (the
+    `verify.Verified`, whether the guard fired, the shortlist rule)."""
+    fired = bool(ood.check(tool, task, candidates, model=model).fired)
+    v, rule = verified_pick(tool, task, candidates, scores, k=VERIFY_K, guard_fired=fired, seed=seed, scene=scene)
+    return v, fired, rule
+
+
 def method_scorer(method: str) -> tuple[str, ScoreWeights]:
     """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
     'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->
@@ -286,7 +295,7 @@ def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> lis
 def stress_picks(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print, data=None) -> dict:
     """Each method's pick on each tool, stressed: per task the built-in tool and `tools_per_task - 1` unseen
     stretched variants (`stress_tools`), each method (`method_scorer`) picking the lowest total score among
-    the same `n` reachable candidates (methods that pick the same candidate share its rollouts); each pick
+    the same `n` reachable candidates (VERIFIED: `itup plan`'s pick, `planner_check`) (methods that pick the same candidate share its rollouts); each pick
     rolled out `draws` times at every force of `grid` (N per pad; the grip fixed, the other priors
     randomised; draw d the same physics for every pick) and its least holding grip found by bisection to
     `tol` N (`stress.pick_min_holding_grip`, the grid's answers reused). Returns {"rows": one per (task, tool,
@@ -307,8 +316,12 @@ def stress_picks(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, lo
             done: dict[int, dict] = {}  # candidate index -> its stress row (methods that pick it share it)
             for m in methods:
                 model, weights = scorers[m]
-                i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
-                                                   seed=seed + v).total, float)))
+                if m == VERIFIED:  # `itup plan`'s pick: SDG-Net's shortlist checked in MuJoCo
+                    s = score(tool, task, cands, weights=weights, seed=seed + v)
+                    i = int(planner_check(tool, task, cands, s, seed=seed + v, scene=scene)[0].index)
+                else:
+                    i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
+                                                       seed=seed + v).total, float)))
                 if i in done:
                     rows.append({**done[i], "method": m})
                     continue

@@ -73,7 +73,8 @@ def test_grip_stress_quick(tmp_path, monkeypatch):
     run_experiment("grip_stress", "--quick", "--out", str(tmp_path))
     doc = json.loads((tmp_path / "grip_stress.json").read_text())
     jsonschema.validate(doc, load_schema("grip_stress"))
-    assert {r["method"] for r in doc["rows"]} == {"sdgnet", "sdgnet_paper", "force_closure", "geometric"}
+    assert {r["method"] for r in doc["rows"]} == {"sdgnet_verified", "sdgnet", "sdgnet_paper", "force_closure",
+                                                  "geometric"}
     for r in doc["rows"]:  # the grid's answers are among the forces the bisection kept
         assert {k for k in r["at_grip"]} <= {f"{float(k):g}" for k in r["tried"]} | set(r["at_grip"])
         assert all(r["tried"][f"{float(g):g}"] == a["holds"] for g, a in r["at_grip"].items())
