@@ -6,11 +6,13 @@
 
 The test tools are drawn from the checkpoint itself, so no one chooses them and a new checkpoint gets
 new ones: for task k and tool i (0-15) the seed is the first 8 bytes, big-endian, of
-SHA-256(checkpoint bytes || k || i), with k the task's name and i in decimal, both UTF-8 (`sealed_seed`).
+SHA-256(checkpoint bytes || salt || k || i), with k the task's name and i in decimal, both UTF-8
+(`sealed_seed`), and the salt empty in round 1 and "/round<r>" in round r (`round_salt`, `ROUND`): a
+later round of an unchanged checkpoint draws new tools.
 Tools 0-7 are part-wise variants of the task's built-in tool (`tools.variants.part_variant`), tools 8-15
-draws of the task's other families (`tools.families`: the held-out and the sealed-test families that do
-the task), one after the other in the families' order (--quick draws from the checkpoint's bytes followed by "/quick", never a sealed
-tool). Per tool:
+draws of the task's other families (`tools.families`: the held-out families and the round's sealed-test
+families that do the task), one after the other in the families' order (--quick appends "/quick" to
+the salted bytes: never a sealed tool). Per tool:
   * 256 candidates the arm can carry (`sample_reachable`, seed 0; a tool with none is a loss for
     every method);
   * the picks: `itup plan`'s default (`planning.default_pick`: SDG-Net under the shipped weights, its
@@ -84,6 +86,10 @@ PAPER = {"gqcnn": {"hammer": 17.6, "sweep": 17.5, "knock": 11.6, "reach": 20.8},
          "graspnet": {"hammer": 10.2, "sweep": 14.3, "knock": 10.4, "reach": 13.5}}
 #: Appended to the checkpoint's bytes for --quick's tools: never the sealed ones.
 QUICK_SALT = b"/quick"
+#: The round of the sealed evaluation this code runs: round 1 (0.25.0) drew its tools from the
+#: checkpoint's bytes alone; round r > 1 appends `round_salt(r)`, so that an unchanged checkpoint draws
+#: tools no one has seen.
+ROUND = 2
 #: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.
@@ -96,9 +102,18 @@ def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
     return int.from_bytes(h[:8], "big")
 
 
+def round_salt(r: int) -> bytes:
+    """What round r appends to the checkpoint's bytes before the seeds are drawn: nothing for round 1,
+    b"/round<r>" after it."""
+    if int(r) < 1:
+        raise ValueError(f"round must be >= 1, got {r}")
+    return b"" if int(r) == 1 else f"/round{int(r)}".encode()
+
+
 def other_families(task: str) -> list[str]:
-    """The families no training set holds that do `task`: the held-out ones, then the sealed-test ones
-    (`families.sealed()`, never rolled out before this evaluation), in `families.names()` order."""
+    """The families no training set holds that do `task`: the held-out ones, then the sealed-test ones of
+    this round (`families.sealed()`, never rolled out before this evaluation; the earlier rounds' are
+    `families.validation()` and drawn no more), in `families.names()` order."""
     return [n for n in families.held_out() + families.sealed() if task in families.get(n).tasks]
 
 
@@ -423,6 +438,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--quick", action="store_true", help="hammer and reach, 2 tools each, 24 candidates, 2 draws (tests)")
     ap.add_argument("--out", default="results/sealed")
+    ap.add_argument("--round", type=int, default=ROUND,
+                    help="the sealed evaluation's round, which salts the seeds (`round_salt`; default %(default)s)")
     ap.add_argument("--reopen", default=None, metavar="SEALED_JSON",
                     help="a finished run's tools (validation tools since) with the planner of this code")
     ap.add_argument("--planner-verify", type=int, default=DEFAULT_VERIFY, metavar="K",
@@ -435,6 +452,8 @@ def main(argv=None) -> dict:
     a = ap.parse_args(argv)
     if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP) and not a.reopen:
         ap.error("--headroom, --planner-verify and --planner-weak-grip apply to --reopen")
+    if a.round < 1:
+        ap.error(f"--round must be >= 1, got {a.round}")
     if a.planner_verify < 0:
         ap.error(f"--planner-verify must be >= 0, got {a.planner_verify}")
     if a.reopen:
@@ -449,7 +468,7 @@ def main(argv=None) -> dict:
     with open(DEFAULT_MODEL, "rb") as fh:
         checkpoint = fh.read()
     # --quick draws its tools from other seeds, so that a test run never rolls out a sealed tool
-    draw_from = checkpoint + QUICK_SALT if a.quick else checkpoint
+    draw_from = checkpoint + round_salt(a.round) + (QUICK_SALT if a.quick else b"")
     t0, rows, commit = time.perf_counter(), [], _commit()  # the code that runs, before any rollout
     for k in tasks:
         for e in sealed_tools(draw_from, k, a.tools):
@@ -465,7 +484,7 @@ def main(argv=None) -> dict:
 
     out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
            "version": itup.__version__, "commit": commit, "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
-                                                   "quick": a.quick, "verify": DEFAULT_VERIFY,
+                                                   "quick": a.quick, "round": a.round, "verify": DEFAULT_VERIFY,
                                                    "verify_weak_grip": WEAK_GRIP},
            "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}

@@ -1070,23 +1070,27 @@ def test_headroom_quick(tmp_path, monkeypatch):
 
 
 def test_sealed_tools_are_drawn_from_the_checkpoint():
-    """Seed = first 8 bytes (big-endian) of SHA-256(checkpoint || task || i); half part-wise variants of the
-    built-in tool, half the task's other families in turn; --quick's tools are never the sealed ones."""
+    """Seed = first 8 bytes (big-endian) of SHA-256(checkpoint || round salt || task || i); half part-wise
+    variants of the built-in tool, half the task's other families (the held-out ones and the round's
+    sealed-test ones) in turn; a new round draws new tools; --quick's tools are never the sealed ones."""
     import hashlib
 
     se = load_experiment("sealed_eval")
     ck = b"checkpoint bytes"
     assert se.sealed_seed(ck, "knock", 3) == int.from_bytes(hashlib.sha256(b"checkpoint bytesknock3").digest()[:8], "big")
     assert se.sealed_seed(ck, "knock", 3) != se.sealed_seed(ck + b"x", "knock", 3)
-    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet", "rolling_pin"]
-    assert se.other_families("sweep") == ["squeegee", "rake"] and se.other_families("reach") == ["pry_bar", "hoe"]
-    tools = se.sealed_tools(ck, "knock", 16)
+    assert se.round_salt(1) == b"" and se.round_salt(2) == b"/round2" and se.ROUND == 2
+    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet", "pick"]
+    assert se.other_families("sweep") == ["squeegee", "offset_pusher"] and se.other_families("reach") == ["pry_bar", "club"]
+    tools = se.sealed_tools(ck + se.round_salt(2), "knock", 16)
     assert [t["kind"] for t in tools] == ["builtin"] * 8 + ["other"] * 8
-    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet", "rolling_pin"] * 2
-    assert tools[0]["tool"].name == f"mallet#{se.sealed_seed(ck, 'knock', 0)}"
-    assert tools[9]["tool"].name == f"spanner@{se.sealed_seed(ck, 'knock', 9)}"
-    quick = se.sealed_tools(ck + se.QUICK_SALT, "knock", 2)
-    assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools})
+    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet", "pick"] * 2
+    assert tools[0]["tool"].name == f"mallet#{se.sealed_seed(ck + b'/round2', 'knock', 0)}"
+    assert tools[9]["tool"].name == f"spanner@{se.sealed_seed(ck + b'/round2', 'knock', 9)}"
+    round1 = se.sealed_tools(ck, "knock", 16)
+    assert {t["seed"] for t in round1}.isdisjoint({t["seed"] for t in tools})
+    quick = se.sealed_tools(ck + se.round_salt(2) + se.QUICK_SALT, "knock", 2)
+    assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools} | {t["seed"] for t in round1})
 
 
 @pytest.mark.slow

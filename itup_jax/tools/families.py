@@ -5,13 +5,14 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.sealed()                        # the three added for the shipped checkpoint's sealed evaluation
+    families.validation()                    # the three of the sealed evaluation that has run
+    families.sealed()                        # the three of the next sealed evaluation, never rolled out
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Twenty families (their builders in `tools.family_shapes`). The first four are the built-in tools'
+Twenty-three families (their builders in `tools.family_shapes`). The first four are the built-in tools'
 (`builtin.claw_hammer`, `hand_broom`, `mallet`, `l_stick`), drawn part-wise by `variants.part_variant`.
 The next five are held out of every training set (`held_out()`: the evaluations' families the network
 never saw), each assembled from primitive parts with their own materials (`builtin.assemble_tool`: mass
@@ -55,9 +56,9 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last three are sealed-test families (`sealed()`): shapes of the built-in categories added for the
-sealed evaluation of the checkpoint shipped with 0.25.0 (`experiments/sealed_eval.py`) and never rolled
-out before it; that evaluation has run, so they are validation families now, like the held-out ones:
+The next three were the sealed-test families of the sealed evaluation of the checkpoint shipped with
+0.25.0 (`experiments/sealed_eval.py`, round 1); that evaluation has run, so they are validation families
+(`validation()`), looked at since like the held-out ones and drawn by no later round:
 
   rolling_pin  a handle, a thick barrel and a thin knob past it, of one material; strikes with the
                barrel's side, with mass beyond the contact (mallet's category; hammer, knock).
@@ -65,6 +66,18 @@ out before it; that evaluation has run, so they are validation families now, lik
                sweep).
   hoe          a round bar with a thin flat blade across its end; pulls with the blade's underside
                (L-stick's category; reach).
+
+The last three are the sealed-test families of the next round (`sealed()`): shapes of the built-in
+categories never rolled out (only the geometry and placement tests build them), drawn by the next
+sealed evaluation alone:
+
+  pick         a handle, a cubic hub and two thin arms out of its sides, much of the head's mass far
+               from the handle and little at the striking end; strikes with the front arm's end face
+               (hammer's category; hammer, knock).
+  offset_pusher  a T-head fixed to its handle off-centre, so the drag twists the handle; pushes with the
+               head (broom's category; sweep).
+  club         a round bar with a thick block head across its end, heavy where the hoe's blade is thin;
+               pulls with the head's underside (L-stick's category; reach).
 
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin, the contact normal along the category's direction. The ranges are typical
@@ -87,12 +100,15 @@ from itup_jax.tools.family_shapes import (
     HANDLE_MATERIALS,
     HEAD_MATERIALS,
     baton,
+    club,
     hatchet,
     headed_stick,
     hoe,
     hook,
     mace,
+    offset_pusher,
     paddle,
+    pick,
     pry_bar,
     pusher,
     rake,
@@ -110,7 +126,7 @@ from itup_jax.tools.variants import part_variant
 # The registry
 # ---------------------------------------------------------------------------------------------------
 #: What a family is for (`Family.role`).
-ROLES = ("builtin", "held_out", "training", "calibration", "sealed")
+ROLES = ("builtin", "held_out", "training", "calibration", "validation", "sealed")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,8 +150,10 @@ class Family:
         "calibration": a category's shape that no training set holds, drawn to calibrate the
           out-of-distribution guard (`experiments/ood_guard.py --calibrate-on calibration`), never to
           train or to judge the network;
-        "sealed": added for a checkpoint's sealed evaluation (`experiments/sealed_eval.py`), never
-          rolled out before it; a validation family like the held-out ones once that evaluation has run.
+        "validation": the sealed-test families of a sealed evaluation that has run: never trained on,
+          looked at since, and drawn by no later sealed evaluation;
+        "sealed": added for the next sealed evaluation (`experiments/sealed_eval.py`), never rolled
+          out before it; "validation" once that evaluation has run.
       category: its tools' category (priors and tool frame), when not the family's name.
     """
 
@@ -173,6 +191,11 @@ class Family:
     def calibration(self) -> bool:
         """A calibration family (role "calibration")."""
         return self.role == "calibration"
+
+    @property
+    def validation(self) -> bool:
+        """A family of an earlier sealed evaluation (role "validation")."""
+        return self.role == "validation"
 
     @property
     def sealed(self) -> bool:
@@ -286,22 +309,45 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(handle_length=(0.080, 0.150), handle_radius=(0.010, 0.015), barrel_length=(0.120, 0.250),
                 barrel_radius=(0.018, 0.032), knob_length=(0.030, 0.100)),
         MappingProxyType({"material": ("beech", "hickory", "polypropylene", "nylon")}),
-        summary="sealed test: handle, thick barrel and knob; strikes with the barrel's side",
-        role="sealed", category="mallet"),
+        summary="validation (sealed test of 0.25.0): handle, thick barrel and knob; strikes with the barrel's side",
+        role="validation", category="mallet"),
     "rake": Family(
         "rake", rake, ("sweep",),
         _ranges(half_width=(0.080, 0.200), bar_depth=(0.010, 0.025), bar_height=(0.010, 0.025),
                 tine_length=(0.030, 0.080), tine_width=(0.006, 0.012), tine_thickness=(0.002, 0.004),
                 handle_radius=(0.008, 0.014), handle_length=(0.200, 0.500)),
         MappingProxyType({"head_material": ("aluminium", "polypropylene", "beech"), "handle_material": HANDLE_MATERIALS}),
-        summary="sealed test: crossbar on three flat tines, on a handle; pushes with the tines",
-        role="sealed", category="broom"),
+        summary="validation (sealed test of 0.25.0): crossbar on three flat tines, on a handle; pushes with the tines",
+        role="validation", category="broom"),
     "hoe": Family(
         "hoe", hoe, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), blade_end=(0.050, 0.120),
                 blade_half_width=(0.015, 0.050), blade_thickness=(0.002, 0.006), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "blade_material": ("steel", "aluminium")}),
-        summary="sealed test: bar with a flat blade across its end; pulls with the blade's underside",
+        summary="validation (sealed test of 0.25.0): bar with a flat blade across its end; pulls with the blade's "
+                "underside",
+        role="validation", category="l_stick"),
+    "pick": Family(
+        "pick", pick, ("hammer", "knock"),
+        _ranges(handle_length=(0.220, 0.400), handle_radius=(0.011, 0.017), hub=(0.022, 0.040), front=(0.050, 0.150),
+                back=(0.030, 0.140), arm_thickness=(0.008, 0.018), arm_width=(0.010, 0.022)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": ("steel", "aluminium")}),
+        summary="sealed test: handle, hub and two thin arms; strikes with the front arm's end",
+        role="sealed", category="hammer"),
+    "offset_pusher": Family(
+        "offset_pusher", offset_pusher, ("sweep",),
+        _ranges(half_width=(0.060, 0.160), offset=(0.030, 0.120), head_height=(0.020, 0.050),
+                head_depth=(0.015, 0.040), handle_radius=(0.009, 0.014), handle_length=(0.200, 0.550),
+                grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"head_material": ("beech", "polypropylene", "aluminium"), "handle_material": HANDLE_MATERIALS}),
+        summary="sealed test: T-head fixed to its handle off-centre; pushes with the head",
+        role="sealed", category="broom"),
+    "club": Family(
+        "club", club, ("reach",),
+        _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), head_front=(0.040, 0.090), head_back=(0.000, 0.030),
+                head_half_width=(0.012, 0.030), head_thickness=(0.018, 0.045), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "head_material": ("steel", "aluminium", "beech")}),
+        summary="sealed test: bar with a thick block head across its end; pulls with the head's underside",
         role="sealed", category="l_stick"),
 })
 
@@ -334,8 +380,13 @@ def calibration() -> tuple[str, ...]:
     return with_role("calibration")
 
 
+def validation() -> tuple[str, ...]:
+    """The sealed-test families of the sealed evaluations that have run."""
+    return with_role("validation")
+
+
 def sealed() -> tuple[str, ...]:
-    """The sealed-test families."""
+    """The sealed-test families of the next sealed evaluation."""
     return with_role("sealed")
 
 

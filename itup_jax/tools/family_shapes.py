@@ -246,20 +246,22 @@ def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.09
 
 def _head_on_handle(*, name: str, half_width: float, y0: float, y1: float, head_height: float,
                     contact_z: float, handle_radius: float, handle_length: float, grasp_fraction: float,
-                    head_material: str, handle_material: str, head_name: str) -> Tool:
-    """A box head (2 half_width wide along x, y0..y1 along y, head_height tall) whose bottom is at z = 0 and
-    a handle along +z from its top, pushing along +y with the head's +y face at height contact_z, at x = 0
-    and +-0.75 half_width (broom's category: sweep); the grasp region is the handle's top grasp_fraction."""
+                    head_material: str, handle_material: str, head_name: str, x_centre: float = 0.0) -> Tool:
+    """A box head (2 half_width wide along x about x_centre, y0..y1 along y, head_height tall) whose bottom
+    is at z = 0 and a handle along +z from its top at x = 0, pushing along +y with the head's +y face at
+    height contact_z, at the head's centre and +-0.75 half_width from it (broom's category: sweep); the
+    grasp region is the handle's top grasp_fraction."""
     g = handle_radius + 0.009
     top = head_height + handle_length
     cx = 0.75 * half_width
+    x0 = x_centre
     return assemble_tool(
         name=name, category="broom",
         parts=[
-            (head_name, head_material, box_part((-half_width, y0, 0.0), (half_width, y1, head_height))),
+            (head_name, head_material, box_part((x0 - half_width, y0, 0.0), (x0 + half_width, y1, head_height))),
             ("handle", handle_material, cylinder_part(handle_radius, (0, 0, head_height), (0, 0, top))),
         ],
-        contact_points=[(0.0, y1, contact_z), (-cx, y1, contact_z), (cx, y1, contact_z)],
+        contact_points=[(x0, y1, contact_z), (x0 - cx, y1, contact_z), (x0 + cx, y1, contact_z)],
         contact_normal=(0.0, 1.0, 0.0),
         grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
     )
@@ -363,7 +365,7 @@ def t_hook(*, length: float = 0.450, radius: float = 0.007, bar_half: float = 0.
 
 
 # ---------------------------------------------------------------------------------------------------
-# Sealed-test families: added for the shipped checkpoint's sealed evaluation, never rolled out before it
+# Validation families: the sealed-test families of round 1 of the sealed evaluation (0.25.0), looked at since
 # ---------------------------------------------------------------------------------------------------
 def rolling_pin(*, handle_length: float = 0.110, handle_radius: float = 0.012, barrel_length: float = 0.180,
                 barrel_radius: float = 0.024, knob_length: float = 0.060, material: str = "beech",
@@ -429,3 +431,63 @@ def hoe(*, length: float = 0.450, radius: float = 0.007, blade_end: float = 0.08
         thickness=blade_thickness, contact_x=max(blade_end - 0.020, 0.5 * (radius + blade_end)),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=blade_material,
         plate_name="blade")
+
+
+# ---------------------------------------------------------------------------------------------------
+# Sealed-test families of the next sealed evaluation: never rolled out before it
+# ---------------------------------------------------------------------------------------------------
+def pick(*, handle_length: float = 0.300, handle_radius: float = 0.014, hub: float = 0.030, front: float = 0.110,
+         back: float = 0.090, arm_thickness: float = 0.012, arm_width: float = 0.016,
+         handle_material: str = "hickory", head_material: str = "steel", name: str = "pick") -> Tool:
+    """A pick: a handle along +z, a cubic hub (side `hub`) on its top and two thin arms out of the hub's
+    sides along +x (front) and -x (back), arm_thickness tall and arm_width wide, centred on the hub's
+    mid-height: much of the head's mass sits far from the handle's line, little of it at the striking
+    end. It strikes with the front arm's +x end face (hammer's category: hammer, knock). The grasp
+    region is the handle's lower three quarters. Default: 0.33 m, ~0.7 kg."""
+    z0, h = handle_length, hub / 2
+    zc, t, w = z0 + h, arm_thickness / 2, arm_width / 2
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("hub", head_material, box_part((-h, -h, z0), (h, h, z0 + hub))),
+            ("front_arm", head_material, box_part((h, -w, zc - t), (h + front, w, zc + t))),
+            ("back_arm", head_material, box_part((-h - back, -w, zc - t), (-h, w, zc + t))),
+        ],
+        contact_points=[(h + front, 0.0, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * z0)),
+    )
+
+
+def offset_pusher(*, half_width: float = 0.110, offset: float = 0.060, head_height: float = 0.035,
+                  head_depth: float = 0.025, handle_radius: float = 0.011, handle_length: float = 0.350,
+                  grasp_fraction: float = 0.5, head_material: str = "beech", handle_material: str = "hickory",
+                  name: str = "offset_pusher") -> Tool:
+    """A pusher whose handle meets its head off-centre: a solid head (2 half_width wide along x, centred
+    at x = offset, head_depth along y, head_height tall) whose bottom is at z = 0, and a handle along +z
+    from its top at x = 0, so the drag on the head twists the handle. It pushes along +y with the head's
+    leading face 5 mm above its bottom edge, at the head's centre and +-0.75 half_width from it (broom's
+    category: sweep). The grasp region is the handle's top grasp_fraction. Default: 0.39 m tall, 0.22 m
+    wide, ~0.4 kg."""
+    return _head_on_handle(
+        name=name, half_width=half_width, y0=-head_depth / 2, y1=head_depth / 2, head_height=head_height,
+        contact_z=0.005, handle_radius=handle_radius, handle_length=handle_length,
+        grasp_fraction=grasp_fraction, head_material=head_material, handle_material=handle_material,
+        head_name="head", x_centre=offset)
+
+
+def club(*, length: float = 0.450, radius: float = 0.008, head_front: float = 0.070, head_back: float = 0.015,
+         head_half_width: float = 0.020, head_thickness: float = 0.030, grasp_fraction: float = 0.5,
+         bar_material: str = "aluminium", head_material: str = "steel", name: str = "club") -> Tool:
+    """A club: a round bar along +z and a thick block head across its end (from x = -head_back to
+    +head_front, 2 head_half_width wide along y, head_thickness tall along z), heavy where a hoe's blade
+    is thin. It pulls with the head's underside (-z) 15 mm short of its front face (halfway along a
+    shorter head) (L-stick's category: reach). The grasp region runs from the butt over grasp_fraction of
+    the length. Default: 0.45 m, ~0.8 kg."""
+    return _bar_and_end_plate(
+        name=name, length=length, radius=radius, x0=-head_back, x1=head_front, half_y=head_half_width,
+        thickness=head_thickness, contact_x=max(head_front - 0.015, 0.5 * (radius + head_front)),
+        grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=head_material,
+        plate_name="head")
