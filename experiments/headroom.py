@@ -32,9 +32,8 @@ from itup_jax import stress
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import GenerateConfig, unit_tool
 from itup_jax.dataset_load import load_dataset, read_manifest
-from itup_jax.errors import InputError
 from itup_jax.evaluate import split_methods
-from itup_jax.heldout import dataset_grasps, quick_dataset, unit_rows, unseen_units
+from itup_jax.heldout import dataset_grasps, oracle_index, quick_dataset, unit_rows, unseen_units
 from itup_jax.sim.scene import build_scene
 from itup_jax.stats import paired_ratio
 
@@ -43,15 +42,6 @@ DEFAULT_METHODS = ("sdgnet",) + BASELINES
 LEVEL = 0.90
 GRIP = 100.0  # N per pad, the re-measurement's grip (the gripper's default)
 DRAW_SEED = 1000  # fresh draws: seed DRAW_SEED + tool variant (the dataset's rollouts used others)
-
-
-def oracle_index(tau, ok) -> int:
-    """The candidate with the lowest measured torque `tau` [N] among those that did the task and held
-    (`ok` [N] bool); InputError when none did."""
-    tau, ok = np.asarray(tau, float), np.asarray(ok, bool)
-    if not ok.any():
-        raise InputError("oracle_index: no candidate did the task and held")
-    return int(np.argmin(np.where(ok, tau, np.inf)))
 
 
 def tool_row(data: dict, config: GenerateConfig, task: str, variant: int, methods, draws: int) -> dict | None:

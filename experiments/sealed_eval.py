@@ -61,10 +61,12 @@ import warnings
 import numpy as np
 
 import itup_jax as itup
+from itup_jax import verify
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import WEAK_GRIP
 from itup_jax.evaluate import MEASURED
 from itup_jax.grasp_sampler import sample_reachable
+from itup_jax.heldout import oracle_index
 from itup_jax.planning import DEFAULT_VERIFY, default_pick
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet.config import DEFAULT_MODEL
@@ -122,13 +124,12 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
     the rest draws of its other families in turn."""
     half, fams, out = per_task // 2, other_families(task), []
     for i in range(per_task):
-        seed = sealed_seed(checkpoint, task, i)
+        entry = {"i": i, "seed": sealed_seed(checkpoint, task, i)}
         if i < half or not fams:
-            out.append({"i": i, "seed": seed, "kind": "builtin", "family": DEFAULT_TOOL[task],
-                        "tool": part_variant(DEFAULT_TOOL[task], seed)})
+            entry.update(kind="builtin", family=DEFAULT_TOOL[task])
         else:
-            fam = fams[(i - half) % len(fams)]
-            out.append({"i": i, "seed": seed, "kind": "other", "family": fam, "tool": families.draw(fam, seed)})
+            entry.update(kind="other", family=fams[(i - half) % len(fams)])
+        out.append({**entry, "tool": rebuild_tool(entry)})
     return out
 
 
@@ -158,8 +159,8 @@ def measure(tool, task, scene, g, i: int, draws: int) -> dict:
 
 def weak_failures(tool, task, scene, g, i: int, draws: int) -> dict:
     """Grasp i's rollouts at WEAK_GRIP N per pad: {"rollouts", "failed"} (an invalid rollout counts as failed)."""
-    L = rollouts_at_grip(tool, task, g[i:i + 1], WEAK_GRIP, draws=draws, seed=GRIP_SEED, scene=scene)
-    bad = ~np.asarray(L.valid) | np.asarray(L.failed)
+    bad = verify.weak_failures(rollouts_at_grip(tool, task, g[i:i + 1], WEAK_GRIP, draws=draws, seed=GRIP_SEED,
+                                                scene=scene))
     return {"rollouts": int(len(bad)), "failed": int(bad.sum())}
 
 
@@ -206,7 +207,8 @@ def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, w
 
 
 def rebuild_tool(row: dict):
-    """The tool of a sealed.json row, from its kind, family and seed (`sealed_tools`' draw)."""
+    """The tool of a test tool's entry (a sealed.json row), from its kind, family and seed: a part-wise
+    variant of a built-in tool, or a draw of another family."""
     if row["kind"] == "builtin":
         return part_variant(row["family"], int(row["seed"]))
     return families.draw(row["family"], int(row["seed"]))
@@ -259,7 +261,7 @@ def headroom_row(row: dict, n: int, draws: int, repeats: int) -> dict:
         tau += np.where(np.asarray(L.valid), np.asarray(L.peak_torque_induced, float), np.inf) / repeats
     if not ok.any():
         return {"oracle": None, "held": 0}
-    i = int(np.argmin(np.where(ok, tau, np.inf)))
+    i = oracle_index(tau, ok)
     order = np.argsort(np.where(np.isfinite(tau), tau, np.inf), kind="stable")
     rank = {m: (None if p.get("index") is None else int(np.nonzero(order == p["index"])[0][0]) + 1)
             for m, p in row["picks"].items()}

@@ -43,7 +43,6 @@ from itup_jax.errors import InputError, is_integer
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import CONTACT_MODELS, SamplerConfig, sample_grasps
 from itup_jax.sdgnet.features import FeatureSpec, batched_features, tool_field
-from itup_jax.sim.config import SimConfig
 from itup_jax.sim.labels import LABEL_FIELDS
 from itup_jax.sim.mjx import DETERMINISTIC_GPU_FLAG, gpu_determinism
 from itup_jax.sim.physics import Randomization
@@ -256,13 +255,12 @@ def weak_rollouts(tool: Tool, task: Task, grasps: Grasps, config: GenerateConfig
     contact duration per row; the grip fixed, not randomised; below the gripper's 20 N the scene's grip
     actuator is opened, `stress.fixed_grip`). Rows infeasible in the default rollout are infeasible here
     too (feasibility is the arm's reach, not the grip) and are not stepped."""
-    from itup_jax.stress import fixed_grip
+    from itup_jax.stress import simulate_at_grip
 
-    g = float(config.weak_grip)
-    scene, spread = fixed_grip(scene, Randomization() if config.randomize else None, g)
-    res = simulate(tool, task, grasps, backend=config.backend, seed=seed, scene=scene, randomize=spread,
-                   config=SimConfig(grip_force=g), nthread=nthread)
-    return {f"label_weak_{f}": np.asarray(getattr(res.labels, f)) for f in WEAK_FIELDS}
+    L = simulate_at_grip(tool, task, grasps, float(config.weak_grip), seed=seed, scene=scene,
+                         randomize=Randomization() if config.randomize else None, backend=config.backend,
+                         nthread=nthread)
+    return {f"label_weak_{f}": np.asarray(getattr(L, f)) for f in WEAK_FIELDS}
 
 
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:

@@ -26,13 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from itup_jax import ood, robot, stress
+from itup_jax import robot, stress
 from itup_jax.dataset import GenerateConfig, unit_tool
 from itup_jax.dataset_load import read_manifest
 from itup_jax.errors import InputError
 from itup_jax.grasp import Grasps
 from itup_jax.grasp_sampler import MAX_CANDIDATES, sample_grasps
-from itup_jax.planning import DEFAULT_VERIFY, verified_pick
+from itup_jax.planning import DEFAULT_VERIFY, guarded_check
 from itup_jax.scoring import SCORERS, ScoreWeights, score
 from itup_jax.sim.arm import reachable
 from itup_jax.sim.config import SimConfig
@@ -53,7 +53,7 @@ MEASURED = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_
 #: holding torque removed), the paper's measure. The projected torque is the C_tau component a scorer
 #: trained on it can lower by turning the jaw, so it is reported beside it, never ranked on.
 HEADLINE = "peak_torque_induced"
-#: `itup plan`'s default pick (`planning.verified_pick`): SDG-Net's VERIFY_K best rolled out once more
+#: `itup plan`'s default pick (`planning.guarded_check`): SDG-Net's VERIFY_K best rolled out once more
 #: under nominal physics and again at the weak grip (`robot.WEAK_GRIP`), the best measured kept; when the
 #: out-of-distribution guard fires, the shortlist mixes in the analytic wrench cost's best. Its check
 #: rollouts are not among the evaluation's draws.
@@ -142,9 +142,9 @@ def evaluate(tool: Tool, task: Task, methods: Sequence[str] = DEFAULT_METHODS, *
         s = score(tool, task, candidates, model=scorer, seed=seed, weights=weights)
         verified = None
         if name == VERIFIED:
-            v, fired, rule = planner_check(tool, task, candidates, s, model=model, seed=seed, scene=scene)
+            v, reading, rule = guarded_check(tool, task, candidates, s, model=model, k=VERIFY_K, seed=seed, scene=scene)
             verified = {"k": VERIFY_K, "draws": 1, "weights": "default", "physics": "nominal",
-                        "weak_grip": v.weak_grip, "guard_fired": fired, "shortlist_rule": rule}
+                        "weak_grip": v.weak_grip, "guard_fired": bool(reading.fired), "shortlist_rule": rule}
         elif name == VERIFIED_TORQUE:
             v = best_grasp_verified(tool, task, candidates, k=VERIFY_TORQUE_K, draws=VERIFY_TORQUE_DRAWS, seed=seed + 1,
                                     randomize=randomize or Randomization(), weights=weights, scores=s, scene=scene)
@@ -234,16 +234,6 @@ def parse_methods(text: str, flag: str = "methods") -> tuple[str, ...]:
     return methods
 
 
-def planner_check(tool: Tool, task: Task, candidates: Grasps, scores: Any, *, model: Any = None, seed: int = 0,
-                  scene: Scene | None = None) -> tuple[Any, bool, str]:
-    """`itup plan`'s check of SDG-Net's `scores` of the candidates (VERIFIED): the guard read, then
-    `planning.verified_pick` of VERIFY_K grasps (the guard's shortlist when it fired). Returns (the
-    `verify.Verified`, whether the guard fired, the shortlist rule)."""
-    fired = bool(ood.check(tool, task, candidates, model=model).fired)
-    v, rule = verified_pick(tool, task, candidates, scores, k=VERIFY_K, guard_fired=fired, seed=seed, scene=scene)
-    return v, fired, rule
-
-
 def method_scorer(method: str) -> tuple[str, ScoreWeights]:
     """'sdgnet@w_align=30,w_grip=0.05' -> ('sdgnet', ScoreWeights with those fields) (a checkpoint path
     'm.npz@w_weak=3' in place of 'sdgnet' scores with that network); a plain name or path ->
@@ -295,7 +285,7 @@ def stress_tools(kind: str, tools_per_task: int, data: str | None = None) -> lis
 def stress_picks(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, log=print, data=None) -> dict:
     """Each method's pick on each tool, stressed: per task the built-in tool and `tools_per_task - 1` unseen
     stretched variants (`stress_tools`), each method (`method_scorer`) picking the lowest total score among
-    the same `n` reachable candidates (VERIFIED: `itup plan`'s pick, `planner_check`) (methods that pick the same candidate share its rollouts); each pick
+    the same `n` reachable candidates (VERIFIED: `itup plan`'s pick, `planning.guarded_check`) (methods that pick the same candidate share its rollouts); each pick
     rolled out `draws` times at every force of `grid` (N per pad; the grip fixed, the other priors
     randomised; draw d the same physics for every pick) and its least holding grip found by bisection to
     `tol` N (`stress.pick_min_holding_grip`, the grid's answers reused). Returns {"rows": one per (task, tool,
@@ -318,7 +308,7 @@ def stress_picks(tasks, tools_per_task, n, methods, grid, draws, tol, seed=0, lo
                 model, weights = scorers[m]
                 if m == VERIFIED:  # `itup plan`'s pick: SDG-Net's shortlist checked in MuJoCo
                     s = score(tool, task, cands, weights=weights, seed=seed + v)
-                    i = int(planner_check(tool, task, cands, s, seed=seed + v, scene=scene)[0].index)
+                    i = int(guarded_check(tool, task, cands, s, k=VERIFY_K, seed=seed + v, scene=scene)[0].index)
                 else:
                     i = int(np.argmin(np.asarray(score(tool, task, cands, model=model, weights=weights,
                                                        seed=seed + v).total, float)))

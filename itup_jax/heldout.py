@@ -158,6 +158,15 @@ def cached_redraws(test_dir: str, k: int, cache: str | None) -> dict[str, dict[s
     return out
 
 
+def oracle_index(tau, ok) -> int:
+    """The candidate with the lowest measured torque `tau` [N] among those that did the task and held
+    (`ok` [N] bool): what a perfect predictor of those measurements would pick; InputError when none did."""
+    tau, ok = np.asarray(tau, float), np.asarray(ok, bool)
+    if not ok.any():
+        raise InputError("oracle_index: no candidate did the task and held")
+    return int(np.argmin(np.where(ok, tau, np.inf)))
+
+
 def measure_pick(tool, task, scene, grasps: Grasps, i: int, draws: int) -> dict[str, float]:
     """`MEASURES` of grasps[i], each the mean over `draws` rollouts (NaN where none is valid). The draws are
     the same for every pick (`ROLLOUT_SEED`), so picks are compared under the same physics."""

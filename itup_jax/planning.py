@@ -316,12 +316,28 @@ def verified_pick(tool: Tool, task, grasps: Grasps, scores: Any, *, k: int = DEF
     return v, rule
 
 
+def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any = None, k: int = DEFAULT_VERIFY,
+                  seed: int = 0, scene: Any = None, weak_grip: float | None = robot.WEAK_GRIP,
+                  reading: Any = None) -> tuple[Any, Any, str]:
+    """`itup plan`'s default check of SDG-Net's `scores` of the candidates: the out-of-distribution guard
+    read (`ood.check` for `model`, unless its `reading` is given), then `verified_pick` of k grasps under
+    nominal physics (the guard's shortlist when it fired), each again at `weak_grip`. Returns (the
+    `verify.Verified`, the guard's reading, the shortlist rule). Host side."""
+    if reading is None:
+        from itup_jax import ood
+
+        reading = ood.check(tool, task, grasps, model=model)
+    v, rule = verified_pick(tool, task, grasps, scores, k=k, guard_fired=bool(reading.fired), seed=seed,
+                            weak_grip=weak_grip, scene=scene)
+    return v, reading, rule
+
+
 def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: int = 0, scene: Any = None,
                  verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among given candidates (the arm can carry them): SDG-Net's scores under
     the default weights, the out-of-distribution guard read, `verified_pick` of `verify` grasps under
-    nominal physics (the guard's shortlist when it fired; verify 0: the best-scored grasp unless the guard
-    fired, then GUARD_VERIFY_K). Returns (the pick's index, or None when no verified grasp did the task
+    nominal physics (`guarded_check`; verify 0: the best-scored grasp unless the guard fired, then
+    GUARD_VERIFY_K). Returns (the pick's index, or None when no verified grasp did the task
     and held, as `itup plan` then recommends none; {"guard_score", "guard_fired", "verified_succeeded"
     (when verified), "shortlist": [the grasps rolled out]}). Host side; the scorer jits itself."""
     import itup_jax as itup
@@ -332,8 +348,8 @@ def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: i
     info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
     if verify == 0 and not reading.fired:
         return int(np.argmin(np.asarray(s.total, float))), info
-    v, _ = verified_pick(tool, task, grasps, s, k=min(verify or GUARD_VERIFY_K, len(grasps)), guard_fired=reading.fired,
-                         seed=seed, weak_grip=weak_grip, scene=scene)
+    v, _, _ = guarded_check(tool, task, grasps, s, k=min(verify or GUARD_VERIFY_K, len(grasps)), seed=seed,
+                            scene=scene, weak_grip=weak_grip, reading=reading)
     info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist])
     return (int(v.index) if v.succeeded else None), info
 

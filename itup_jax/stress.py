@@ -58,6 +58,17 @@ def fixed_grip(scene: Scene, randomize: Randomization | None, grip_force: float)
     return scene, None if randomize is None else dataclasses.replace(randomize, grip_force=0.0)
 
 
+def simulate_at_grip(tool, task, grasps: Grasps, grip_force: float, *, seed: int, randomize: Randomization | None,
+                     scene: Scene, backend: str | None = None, nthread: int | None = None) -> Labels:
+    """`grasps` rolled out at a fixed `grip_force` N per pad, row r on the physics draw `simulate` gives
+    row r under `randomize` from `seed` (the same mass, friction, restitution and contact duration as a
+    default-grip rollout of the same rows and seed; the grip not randomised, `fixed_grip`): the weak-grip
+    rollout of the datasets (`dataset.weak_rollouts`) and of the planner's check (`verify`). Host side."""
+    weak_scene, spread = fixed_grip(scene, randomize, grip_force)
+    return simulate(tool, task, grasps, seed=seed, randomize=spread, scene=weak_scene, backend=backend,
+                    config=SimConfig(grip_force=grip_force), nthread=nthread).labels
+
+
 def check_grip(grip_force: float, where: str) -> float:
     """`grip_force` (N per pad) as a float if it lies in (0, the gripper's maximum], else InputError naming `where`."""
     g = float(grip_force)
@@ -81,8 +92,7 @@ def rollouts_at_grip(tool, task, grasps: Grasps, grip_force: float, *, draws: in
                         for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
         parts.append(simulate(tool, task, reps, scene=scene, seed=seed, randomize=spread,
                               config=SimConfig(grip_force=g), backend="native").labels)
-    return Labels(**{f.name: np.concatenate([np.asarray(getattr(L, f.name)) for L in parts])
-                     for f in dataclasses.fields(Labels)})
+    return Labels.concatenate(parts)
 
 
 def holds(labels: Labels, draws: int) -> np.ndarray:

@@ -49,12 +49,11 @@ from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.scoring import Scores, ScoreWeights, score
 from itup_jax.sdgnet.objective import get as get_objective
 from itup_jax.sim.arm import reachability_in_order
-from itup_jax.sim.config import SimConfig
 from itup_jax.sim.labels import LABEL_FIELDS, Labels
 from itup_jax.sim.physics import Randomization
 from itup_jax.sim.rollout import default_backend, simulate
 from itup_jax.sim.scene import Scene, build_scene
-from itup_jax.stress import check_grip, fixed_grip
+from itup_jax.stress import check_grip, simulate_at_grip
 from itup_jax.task import Task
 from itup_jax.tools import Tool
 
@@ -184,8 +183,8 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         scores' total, lowest first); the pick is still the lowest measured total among those rolled out
         (`planning.guard_order`: the planner's shortlist when the out-of-distribution guard fired).
       weak_grip: N per pad, or None (default): each rollout repeated on its physics draw at this fixed
-        grip (native MuJoCo, `stress.fixed_grip`, as `dataset.weak_rollouts` labels the network's
-        weak-grip head; the same backend), and `weights.w_weak` added to the measured total where it fails
+        grip (`stress.simulate_at_grip`, as `dataset.weak_rollouts` labels the network's weak-grip head; the
+        same backend), and `weights.w_weak` added to the measured total where it fails
         in the grip or diverges. Doubles the rollouts.
     """
     validate_grasps(grasps)
@@ -235,14 +234,14 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
                        scene=scene, backend=backend, nthread=nthread)
         parts.append(res.labels)
         if weak_grip is not None:  # the same grasps on the same physics draws, the grip fixed at weak_grip
-            weak_parts.append(_weak_rollouts(tool, task, grasps[np.repeat(np.asarray(batch), draws)], weak_grip,
-                                             seed=seed + r, randomize=randomize, scene=scene, backend=backend,
-                                             nthread=nthread))
+            weak_parts.append(simulate_at_grip(tool, task, grasps[np.repeat(np.asarray(batch), draws)], weak_grip,
+                                               seed=seed + r, randomize=randomize, scene=scene, backend=backend,
+                                               nthread=nthread))
         tried += batch
         ok_all = np.asarray(res.labels.valid, bool).reshape(len(batch), draws).all(axis=1)
         n_valid, r, backend_used = n_valid + int(ok_all.sum()), r + 1, res.backend
-    labels = _joined(parts)
-    weak = None if weak_grip is None else _joined(weak_parts)
+    labels = Labels.concatenate(parts)
+    weak = None if weak_grip is None else Labels.concatenate(weak_parts)
     # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
     m = measured_total(labels, weights, objective_of(scores),
                        None if weak is None else weak_failures(weak)).reshape(len(tried), draws).mean(axis=1)
@@ -255,17 +254,3 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
                     unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64), draws=int(draws),
                     weak_grip=weak_grip, weak_labels=weak)
 
-
-def _joined(parts: list[Labels]) -> Labels:
-    if not parts:
-        return Labels.unmeasured(0)
-    return Labels(**{f: np.concatenate([getattr(L, f) for L in parts]) for f in LABEL_FIELDS})
-
-
-def _weak_rollouts(tool: Tool, task: Task, grasps: Grasps, grip: float, *, seed: int, randomize: Randomization | None,
-                   scene: Scene, backend: str | None, nthread: int | None) -> Labels:
-    """`grasps` rolled out at `grip` N per pad, row r on the physics draw of row r of the default
-    rollout (same seed, the grip not randomised; `dataset.weak_rollouts`' rule)."""
-    weak_scene, spread = fixed_grip(scene, randomize, grip)
-    return simulate(tool, task, grasps, seed=seed, randomize=spread, scene=weak_scene, backend=backend,
-                    config=SimConfig(grip_force=grip), nthread=nthread).labels

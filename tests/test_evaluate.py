@@ -1058,7 +1058,7 @@ def test_headroom_quick(tmp_path, monkeypatch):
         # the oracle's dataset rollout did the task and held, with the lowest torque of any pick that did
         assert picks["oracle"]["dataset_ok"]
         assert all(p["dataset_torque"] >= picks["oracle"]["dataset_torque"] for p in picks.values() if p["dataset_ok"])
-    from experiments.headroom import oracle_index
+    from itup_jax.heldout import oracle_index
 
     # the lowest torque belongs to a candidate that failed: the oracle skips it
     assert oracle_index([0.5, 2.0, 1.0, 3.0], [False, True, True, True]) == 2

@@ -208,3 +208,12 @@ def test_verified_pick_refuses_a_weak_grip_out_of_range(hammer_case, grip):
     tool, task, scene, g, _ = hammer_case
     with pytest.raises(itup.InputError, match="weak_grip: grip force must be in"):
         best_grasp_verified(tool, task, g, k=1, scene=scene, weak_grip=grip)
+
+
+def test_labels_concatenate_keeps_the_parts_rows_in_order():
+    a = _labels(peak_torque_induced=[1.0, 2.0], valid=[True, False])
+    b = _labels(peak_torque_induced=[3.0], valid=[True])
+    c = Labels.concatenate([a, b])
+    np.testing.assert_array_equal(c.peak_torque_induced, [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(c.valid, [True, False, True])
+    assert len(Labels.concatenate([]).valid) == 0

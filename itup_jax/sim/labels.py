@@ -96,6 +96,14 @@ class Labels:
         full.update({f: np.zeros(n, bool) for f in LABEL_FLAGS})
         return cls(**full)
 
+    @classmethod
+    def concatenate(cls, parts) -> Labels:
+        """The rows of `parts` (a sequence of `Labels`) one after the other; no rows for no parts."""
+        parts = list(parts)
+        if not parts:
+            return cls.unmeasured(0)
+        return cls(**{f: np.concatenate([np.asarray(getattr(L, f)) for L in parts]) for f in LABEL_FIELDS})
+
 
 #: The grasp frame's axes as the wrist sensor reads them (its frame is the gripper base's, whose axes are
 #: the grasp frame's): x the third axis, y the jaw's closure, z the approach.
