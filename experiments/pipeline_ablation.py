@@ -189,6 +189,8 @@ def main(argv=None) -> int:
                                  "pick_angle_error_rad": None if r.pick is None else r.pick.angle_error,
                                  "peak_torque_induced": None if r.labels is None else r.labels["peak_torque_induced"],
                                  "peak_torque": None if r.labels is None else r.labels["peak_torque"],
+                                 "guard_fired": (r.choice or {}).get("guard_fired"),
+                                 "checked": None if "checked" not in (r.choice or {}) else len(r.choice["checked"]),
                                  "wall_s": round(r.wall_s, 2)})
             print(f"clutter {clutter} trial {t}: {time.perf_counter() - t0:.0f} s", flush=True)
     cells = summarize(rows, args.tasks, args.methods, (0, args.clutter))

@@ -202,6 +202,7 @@ def cmd_run(args) -> int:
 
     _check_out_dir("--out", args.out)
     _check_count("--attempts", args.attempts, 1, why="picks tried")
+    _check_count("--verify", args.verify, 1, why="the grasps checked in MuJoCo; --no-verify picks by the score alone")
     _check_count("--samples", args.samples, 1, MAX_CANDIDATES, why="grasps sampled per round")
     model = _check_model_arg(args)
     grounder = "rule"
@@ -219,16 +220,14 @@ def cmd_run(args) -> int:
         view = tabletop.resolve_view(args.view)
     except RenderUnavailable as e:
         raise_input(f"--view camera: {e}")
-    tools = None
-    if args.tools or args.add_tool:
-        tools = [load_tool(n) for n in (args.tools or tabletop.DEFAULT_TOOLS)]
-        tools += [load_tool(mesh, spec=spec) for mesh, spec in (args.add_tool or [])]
+    tools = ([load_tool(n) for n in (args.tools or tabletop.DEFAULT_TOOLS)]
+             + [load_tool(mesh, spec=spec) for mesh, spec in (args.add_tool or [])]) if args.tools or args.add_tool else None
     top = tabletop.make_tabletop(tools, clutter=args.clutter, seed=args.seed)
     print(f"itup run: {args.instruction!r}; table seed {args.seed}: {len(top.tools)} tools ("
           + ", ".join(f"{i + 1} {t.name}" for i, t in enumerate(top.tools)) + f"), method {args.method}", flush=True)
     r = itup.run(args.instruction, tabletop=top, seed=args.seed, method=args.method, samples=args.samples,
                  grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True, grounder=grounder,
-                 max_attempts=args.attempts)
+                 max_attempts=args.attempts, verify=0 if args.no_verify else args.verify)
     if r.stage == "grounding":
         raise GroundingError(r.message)
     print(r.report())

@@ -193,6 +193,7 @@ def add_demo(p: argparse.ArgumentParser) -> None:
 
 def add_run(p: argparse.ArgumentParser) -> None:
     from itup_jax.pipeline import DEFAULT_SAMPLES, MAX_PICK_ATTEMPTS, METHODS
+    from itup_jax.planning import DEFAULT_VERIFY
     from itup_jax.robot import GRIP_FORCE
     from itup_jax.tabletop import DEFAULT_TOOLS, MAX_CLUTTER
 
@@ -217,6 +218,11 @@ def add_run(p: argparse.ArgumentParser) -> None:
                    help="picks made at most: a pick that does not bring the tool up in a grasp the task can use puts it "
                    "back down, one where no such grasp is pickable turns the tool over, and the table is planned again "
                    "away from the grasps tried (default %(default)s)")
+    p.add_argument("--verify", type=int, default=DEFAULT_VERIFY, metavar="K",
+                   help="SDG-Net's methods: roll the K >= 1 best grasps out in MuJoCo (nominal physics, again at 25 N per pad) "
+                   "and pick the lowest measured total, as itup plan does (default %(default)s)")
+    p.add_argument("--no-verify", action="store_true",
+                   help="SDG-Net's methods: the best-scored grasp, no rollout (unless the out-of-distribution guard fires)")
     p.add_argument("--nominal", action="store_true", help="nominal physics for the task (default: drawn around the priors)")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     p.add_argument("--grounder", choices=("rule", "vlm"), default="rule",

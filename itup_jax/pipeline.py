@@ -17,7 +17,11 @@ The stages (the paper's six, in simulation):
        other tools' loads over a simulated lift, `pickup.lift_torque`), or, when there are none, of
        the MIN_CANDIDATES that load it least those within LIFT_FALLBACK_SPREAD of the least load (the
        weight alone always within `pickup.LIFT_TORQUE_LIMIT`);
-  5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the best one picked;
+  5.   scoring (SDG-Net by default; METHODS lists the ablations' scorers) and the choice: for the SDG-Net
+       methods `itup plan`'s (`planning.default_pick`: the out-of-distribution guard read, the `verify`
+       best rolled out in MuJoCo under nominal physics and again at 25 N per pad, the lowest measured
+       total kept; none did the task and held: the run ends at 'plan', as `itup plan` recommends none;
+       `run(verify=0)`: the best-scored), for the baselines their best-scored;
   6.   execution: the pick rolled out in MuJoCo (`pickup.execute_pick`: approach, close, lift, the grasp
        it achieved measured), then the task rolled out from the achieved grasp (`sim.rollout.simulate`,
        randomised physics by default), its task success and grip failure as the labels define them.
@@ -31,19 +35,19 @@ The move from the lift to the task's first pose is not simulated: the task rollo
 held at the grasp the pick achieved.
 
 `RunResult.stage` says where a run ended: 'grounding' (the instruction could not be grounded), 'plan'
-(no task trajectory or no grasp for the grounded tool), 'pick' (no grasp could be picked and carried,
+(no task trajectory, no grasp for the grounded tool, or none of the grasps checked did the task), 'pick' (no grasp could be picked and carried,
 or the last pick did not bring the tool up in the pads in a grasp the task can use), 'grip' (the tool slipped or turned in the grip during the
 task), 'task' (held, but the task not done), 'done' (success).
 
 METHODS (the paper's Table II columns, in simulation):
-  itup          two-level grounding, SDG-Net scoring;
+  itup          two-level grounding, SDG-Net scoring and `itup plan`'s check;
   no_sdgnet     two-level grounding, static force-closure scoring (Ferrari-Canny);
   object_level  object-level grounding only: the whole tool is the grasp region and the contact is a
                 default one (the tool's far end along its handle, the category's contact direction);
-                SDG-Net scoring;
+                SDG-Net scoring and the check;
   copa          two-level grounding, geometric scoring within the grounded part (no physics);
   no_grounding  a random tool of the table, a random part to hold and a random part to strike with;
-                SDG-Net scoring.
+                SDG-Net scoring and the check.
 """
 
 from __future__ import annotations
@@ -109,7 +113,9 @@ class RunResult:
       counts: candidates at each filter (sampled, pickable, task-reachable, within the lift torque
         share, scored).
       choice: the chosen candidate's index among the scored ones, its score and its lift load
-        (`pickup.lift_torque`); for a pick that turned the tool over, index -1, the scorer
+        (`pickup.lift_torque`); for the SDG-Net methods also the check's `checked` (the candidates
+        rolled out, with their `measured_total`; empty with verify 0 and the guard quiet), `guard_score`
+        and `guard_fired`; for a pick that turned the tool over, index -1, the scorer
         'turn over: the least lift load' and the lift load as its score.
       pick: `pickup.PickResult` of the last pick (None when no pick ran).
       attempts: the picks before it, each {"choice", "pick" (its JSON), "why", "action"}: 'put_back'
@@ -163,6 +169,14 @@ class RunResult:
             if c.get("scored") and not c.get("lift_within_share"):
                 out(f"  none does: scored the {c['scored']} least-loaded lifts (within {LIFT_FALLBACK_SPREAD:.0%} "
                     f"of the grip's capacity of the least; the tool may turn in the pads)")
+        ch = self.choice or {}
+        if ch.get("checked"):
+            meas = [m["measured_total"] for m in ch["checked"]]
+            best = min((m for m in meas if m is not None), default=None)
+            guard = "fired: the analytic cost's best mixed in" if ch["guard_fired"] else "quiet"
+            kept = (f"the lowest measured total ({best:.3g}) kept" if ch["index"] is not None and best is not None
+                    else "none did the task and held")
+            out(f"checked in MuJoCo: {len(meas)} grasps (guard {guard}), {kept}")
         for k, a in enumerate(self.attempts):
             out(f"pick {k + 1}: {a['why']}; " + ("turned the tool over" if a["action"] == "turn_over" else
                                                  "put the tool back down") + ", planned again")
@@ -179,7 +193,7 @@ class RunResult:
         return "\n".join(lines)
 
     def to_json(self) -> dict:
-        return {"schema": "itup.run/1", "instruction": self.instruction, "method": self.method, "stage": self.stage,
+        return {"schema": "itup.run/2", "instruction": self.instruction, "method": self.method, "stage": self.stage,
                 "success": self.success, "message": self.message, "seed": self.seed,
                 "grounding": None if self.grounding is None else self.grounding.to_json(),
                 "tabletop": self.tabletop.to_json(), "counts": self.counts, "choice": self.choice,
@@ -334,7 +348,7 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
 def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
         method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
         grip_force: float = robot.GRIP_FORCE, randomize: bool = True, model: Any = None,
-        traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS) -> RunResult:
+        traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS, verify: int | None = None) -> RunResult:
     """Run the whole chain once (module docstring).
 
     Args:
@@ -349,6 +363,9 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       model: SDG-Net checkpoint for the SDG-Net methods (default the shipped one).
       traces: keep the task rollout's per-step traces and the picks' body poses (for `mcap_log`: every
         pick and put-back in turn, in `pick.trace`).
+      verify: the SDG-Net methods' check (`planning.default_pick`): the K best rolled out in MuJoCo
+        (default `planning.DEFAULT_VERIFY`, 5, as `itup plan`); 0: the best-scored grasp (unless the guard
+        fires). The baselines pick their best-scored grasp.
       max_attempts: picks made at most. A pick that does not lift the tool, or lifts it into a grasp
         that cannot be carried through the task, puts it back down (`regrasp.put_back`); where no
         pickable grasp can be carried through the task, a pick turns the tool over (`regrasp.turn_over`);
@@ -372,6 +389,10 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
     if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
         raise InputError(f"run: max_attempts must be an integer >= 1, got {max_attempts!r}")
+    if verify is None:
+        from itup_jax.planning import DEFAULT_VERIFY as verify
+    if isinstance(verify, bool) or not isinstance(verify, (int, np.integer)) or verify < 0:
+        raise InputError(f"run: verify must be an integer >= 0 (grasps checked in MuJoCo), got {verify!r}")
     t0 = time.perf_counter()
     top = tabletop if tabletop is not None else make_tabletop(clutter=clutter, seed=seed)
     rng = np.random.default_rng([int(seed), 4049])
@@ -442,10 +463,25 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         scores = itup.score(tool, task, grasps_k,
                             model=model if (scorer == "sdgnet" and model is not None) else scorer, seed=int(seed))
         total = np.asarray(scores.total, float)
-        best = int(np.argmin(np.where(np.isfinite(total), total, np.inf)))
+        best, check = int(np.argmin(np.where(np.isfinite(total), total, np.inf))), {}
+        if scorer == "sdgnet":
+            from itup_jax.planning import default_pick
+
+            best, info = default_pick(tool, task, grasps_k, model=model, seed=int(seed), verify=int(verify),
+                                      scores=scores)
+            check = {"checked": [{"index": i, "measured_total": None if m is None else round(m, 4)}
+                                 for i, m in zip(info.get("shortlist", []), info.get("measured_total", []))],
+                     "guard_score": round(info["guard_score"], 4), "guard_fired": info["guard_fired"]}
+            if best is None:
+                n = len(check["checked"])
+                msg = (f"none of the {n} grasps checked in MuJoCo (the {n} best of {len(total)} scored) did the "
+                       f"{g.task} task and held; run with verify=0 (--no-verify) to pick the best-scored anyway")
+                return end("plan", msg, grounding=g, tool=tool, counts=counts, attempts=attempts, board=board,
+                           choice={"index": None, "scorer": scorer, "score": None, "shift_m": None,
+                                   "lift_load": None, "p_tool_grasp": None, **check})
         choice = {"index": best, "scorer": scorer, "score": float(total[best]),
                   "shift_m": float(planned["shifts"][best]), "lift_load": round(float(planned["lift_load"][best]), 4),
-                  "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist()}
+                  "p_tool_grasp": np.round(np.asarray(grasps_k.p_tool_grasp)[best], 5).tolist(), **check}
         last = attempt + 1 == max_attempts
         pick = execute_pick(board, g.tool_index, grasps_k[best:best + 1], q_paths[best], grip_force=grip_force,
                             record_every=rec, keep_state=not last)
@@ -488,7 +524,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
 def write_outputs(r: RunResult, out: str, *, view: str = "top") -> dict[str, str]:
     """Write a run's files into folder `out` (made if missing): `pick.mcap` (every pick and put-back, when a
     pick ran), `task.mcap` (the task rollout, when one ran), `scene.png` (the table with the grounded tool
-    highlighted, from `view`: 'camera' or 'top') and `run.json` (schema itup.run/1, with the files and the
+    highlighted, from `view`: 'camera' or 'top') and `run.json` (schema itup.run/2, with the files and the
     view). Returns {what: path}. `itup run` is `run`, this and a printout."""
     from itup_jax import tabletop
     from itup_jax.atomic import atomic_write, atomic_write_json

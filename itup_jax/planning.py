@@ -333,24 +333,28 @@ def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any =
 
 
 def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: int = 0, scene: Any = None,
-                 verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP) -> tuple[int | None, dict]:
+                 verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP,
+                 scores: Any = None) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among given candidates (the arm can carry them): SDG-Net's scores under
-    the default weights, the out-of-distribution guard read, `verified_pick` of `verify` grasps under
-    nominal physics (`guarded_check`; verify 0: the best-scored grasp unless the guard fired, then
-    GUARD_VERIFY_K). Returns (the pick's index, or None when no verified grasp did the task
-    and held, as `itup plan` then recommends none; {"guard_score", "guard_fired", "verified_succeeded"
-    (when verified), "shortlist": [the grasps rolled out]}). Host side; the scorer jits itself."""
+    the default weights (`scores`, when already computed for `model` and these grasps), the
+    out-of-distribution guard read, `verified_pick` of `verify` grasps under nominal physics
+    (`guarded_check`; verify 0: the best-scored grasp unless the guard fired, then GUARD_VERIFY_K).
+    Returns (the pick's index, or None when no verified grasp did the task and held, as `itup plan` then
+    recommends none; {"guard_score", "guard_fired", "verified_succeeded" (when verified), "shortlist":
+    [the grasps rolled out], "measured_total": [their lowest measured totals, None where no rollout was
+    valid]}). Host side; the scorer jits itself."""
     import itup_jax as itup
     from itup_jax import ood
 
-    s = itup.score(tool, task, grasps, model=model, seed=seed)
+    s = itup.score(tool, task, grasps, model=model, seed=seed) if scores is None else scores
     reading = ood.check(tool, task, grasps, model=model)
     info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
     if verify == 0 and not reading.fired:
         return int(np.argmin(np.asarray(s.total, float))), info
     v, _, _ = guarded_check(tool, task, grasps, s, k=min(verify or GUARD_VERIFY_K, len(grasps)), seed=seed,
                             scene=scene, weak_grip=weak_grip, reading=reading)
-    info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist])
+    info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist],
+                measured_total=[float(m) if np.isfinite(m) else None for m in v.measured_total])
     return (int(v.index) if v.succeeded else None), info
 
 

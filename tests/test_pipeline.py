@@ -13,7 +13,7 @@ import pytest
 from conftest import load_experiment
 
 import itup_jax as itup
-from itup_jax import grounding, pickup, pipeline, regrasp, robot, tabletop
+from itup_jax import grounding, ood, pickup, pipeline, planning, regrasp, robot, tabletop
 from itup_jax.errors import InputError
 from itup_jax.tools import families, parts
 
@@ -571,6 +571,13 @@ def test_run_does_the_hammer_task_from_the_table(tables):
     assert j["grounding"]["tool"] == "hammer" and j["pick"]["lifted"] and j["counts"]["task_reachable"] > 0
     # scored only grasps whose lift loads the pads' torsion within the share
     assert 0 < j["counts"]["scored"] == j["counts"]["lift_within_share"] and j["choice"]["lift_load"] <= pickup.LIFT_TORQUE_SHARE
+    # the pick is itup plan's: the 5 best checked in MuJoCo, the lowest measured total kept
+    checked = j["choice"]["checked"]
+    assert len(checked) == min(planning.DEFAULT_VERIFY, j["counts"]["scored"])
+    assert j["choice"]["guard_fired"] == (j["choice"]["guard_score"] > ood.GUARD_THRESHOLD)
+    measured = {c["index"]: c["measured_total"] for c in checked}
+    assert measured[j["choice"]["index"]] == min(m for m in measured.values() if m is not None)
+    assert "checked in MuJoCo: 5 grasps (guard " in r.report() and "the lowest measured total" in r.report()
     import jsonschema
 
     with open(os.path.join(ROOT, "itup_jax", "schemas", "run.schema.json")) as fh:
@@ -648,6 +655,41 @@ def test_a_failed_pick_puts_the_tool_back_and_picks_again_elsewhere(tables, monk
         itup.run("drive the nail", tabletop=tables[0], max_attempts=0)
 
 
+@pytest.mark.slow
+def test_the_check_picks_among_the_best_scored_and_none_passing_ends_the_run_at_plan(tables, monkeypatch):
+    """verify=0: the best-scored grasp, nothing rolled out; the check's pick is one of the K best-scored;
+    when none of them does the task and holds the run ends at 'plan' (as itup plan recommends none) and
+    no pick is made."""
+    top = tables[0]
+    plain = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=0, max_attempts=1)
+    checked = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=3, max_attempts=1)
+    assert len(checked.choice["checked"]) == 3
+    g, tool = pipeline.ground_for("itup", "drive the nail with the hammer", top, "rule", np.random.default_rng(0))
+    task = itup.make_task(g.task, tool)
+    planned = pipeline._plan(top, g, tool, task, seed=0, samples=1024, grip_force=robot.GRIP_FORCE, tried=[])
+    order = np.argsort(np.asarray(itup.score(tool, task, planned["grasps"], seed=0).total), kind="stable")
+    assert checked.choice["index"] in [c["index"] for c in checked.choice["checked"]]
+    if plain.choice["guard_fired"]:  # the table's pickable grasps lie outside the training data: checked anyway
+        assert len(plain.choice["checked"]) == min(planning.GUARD_VERIFY_K, len(order))
+    else:
+        assert plain.choice["checked"] == [] and plain.choice["index"] == order[0]
+    if not checked.choice["guard_fired"]:  # the scorer's 3 best (a fired guard mixes the analytic cost's in)
+        assert [c["index"] for c in checked.choice["checked"]] == order[:3].tolist()
+    real = planning.default_pick
+
+    def none_passes(*a, **kw):
+        idx, info = real(*a, **kw)
+        return None, info
+    monkeypatch.setattr(planning, "default_pick", none_passes)
+    r = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=3)
+    assert r.stage == "plan" and r.pick is None and r.labels is None and "none of the 3 grasps checked" in r.message
+    assert r.choice["index"] is None and len(r.choice["checked"]) == 3
+    base = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, method="no_sdgnet", max_attempts=1)
+    assert "checked" not in base.choice  # the baselines pick their best-scored
+    with pytest.raises(InputError, match="verify must be an integer >= 0"):
+        itup.run("drive the nail", tabletop=top, verify=-1)
+
+
 def test_run_reports_the_stage_it_ended_at(tables):
     assert itup.run("make me a sandwich", tabletop=tables[0]).stage == "grounding"
     r = itup.run("drive the nail", tabletop=tables[0], seed=0, method="no_grounding", samples=256)
@@ -667,7 +709,7 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert rc in (0, 3) and "grounded: task knock" in stdout
     j = json.loads((out / "run.json").read_text())
-    assert j["schema"] == "itup.run/1" and (out / "scene.png").exists()
+    assert j["schema"] == "itup.run/2" and (out / "scene.png").exists()
     assert (rc == 0) == j["success"]
     if j["pick"] is not None:  # the pick's every body, logged
         from itup_jax.mcap_log import read_rollout_mcap
@@ -686,6 +728,8 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path, capsys):
     assert "tool 'wand'" in capsys.readouterr().err
     assert main(["run", "drive the nail", "--attempts", "0", "--out", str(tmp_path / "z")]) == 2
     assert "--attempts must be an integer >= 1" in capsys.readouterr().err and not (tmp_path / "z").exists()
+    assert main(["run", "drive the nail", "--verify", "0", "--out", str(tmp_path / "z")]) == 2
+    assert "--verify must be an integer >= 1" in capsys.readouterr().err and not (tmp_path / "z").exists()
 
 
 @pytest.mark.slow
