@@ -64,6 +64,7 @@ import itup_jax as itup
 from itup_jax import verify
 from itup_jax.atomic import atomic_write_json
 from itup_jax.dataset import WEAK_GRIP
+from itup_jax.errors import InputError
 from itup_jax.evaluate import MEASURED
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.heldout import oracle_index
@@ -178,10 +179,13 @@ def fidelity(tool, task, scene, g) -> dict:
 
 def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, with_fidelity: bool) -> dict:
     tool = entry["tool"]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # a drawn tool may swing a little over the speed limit
-        task = make_task(task_kind, tool)
     row = {k: entry[k] for k in ("i", "seed", "kind", "family")} | {"task": task_kind, "tool": tool.name}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # a drawn tool may swing a little over the speed limit
+            task = make_task(task_kind, tool)
+    except InputError as e:  # no task for this tool: kept, as a tool no method can pick for (a loss for all)
+        return row | {"candidates": 0, "picks": {}, "task_refused": str(e)}
     found = sample_reachable(tool, task, n, seed=0)
     g = found.grasps
     row["candidates"] = int(len(g))
@@ -472,16 +476,19 @@ def main(argv=None) -> dict:
     # --quick draws its tools from other seeds, so that a test run never rolls out a sealed tool
     draw_from = checkpoint + round_salt(a.round) + (QUICK_SALT if a.quick else b"")
     t0, rows, commit = time.perf_counter(), [], _commit()  # the code that runs, before any rollout
+    os.makedirs(a.out, exist_ok=True)
+    partial = os.path.join(a.out, "sealed.partial.json")
     for k in tasks:
         for e in sealed_tools(draw_from, k, a.tools):
             t = time.perf_counter()
             weak = e["i"] % 8 < 5 if not a.quick else True
             rows.append(evaluate_tool(e, k, a.n, a.draws, weak, with_fidelity=True))
+            atomic_write_json(partial, {"commit": commit, "round": a.round, "per_tool": rows}, indent=1)  # kept if it stops
             r = rows[-1]
             picks = "  ".join(f"{m} {p['peak_torque_induced']:.2f}" for m, p in r["picks"].items())
             print(f"{k:7s} {r['tool']:28s} {r['candidates']:4d} cands  guard "
-                  f"{'fired' if r.get('planner', {}).get('guard_fired') else 'quiet'}  {picks}  ({time.perf_counter() - t:.0f} s)",
-                  flush=True)
+                  f"{'fired' if r.get('planner', {}).get('guard_fired') else 'quiet'}  {picks}  ({time.perf_counter() - t:.0f} s)"
+                  + (f"  no task: {r['task_refused']}" if "task_refused" in r else ""), flush=True)
     from itup_jax.bench import machine_info
 
     out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
@@ -490,8 +497,8 @@ def main(argv=None) -> dict:
                                                    "verify_weak_grip": WEAK_GRIP},
            "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}
-    os.makedirs(a.out, exist_ok=True)
     atomic_write_json(os.path.join(a.out, "sealed.json"), out, indent=1)
+    os.remove(partial)
     _print_summary(out["summary"])
     return out
 

@@ -16,7 +16,7 @@ from itup_jax.errors import InputError
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.sim.arm import reachable
 from itup_jax.sim.scene import build_scene
-from itup_jax.tools import CATEGORY_CONTACT_NORMAL, families, priors
+from itup_jax.tools import CATEGORY_CONTACT_NORMAL, families, family_shapes, priors
 
 NEW = [f for f in families.names() if not families.get(f).builtin]
 #: m, how deep a tool's mesh may reach into the environment's solids at the first contact (the contact
@@ -190,6 +190,40 @@ def test_placement_puts_the_contact_on_the_target(name, kind):
         for g in boxes:
             depth = _box_depth(verts, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g])
             assert depth.max() < PENETRATION_TOL, (tool.name, kind, m.geom(g).name, depth.max())
+
+
+def _range_ends(fam) -> list[dict]:
+    """A family's dimensions at the ends of their ranges: all low, all high, and each alone at either end
+    with the rest mid-range; each choice in turn with every dimension mid-range."""
+    mid = {k: 0.5 * (lo + hi) for k, (lo, hi) in fam.ranges.items()}
+    first = {k: v[0] for k, v in fam.choices.items()}
+    out = [{**first, **{k: lo for k, (lo, _) in fam.ranges.items()}}, {**first, **{k: hi for k, (_, hi) in fam.ranges.items()}}]
+    out += [{**first, **mid, k: end} for k, ends in fam.ranges.items() for end in ends]
+    out += [{**first, **mid, k: v} for k, values in fam.choices.items() for v in values]
+    return out
+
+
+@pytest.mark.parametrize("name", [f for f in families.names() if not families.get(f).builtin])
+def test_every_task_of_a_family_is_built_at_the_ends_of_its_ranges(name):
+    """make_task places every tool a family can draw: the task's contact meets its target (the reach's
+    block face, the nail, the tower, the debris) at the ends of the family's ranges, where a drawn test
+    tool can lie (a pry bar's long hook once put its contact above the reach's block)."""
+    fam = families.get(name)
+    for kw in _range_ends(fam):
+        tool = fam.build(name=name, **kw)
+        for kind in fam.tasks:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a swing a little over the speed limit: the task stands
+                itup.make_task(kind, tool)
+
+
+def test_a_pry_bars_contact_meets_the_reach_block_for_its_longest_hook(monkeypatch):
+    fam = families.get("pry_bar")
+    kw = {k: hi for k, (_, hi) in fam.ranges.items()} | {"radius": fam.ranges["radius"][0], "sections": 6}
+    itup.make_task("reach", fam.build(name="pry_bar", **kw))
+    monkeypatch.setattr(family_shapes, "PRY_CONTACT_FROM_TIP", 1.0)  # halfway along the hook, uncapped
+    with pytest.raises(InputError, match="off its face"):
+        itup.make_task("reach", fam.build(name="pry_bar", **kw))
 
 
 @pytest.mark.parametrize("name,kind", [("screwdriver", "knock"), ("pry_bar", "reach"), ("hatchet", "hammer")])

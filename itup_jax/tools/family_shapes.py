@@ -74,15 +74,23 @@ def spanner(*, bar_length: float = 0.160, bar_width: float = 0.018, bar_thicknes
     )
 
 
+#: m, the farthest a pry bar's contact lies from its hook's tip: the reach holds the hook's tip 0.01 m
+#: above the table against a block 0.06 m tall (`tasks.reach`), so a contact further up the hook than
+#: 0.05 m would meet the block above its face; halfway along the hook unless that is further.
+PRY_CONTACT_FROM_TIP = 0.048
+
+
 def pry_bar(*, length: float = 0.450, radius: float = 0.0095, hook_end: float = 0.080, sections: int = 6,
             name: str = "pry_bar") -> Tool:
     """A pry bar: a steel bar (hexagonal for sections = 6, `radius` to its flats) along +z and its end
     bent at a right angle along +x up to hook_end. The contact is the bend's inner face (facing -z, back
-    along the bar), like the L-stick's hook. Default: 0.45 m long, ~1.3 kg."""
+    along the bar), like the L-stick's hook: halfway along the hook, at most PRY_CONTACT_FROM_TIP from
+    its tip. Default: 0.45 m long, ~1.3 kg."""
     r = radius
     circum = radius / math.cos(math.pi / sections)
     g = circum + 0.006
     hook = _prism(r, (circum, 0, length - r), (hook_end, 0, length - r), sections)
+    contact_x = max(0.5 * (circum + hook_end), hook_end - PRY_CONTACT_FROM_TIP)
     return assemble_tool(
         name=name, category="pry_bar",
         parts=[
@@ -90,7 +98,7 @@ def pry_bar(*, length: float = 0.450, radius: float = 0.0095, hook_end: float = 
             ("hook", "steel", hook),
         ],
         # the hook's underside: a flat or, for a hexagon turned corner-down, its lowest edge
-        contact_points=[(0.5 * (circum + hook_end), 0.0, float(hook[0].bounds[0][2]))],
+        contact_points=[(contact_x, 0.0, float(hook[0].bounds[0][2]))],
         contact_normal=(0.0, 0.0, -1.0),
         grasp_region=((-g, -g, 0.0), (g, g, 0.45 * length)),
     )
