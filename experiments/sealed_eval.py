@@ -91,8 +91,8 @@ PAPER = {"gqcnn": {"hammer": 17.6, "sweep": 17.5, "knock": 11.6, "reach": 20.8},
 QUICK_SALT = b"/quick"
 #: The round of the sealed evaluation this code runs: round 1 (0.25.0) drew its tools from the
 #: checkpoint's bytes alone; round r > 1 appends `round_salt(r)`, so that an unchanged checkpoint draws
-#: tools no one has seen.
-ROUND = 2
+#: tools no one has seen. Rounds 1 and 2 have run; round 3 draws once new sealed-test families exist.
+ROUND = 3
 #: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.
@@ -468,6 +468,9 @@ def main(argv=None) -> dict:
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)
+    if not a.quick and not families.sealed():
+        ap.error(f"round {a.round}: no sealed-test family (role 'sealed' in itup_jax/tools/families.py): add the "
+                 "round's new families and write its protocol in docs/results.md before its draw")
     bad = [t for t in tasks if t not in TASKS]
     if bad or a.tools < 1 or a.n < 1 or a.draws < 1:
         ap.error(f"--tasks among {','.join(TASKS)}, --tools, --n and --draws >= 1; got {a.tasks!r}, {a.tools}, {a.n}, {a.draws}")

@@ -1079,18 +1079,26 @@ def test_sealed_tools_are_drawn_from_the_checkpoint():
     ck = b"checkpoint bytes"
     assert se.sealed_seed(ck, "knock", 3) == int.from_bytes(hashlib.sha256(b"checkpoint bytesknock3").digest()[:8], "big")
     assert se.sealed_seed(ck, "knock", 3) != se.sealed_seed(ck + b"x", "knock", 3)
-    assert se.round_salt(1) == b"" and se.round_salt(2) == b"/round2" and se.ROUND == 2
-    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet", "pick"]
-    assert se.other_families("sweep") == ["squeegee", "offset_pusher"] and se.other_families("reach") == ["pry_bar", "club"]
+    assert se.round_salt(1) == b"" and se.round_salt(2) == b"/round2" and se.ROUND == 3
+    # no round is sealed now (rounds 1 and 2 ran): the other families are the held-out ones until a
+    # round adds its own
+    assert se.other_families("knock") == ["screwdriver", "spanner", "hatchet"]
+    assert se.other_families("sweep") == ["squeegee"] and se.other_families("reach") == ["pry_bar"]
     tools = se.sealed_tools(ck + se.round_salt(2), "knock", 16)
     assert [t["kind"] for t in tools] == ["builtin"] * 8 + ["other"] * 8
-    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet", "pick"] * 2
+    assert [t["family"] for t in tools[8:]] == ["screwdriver", "spanner", "hatchet"] * 2 + ["screwdriver", "spanner"]
     assert tools[0]["tool"].name == f"mallet#{se.sealed_seed(ck + b'/round2', 'knock', 0)}"
     assert tools[9]["tool"].name == f"spanner@{se.sealed_seed(ck + b'/round2', 'knock', 9)}"
     round1 = se.sealed_tools(ck, "knock", 16)
     assert {t["seed"] for t in round1}.isdisjoint({t["seed"] for t in tools})
     quick = se.sealed_tools(ck + se.round_salt(2) + se.QUICK_SALT, "knock", 2)
     assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools} | {t["seed"] for t in round1})
+
+
+def test_a_sealed_round_without_sealed_families_is_refused(tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit):
+        _run_experiment("sealed_eval.py", ["--out", str(tmp_path / "s")], monkeypatch)
+    assert "no sealed-test family" in capsys.readouterr().err and not (tmp_path / "s").exists()
 
 
 @pytest.mark.slow

@@ -56,9 +56,10 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The next three were the sealed-test families of the sealed evaluation of the checkpoint shipped with
-0.25.0 (`experiments/sealed_eval.py`, round 1); that evaluation has run, so they are validation families
-(`validation()`), looked at since like the held-out ones and drawn by no later round:
+The last six were the sealed-test families of the sealed evaluation's rounds 1 and 2
+(`experiments/sealed_eval.py`); both have run, so they are validation families (`validation()`), looked
+at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
+0.25.0):
 
   rolling_pin  a handle, a thick barrel and a thin knob past it, of one material; strikes with the
                barrel's side, with mass beyond the contact (mallet's category; hammer, knock).
@@ -67,9 +68,7 @@ The next three were the sealed-test families of the sealed evaluation of the che
   hoe          a round bar with a thin flat blade across its end; pulls with the blade's underside
                (L-stick's category; reach).
 
-The last three are the sealed-test families of the next round (`sealed()`): shapes of the built-in
-categories never rolled out (only the geometry and placement tests build them), drawn by the next
-sealed evaluation alone:
+Round 2 (0.27.0):
 
   pick         a handle, a cubic hub and two thin arms out of its sides, much of the head's mass far
                from the handle and little at the striking end; strikes with the front arm's end face
@@ -309,7 +308,7 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(handle_length=(0.080, 0.150), handle_radius=(0.010, 0.015), barrel_length=(0.120, 0.250),
                 barrel_radius=(0.018, 0.032), knob_length=(0.030, 0.100)),
         MappingProxyType({"material": ("beech", "hickory", "polypropylene", "nylon")}),
-        summary="validation (sealed test of 0.25.0): handle, thick barrel and knob; strikes with the barrel's side",
+        summary="validation (sealed test, round 1): handle, thick barrel and knob; strikes with the barrel's side",
         role="validation", category="mallet"),
     "rake": Family(
         "rake", rake, ("sweep",),
@@ -317,14 +316,14 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
                 tine_length=(0.030, 0.080), tine_width=(0.006, 0.012), tine_thickness=(0.002, 0.004),
                 handle_radius=(0.008, 0.014), handle_length=(0.200, 0.500)),
         MappingProxyType({"head_material": ("aluminium", "polypropylene", "beech"), "handle_material": HANDLE_MATERIALS}),
-        summary="validation (sealed test of 0.25.0): crossbar on three flat tines, on a handle; pushes with the tines",
+        summary="validation (sealed test, round 1): crossbar on three flat tines, on a handle; pushes with the tines",
         role="validation", category="broom"),
     "hoe": Family(
         "hoe", hoe, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), blade_end=(0.050, 0.120),
                 blade_half_width=(0.015, 0.050), blade_thickness=(0.002, 0.006), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "blade_material": ("steel", "aluminium")}),
-        summary="validation (sealed test of 0.25.0): bar with a flat blade across its end; pulls with the blade's "
+        summary="validation (sealed test, round 1): bar with a flat blade across its end; pulls with the blade's "
                 "underside",
         role="validation", category="l_stick"),
     "pick": Family(
@@ -332,29 +331,30 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(handle_length=(0.220, 0.400), handle_radius=(0.011, 0.017), hub=(0.022, 0.040), front=(0.050, 0.150),
                 back=(0.030, 0.140), arm_thickness=(0.008, 0.018), arm_width=(0.010, 0.022)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": ("steel", "aluminium")}),
-        summary="sealed test: handle, hub and two thin arms; strikes with the front arm's end",
-        role="sealed", category="hammer"),
+        summary="validation (sealed test, round 2): handle, hub and two thin arms; strikes with the front arm's end",
+        role="validation", category="hammer"),
     "offset_pusher": Family(
         "offset_pusher", offset_pusher, ("sweep",),
         _ranges(half_width=(0.060, 0.160), offset=(0.030, 0.120), head_height=(0.020, 0.050),
                 head_depth=(0.015, 0.040), handle_radius=(0.009, 0.014), handle_length=(0.200, 0.550),
                 grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"head_material": ("beech", "polypropylene", "aluminium"), "handle_material": HANDLE_MATERIALS}),
-        summary="sealed test: T-head fixed to its handle off-centre; pushes with the head",
-        role="sealed", category="broom"),
+        summary="validation (sealed test, round 2): T-head fixed to its handle off-centre; pushes with the head",
+        role="validation", category="broom"),
     "club": Family(
         "club", club, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.010), head_front=(0.040, 0.090), head_back=(0.000, 0.030),
                 head_half_width=(0.012, 0.030), head_thickness=(0.018, 0.045), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "head_material": ("steel", "aluminium", "beech")}),
-        summary="sealed test: bar with a thick block head across its end; pulls with the head's underside",
-        role="sealed", category="l_stick"),
+        summary="validation (sealed test, round 2): bar with a thick block head across its end; pulls with the head's underside",
+        role="validation", category="l_stick"),
 })
 
 
 def names() -> tuple[str, ...]:
     """The families: the four built-in ones, the five held-out ones, the training families, the
-    calibration families, then the sealed-test families."""
+    calibration families, then the sealed evaluation's rounds' families (validation once a round has
+    run)."""
     return tuple(FAMILIES)
 
 
@@ -386,7 +386,7 @@ def validation() -> tuple[str, ...]:
 
 
 def sealed() -> tuple[str, ...]:
-    """The sealed-test families of the next sealed evaluation."""
+    """The sealed-test families of the next sealed evaluation's round (none until one is added)."""
     return with_role("sealed")
 
 
