@@ -192,6 +192,7 @@ def main(argv=None) -> int:
                                  "guard_fired": (r.choice or {}).get("guard_fired"),
                                  "checked": None if "checked" not in (r.choice or {}) else len(r.choice["checked"]),
                                  "wall_s": round(r.wall_s, 2)})
+            atomic_write_json(os.path.join(args.out, "pipeline_ablation.partial.json"), {"rows": rows})  # kept if it stops
             print(f"clutter {clutter} trial {t}: {time.perf_counter() - t0:.0f} s", flush=True)
     cells = summarize(rows, args.tasks, args.methods, (0, args.clutter))
     out = {"schema": "itup.pipeline_ablation/1", "trials": args.trials, "first_table": args.first_table,
@@ -200,6 +201,7 @@ def main(argv=None) -> int:
            "paper": {"table2": PAPER_TABLE2, "table3": PAPER_TABLE3}, "rows": rows,
            "wall_s": round(time.perf_counter() - t0, 1)}
     atomic_write_json(os.path.join(args.out, "pipeline_ablation.json"), out, indent=1)
+    os.remove(os.path.join(args.out, "pipeline_ablation.partial.json"))
     print(f"wrote {os.path.join(args.out, 'pipeline_ablation.json')} ({out['wall_s']:.0f} s)")
     return 0
 

@@ -50,6 +50,7 @@ from itup_jax.kernel_cache import kept
 from itup_jax.precision import full_precision
 from itup_jax.robot import FLANGE_TO_GRASP, PAD_TORSION
 from itup_jax.rotations import quat_to_matrix
+from itup_jax.shapes import pad_batch, unpad_batch
 from itup_jax.task import Task
 from itup_jax.tools import Tool, ToolParams
 from itup_jax.wrench import Loads, task_loads
@@ -258,7 +259,8 @@ def wrench_costs(tool: Tool | ToolParams, task: Task, grasps: Grasps, params: Co
     if np.ndim(grasps.width) != 1:
         raise InputError(f"wrench_costs: grasps must be a batch [N]; got width shape {np.shape(grasps.width)}")
     validate_grasps(grasps)
-    return wrench_costs_jit(tool_params, task, grasps, params or CostParams())
+    padded, n = pad_batch(grasps)  # one compile per bucket of candidate counts (shapes.py)
+    return unpad_batch(wrench_costs_jit(tool_params, task, padded, params or CostParams()), n)
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -46,7 +46,7 @@ from itup_jax.grasp import Grasps, validate_grasps
 from itup_jax.kernel_cache import kept
 from itup_jax.precision import full_precision
 from itup_jax.sdgnet.features import FeatureSpec, batched, cached_tool_field
-from itup_jax.shapes import to_device
+from itup_jax.shapes import pad_batch, to_device, unpad_batch
 from itup_jax.wrench import task_loads
 
 #: The feature groups, in feature order (`sdgnet.features.grasp_features`): geometry [G^3], loads [12],
@@ -246,8 +246,10 @@ def check(tool, task, grasps: Grasps, model: Any = None, *, threshold: float | N
         return None
     z_ref, scale = _standardised(path, task.kind, x_mean.tobytes(), x_std.tobytes(), k)
     dt = jnp.float32
-    d, groups = guard_distances_jit(cached_tool_field(tool, spec, dt), tool.params, task, grasps, to_device(x_mean),
-                                    to_device(x_std), to_device(z_ref), spec=spec, k=k)
+    padded, n = pad_batch(grasps)  # one compile per bucket of candidate counts (shapes.py)
+    d, groups = unpad_batch(guard_distances_jit(cached_tool_field(tool, spec, dt), tool.params, task, padded,
+                                                to_device(x_mean), to_device(x_std), to_device(z_ref), spec=spec,
+                                                k=k), n)
     ratio = np.asarray(d, float) / scale
     score = float(np.median(ratio))
     threshold = GUARD_THRESHOLD if threshold is None else float(threshold)

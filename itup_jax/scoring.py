@@ -29,7 +29,7 @@ from itup_jax.sdgnet.config import PAPER_MODEL
 from itup_jax.sdgnet.features import batched, cached_tool_field
 from itup_jax.sdgnet.model import Model, predict_from_features, residual_base
 from itup_jax.sdgnet.objective import WRENCH, costs_of
-from itup_jax.shapes import to_device
+from itup_jax.shapes import pad_batch, to_device, unpad_batch
 from itup_jax.task import Task
 from itup_jax.tools import Tool
 from itup_jax.wrench import task_loads
@@ -194,8 +194,9 @@ def score(tool: Tool, task: Task, grasps: Grasps, model: Any = None, *,
         model = load_model(model)
     if not isinstance(model, Model):
         raise InputError(f"score: model must be None, 'analytic', a checkpoint path or a Model, got {type(model).__name__}")
-    args, kw = sdgnet_args(tool, task, grasps, model, weights)
-    tau, slip, align, grip, total, p = sdgnet_scores_jit(*args, **kw)
+    padded, n = pad_batch(grasps)  # one compile per bucket of candidate counts (shapes.py)
+    args, kw = sdgnet_args(tool, task, padded, model, weights)
+    tau, slip, align, grip, total, p = unpad_batch(sdgnet_scores_jit(*args, **kw), n)
     probs = {name: p[:, j] for j, name in enumerate(model.for_task(task.kind).head_names)}
     return Scores(tau=tau, slip=slip, align=align, total=total, scorer="sdgnet",
                   grip=None if model.objective == "paper" else grip, **probs)

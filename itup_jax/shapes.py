@@ -8,6 +8,15 @@ Padding a size up to a bucket with values that cannot change the kernel's result
 under any / min / max, zeros under `map_coordinates`' zero `cval`) bounds the compiles to a few per
 octave of size, and leaves every result bit for bit as it was.
 
+The candidates' count is the other size that varies from call to call (the pipeline scores the 16 to
+~130 grasps a table leaves, a notebook whatever it sampled): the per-candidate kernels (SDG-Net's
+scores, the wrench costs, the out-of-distribution guard's distances) compiled once per count, ~2.5 s
+and ~200 memory maps each on a 2-core CPU, until a process that planned a few hundred tables ran out of
+the kernel's 65,530 maps (`vm.max_map_count`: "LLVM ERROR: Unable to allocate section memory").
+`pad_batch` rounds the count up to a bucket (CANDIDATE_BUCKET_BITS) by repeating the first candidate on
+the host, `unpad_batch` cuts the per-candidate results back; each candidate's result is its own row,
+so the padding changes no result.
+
 `to_device` keeps another compile away: `jnp.asarray` of a NumPy float32 array compiles a copy kernel
 per shape (JAX's "stage"), ~5 ms each in a fresh process; a host array put on the device as it is
 costs none.
@@ -48,6 +57,32 @@ def pad_zeros_high(a: np.ndarray, bits: int) -> np.ndarray:
     """a [n_0, n_1, ...] zero-padded at the high end of every axis to [bucket(n_0), bucket(n_1), ...]."""
     a = np.asarray(a)
     return np.pad(a, [(0, bucket(n, bits) - n) for n in a.shape])
+
+
+#: Significant bits of a padded candidate count (`pad_batch`): at most 25 % more rows, four buckets per
+#: octave.
+CANDIDATE_BUCKET_BITS = 3
+
+
+def pad_batch(batch, bits: int = CANDIDATE_BUCKET_BITS):
+    """(`batch` padded to bucket(N) rows, N) for a batch of N >= 1 candidates (a pytree whose leaves are
+    [N, ...] arrays, with len(): `Grasps`): its first row repeated on the host and the rows put on the
+    device (`to_device`), so that a kernel compiles once per bucket. Returned unchanged when N is already a bucket or a leaf is traced (inside jit)."""
+    n = len(batch)
+    extra = bucket(n, bits) - n if n else 0
+    leaves = jax.tree_util.tree_leaves(batch)
+    if not extra or any(isinstance(a, jax.core.Tracer) for a in leaves):
+        return batch, n
+    idx = np.concatenate([np.arange(n), np.zeros(extra, np.int64)])
+    return jax.tree_util.tree_map(lambda a: to_device(np.asarray(a)[idx]), batch), n
+
+
+def unpad_batch(out, n: int):
+    """`out` (a pytree of per-candidate results, each [bucket(n), ...] or already [n, ...]) cut back to its
+    first n rows: host copies put on the device (`to_device`: no slice kernel compiled per size)."""
+    def cut(a):
+        return a if np.shape(a)[0] == n else to_device(np.asarray(a)[:n])
+    return jax.tree_util.tree_map(cut, out)
 
 
 def to_device(a, dtype=None) -> jax.Array:

@@ -138,3 +138,28 @@ def test_to_device_is_jnp_asarray_without_a_compile():
     assert np.asarray(on_device).tolist() == [1.0, 1.0, 1.0]
     traced = jax.jit(lambda x: to_device(x, jnp.float32) * 2)(jnp.ones(2))  # a tracer passes through
     assert np.asarray(traced).tolist() == [2.0, 2.0]
+
+
+def test_candidate_padding_bounds_the_compiles_and_changes_no_result():
+    """21-24 candidates share the bucket 24: one executable of the wrench costs for all four counts, and
+    every count's costs, SDG-Net scores and guard distances are the first rows of the 24's, bit for bit
+    (each candidate's result is its own row; the padding repeats the first candidate)."""
+    from itup_jax import costs, ood
+    from itup_jax.shapes import CANDIDATE_BUCKET_BITS, pad_batch, unpad_batch
+
+    assert bucket(21, CANDIDATE_BUCKET_BITS) == 24
+    tool = itup_jax.load_tool("hammer")
+    task = itup_jax.make_task("hammer", tool)
+    g = itup_jax.sample_grasps(tool, 24, seed=0)
+    full_c, full_s, full_g = itup_jax.wrench_costs(tool, task, g), itup_jax.score(tool, task, g), ood.check(tool, task, g)
+    before = costs.wrench_costs_jit._cache_size()
+    for n in (21, 22, 23):
+        c, s, r = itup_jax.wrench_costs(tool, task, g[:n]), itup_jax.score(tool, task, g[:n]), ood.check(tool, task, g[:n])
+        assert len(c.tau) == len(s.total) == len(r.per_candidate) == n and isinstance(s.total, jax.Array)
+        for got, want in ((c.tau, full_c.tau), (c.total, full_c.total), (s.total, full_s.total), (s.p_failed, full_s.p_failed),
+                          (r.per_candidate, full_g.per_candidate)):
+            np.testing.assert_array_equal(np.asarray(got), np.asarray(want)[:n])
+    assert costs.wrench_costs_jit._cache_size() == before
+    padded, n = pad_batch(g[:21])
+    assert n == 21 and len(padded) == 24 and np.array_equal(np.asarray(padded.width)[21:], np.repeat(np.asarray(g.width)[:1], 3))
+    assert pad_batch(g)[0] is g and unpad_batch(g, 24) is not None  # a bucket's count stays as it is
