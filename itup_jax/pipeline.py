@@ -35,9 +35,10 @@ The move from the lift to the task's first pose is not simulated: the task rollo
 held at the grasp the pick achieved.
 
 `RunResult.stage` says where a run ended: 'grounding' (the instruction could not be grounded), 'plan'
-(no task trajectory, no grasp for the grounded tool, or none of the grasps checked did the task), 'pick' (no grasp could be picked and carried,
-or the last pick did not bring the tool up in the pads in a grasp the task can use), 'grip' (the tool slipped or turned in the grip during the
-task), 'task' (held, but the task not done), 'done' (success).
+(no task trajectory, no grasp for the grounded tool, or none of the grasps checked did the task),
+'pick' (no grasp could be picked and carried, or the last pick did not bring the tool up in the pads
+in a grasp the task can use), 'grip' (the tool slipped or turned in the grip during the task), 'task'
+(held, but the task not done), 'done' (success).
 
 METHODS (the paper's Table II columns, in simulation):
   itup          two-level grounding, SDG-Net scoring and `itup plan`'s check;
@@ -390,7 +391,9 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
     if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
         raise InputError(f"run: max_attempts must be an integer >= 1, got {max_attempts!r}")
     if verify is None:
-        from itup_jax.planning import DEFAULT_VERIFY as verify
+        from itup_jax.planning import DEFAULT_VERIFY
+
+        verify = DEFAULT_VERIFY
     if isinstance(verify, bool) or not isinstance(verify, (int, np.integer)) or verify < 0:
         raise InputError(f"run: verify must be an integer >= 0 (grasps checked in MuJoCo), got {verify!r}")
     t0 = time.perf_counter()

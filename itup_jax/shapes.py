@@ -67,7 +67,8 @@ CANDIDATE_BUCKET_BITS = 3
 def pad_batch(batch, bits: int = CANDIDATE_BUCKET_BITS):
     """(`batch` padded to bucket(N) rows, N) for a batch of N >= 1 candidates (a pytree whose leaves are
     [N, ...] arrays, with len(): `Grasps`): its first row repeated on the host and the rows put on the
-    device (`to_device`), so that a kernel compiles once per bucket. Returned unchanged when N is already a bucket or a leaf is traced (inside jit)."""
+    device (`to_device`), so that a kernel compiles once per bucket. Returned unchanged when N is already
+    a bucket or a leaf is traced (inside jit)."""
     n = len(batch)
     extra = bucket(n, bits) - n if n else 0
     leaves = jax.tree_util.tree_leaves(batch)

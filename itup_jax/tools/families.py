@@ -5,8 +5,8 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.validation()                    # the three of the sealed evaluation that has run
-    families.sealed()                        # the three of the next sealed evaluation, never rolled out
+    families.validation()                    # the six of the sealed evaluation's rounds that have run
+    families.sealed()                        # the next round's, never rolled out (none until added)
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
