@@ -149,7 +149,7 @@ def add_plan(p: argparse.ArgumentParser) -> None:
                    "(the paper's cost), analytic_wrench (its grip-demand form), or a baseline (default %(default)s)")
     p.add_argument("--model", default=None, help=f"SDG-Net checkpoint for --scorer sdgnet (default: the shipped "
                    f"{DEFAULT_MODEL.rsplit('/', 1)[-1]})")
-    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/7)")
+    p.add_argument("--json", default=None, help="write the result as JSON (schema itup.plan/8)")
 
 
 def _verify_args(p: argparse.ArgumentParser) -> None:

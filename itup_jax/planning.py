@@ -7,7 +7,7 @@ and optionally check the best ones in MuJoCo. `itup plan` is this function and a
                            # the arm can carry through the task (sampling="all": n drawn, reachability walked)
     plan.status            # "ok", "no_reachable_candidate" or "no_verified_success"
     plan.pick              # index into plan.grasps of the recommended grasp (None unless status is "ok")
-    plan.to_json()         # the `itup.plan/7` document (itup_jax/schemas/plan.schema.json)
+    plan.to_json()         # the `itup.plan/8` document (itup_jax/schemas/plan.schema.json)
 
 Host-side orchestration: the scorers and the rollouts it calls jit themselves at their outer calls.
 """
@@ -36,7 +36,8 @@ SAMPLING_MODES = ("reachable", "all")
 #: Grasps rolled out in MuJoCo by default (`plan_grasp(verify=)`): the pick is the lowest measured total of
 #: the scorer's DEFAULT_VERIFY best reachable grasps (each also at the weak grip). Chosen on validation
 #: tools: the verified pick carries less full induced torque than the best-scored one on every task
-#: (docs/results.md, "The planner verifies its pick").
+#: (docs/results.md, "The planner verifies its pick"). 20 carries less still on both sealed rounds' tools
+#: but costs ~0.6-1.0 s more per plan on a 2-core CPU, over the plan's 3 s goal ("How many grasps to check").
 DEFAULT_VERIFY = 5
 #: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and verification was turned off.
 GUARD_VERIFY_K = 5
@@ -210,7 +211,9 @@ class GraspPlan:
             f"{f', {draws} draws per grasp' if draws > 1 else ''}) for the {len(v.shortlist)} best reachable grasps "
             + ("by the scorer" if self.shortlist_rule == "scorer" else "by SDG-Net and by the analytic wrench cost")
             + f": the pick is the lowest measured total{' (mean over the draws)' if draws > 1 else ''} (*)"
-            + (f"; each also at {v.weak_grip:g} N per pad, a failure there adding w_weak" if v.weak_grip else ""))
+            + (f"; each also at {v.weak_grip:g} N per pad, a failure there adding w_weak" if v.weak_grip else "")
+            + ("; - : not rolled out there, its total without it already above the pick's"
+               if v.weak_checked is not None and not v.weak_checked.all() else ""))
         weak = v.weak_grip is not None
         out(f"{'rank':>4} {'idx':>5} {'rollout':>8} {'tau_ind N·m':>11} {'tau_perp N·m':>12} {'slip mm':>8} {'rot deg':>7} "
             f"{'failed':>6} {'success':>7} " + (f"{'fail@' + format(v.weak_grip, 'g'):>7} " if weak else "")
@@ -224,7 +227,7 @@ class GraspPlan:
                 f"{row['peak_torque_induced']:>11.3f} {row['peak_torque_projected']:>12.3f} "
                 f"{1e3 * row['slip_translation']:>8.2f} {np.degrees(row['slip_rotation']):>7.2f} "
                 f"{str(row['failed']):>6} {str(row['success']):>7} "
-                + (f"{str(row['weak_failed']):>7} " if weak else "") + mean)
+                + (f"{'-' if row['weak_failed'] is None else str(row['weak_failed']):>7} " if weak else "") + mean)
         ahead = (int(np.sum(total[v.unreachable] <= total[v.shortlist].max())) if len(v.shortlist)
                  else len(v.unreachable))
         if ahead:
@@ -237,10 +240,10 @@ class GraspPlan:
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
-        """The `itup.plan/7` document."""
+        """The `itup.plan/8` document."""
         s = self.scores
         out = {
-            "schema": "itup.plan/7",
+            "schema": "itup.plan/8",
             "task": self.task.kind,
             "tool": {"name": self.tool.name, "category": self.tool.category, "mass_kg": round(self.tool.mass, 6)},
             "regime": self.regime,
@@ -526,8 +529,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
             j = r * verify_draws + d
             row = {f: (bool(x) if x.dtype == bool else float(x)) for f, x in ((f, getattr(L, f)[j]) for f in VERIFY_FIELDS)}
             row["index"], row["draw"] = int(i), d
-            if weak_failed is not None:
-                row["weak_failed"] = bool(weak_failed[j])
+            if weak_failed is not None:  # None: not rolled out at the weak grip (it could not win)
+                row["weak_failed"] = bool(weak_failed[j]) if v.weak_checked[j] else None
             row["measured_total"] = float(per_rollout[j]) if np.isfinite(per_rollout[j]) else None
             rows.append(row)
     # a verified pick must have done the task and held in every one of its rollouts

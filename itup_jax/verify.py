@@ -29,6 +29,8 @@ rollout is repeated on the same physics draw at that fixed grip and a failure th
 pads, or a rollout that diverges) adds w_weak, as the network's weak-grip head adds its predicted
 probability: without it a verified shortlist picks by the default grip alone, and the grasp that carries
 the least there is often one that slips out at 25 N (docs/results.md, "Verification at the weak grip").
+Under nominal physics a grasp is rolled out at the weak grip only while it can still win
+(`weak_where_it_can_win`): the same pick, usually with one call of weak-grip rollouts instead of k.
 Grasps the arm cannot reach along the task (closed-form IK) are skipped before any
 rollout; a grasp with a rollout that diverges cannot win and is replaced by the next reachable grasp; if
 no grasp has valid rollouts, the scorer's own pick stands (`chosen_by` = "score").
@@ -67,12 +69,17 @@ class Verified:
     some rollouts diverged).  draws: r, rollouts per shortlisted candidate.  labels: their measured
     `Labels`, each [M * r], candidate-major (candidate j's draws at j r ... j r + r - 1;
     `candidate_labels` reshapes one to [M, r]).  measured_total: [M] the candidate's measured total, the
-    mean over its draws (inf where one of its rollouts is not valid).  chosen_by: "measured", or "score"
+    mean over its draws (inf where one of its rollouts is not valid; for a candidate not rolled out at
+    the weak grip, see weak_checked, its total at the default grip: a lower bound above the pick's).  chosen_by: "measured", or "score"
     when no candidate had valid rollouts (then the best-scored grasp stands, reachable or not).  backend:
     the rollouts' backend.  unreachable: the candidates skipped because the arm cannot follow their
     trajectory, best score first (those scored ahead of the last one rolled out; every candidate when
     none is reachable).  weak_grip: N per pad of the weak-grip rollouts, or None when there were none.
-    weak_labels: their `Labels`, each [M * r], row for row with `labels` (the same physics draw), or None.
+    weak_labels: their `Labels`, each [M * r], row for row with `labels` (the same physics draw), or None;
+    `Labels.unmeasured` rows where a candidate was not rolled out at the weak grip.  weak_checked: [M * r]
+    bool, the rows rolled out at the weak grip, or None without weak-grip rollouts. Under nominal physics
+    only the candidates that could still win are (`weak_where_it_can_win`: the same pick as rolling out
+    all of them); under randomised physics every one is.
     """
 
     index: int
@@ -87,6 +94,7 @@ class Verified:
     draws: int = 1
     weak_grip: float | None = None
     weak_labels: Labels | None = None
+    weak_checked: np.ndarray | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -112,8 +120,11 @@ class Verified:
     @property
     def weak_failed(self) -> np.ndarray | None:
         """[M * r] bool per rollout, row for row with `labels`: the weak-grip rollout failed in the grip or
-        was not valid; None without weak-grip rollouts."""
-        return None if self.weak_labels is None else weak_failures(self.weak_labels)
+        was not valid (False where there was none: `weak_checked`); None without weak-grip rollouts."""
+        if self.weak_labels is None:
+            return None
+        failed = weak_failures(self.weak_labels)
+        return failed if self.weak_checked is None else failed & self.weak_checked
 
 
 def objective_of(scores: Any) -> str:
@@ -185,7 +196,8 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
       weak_grip: N per pad, or None (default): each rollout repeated on its physics draw at this fixed
         grip (`stress.simulate_at_grip`, as `dataset.weak_rollouts` labels the network's weak-grip head; the
         same backend), and `weights.w_weak` added to the measured total where it fails
-        in the grip or diverges. Doubles the rollouts.
+        in the grip or diverges. Under randomised physics every rollout is repeated (twice the rollouts);
+        under nominal physics only those of the grasps that can still win (`weak_where_it_can_win`).
     """
     validate_grasps(grasps)
     if not is_integer(k) or k < 1:
@@ -236,7 +248,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         res = simulate(tool, task, host[np.repeat(np.asarray(batch), draws)], seed=seed + r, randomize=randomize,
                        scene=scene, backend=backend, nthread=nthread)
         parts.append(res.labels)
-        if weak_grip is not None:  # the same grasps on the same physics draws, the grip fixed at weak_grip
+        if weak_grip is not None and randomize is not None:  # the same rows on the same draws, at weak_grip
             weak_parts.append(simulate_at_grip(tool, task, host[np.repeat(np.asarray(batch), draws)], weak_grip,
                                                seed=seed + r, randomize=randomize, scene=scene, backend=backend,
                                                nthread=nthread))
@@ -244,10 +256,18 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
         ok_all = np.asarray(res.labels.valid, bool).reshape(len(batch), draws).all(axis=1)
         n_valid, r, backend_used = n_valid + int(ok_all.sum()), r + 1, res.backend
     labels = Labels.concatenate(parts)
-    weak = None if weak_grip is None else Labels.concatenate(weak_parts)
-    # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
-    m = measured_total(labels, weights, objective_of(scores),
-                       None if weak is None else weak_failures(weak)).reshape(len(tried), draws).mean(axis=1)
+    objective = objective_of(scores)
+    weak = weak_checked = None
+    if weak_grip is None:
+        # the mean over a candidate's draws; inf (it cannot win) when one of them is not valid
+        m = measured_total(labels, weights, objective).reshape(len(tried), draws).mean(axis=1)
+    elif randomize is None:  # nominal physics: a grasp's rollout is the same whichever rows it shares a call with
+        m, weak, weak_checked = weak_where_it_can_win(tool, task, host, tried, labels, weights, objective, weak_grip,
+                                                      scene=scene, backend=backend, nthread=nthread)
+    else:
+        weak = Labels.concatenate(weak_parts)
+        weak_checked = np.ones(len(weak.valid), bool)
+        m = measured_total(labels, weights, objective, weak_failures(weak)).reshape(len(tried), draws).mean(axis=1)
     if np.isfinite(m).any():
         i, chosen_by = tried[int(np.argmin(m))], "measured"
     else:
@@ -255,5 +275,48 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
     return Verified(index=int(i), grasp=grasps[int(i)], scores=scores, shortlist=np.asarray(tried, np.int64),
                     labels=labels, measured_total=m, chosen_by=chosen_by, backend=backend_used,
                     unreachable=np.asarray(sorted(unreachable, key=lambda j: total[j]), np.int64), draws=int(draws),
-                    weak_grip=weak_grip, weak_labels=weak)
+                    weak_grip=weak_grip, weak_labels=weak, weak_checked=weak_checked)
+
+
+def weak_where_it_can_win(tool: Tool, task: Task, grasps: Grasps, tried: list[int], labels: Labels,
+                          weights: ScoreWeights, objective: str, weak_grip: float, *, scene: Scene,
+                          backend: str | None, nthread: int | None) -> tuple[np.ndarray, Labels, np.ndarray]:
+    """The weak-grip rollouts of a nominal-physics check, only where they can change the pick:
+    (measured total [M], weak-grip labels [M] row for row with `labels`, rolled out [M] bool).
+
+    A failure at the weak grip only adds w_weak >= 0 to a grasp's total, so its total at the default grip
+    is a lower bound of its full one. The grasps are taken in the order of those bounds and rolled out at
+    `weak_grip` (a few at a time: as many as the rollout threads) while the next bound is no higher than
+    the lowest full total so far; a grasp left out has a bound above that total and cannot be the
+    lowest. The pick (the lowest full total, the first of a tie in `tried`'s order) is the one that
+    rolling every grasp out at `weak_grip` gives: under nominal physics a grasp's rollout does not
+    depend on the other rows of its call. A grasp left out keeps its bound as its measured total and
+    `Labels.unmeasured` rows as its weak-grip labels. Usually the best at the default grip holds at
+    25 N and one call of weak-grip rollouts replaces k. Host side.
+
+    grasps: host arrays of the candidates; tried: [M] the indices rolled out, labels: their nominal
+    `Labels` [M] (one draw each).
+    """
+    import os
+
+    bound = measured_total(labels, weights, objective)
+    total = bound.copy()
+    checked = np.zeros(len(tried), bool)
+    weak = Labels.unmeasured(len(tried)).as_dict()
+    by_bound = [int(j) for j in np.argsort(bound, kind="stable") if np.isfinite(bound[j])]
+    width = max(1, int(nthread or os.cpu_count() or 1))
+    best = np.inf
+    while by_bound and bound[by_bound[0]] <= best:
+        take = [j for j in by_bound[:width] if bound[j] <= best]
+        by_bound = by_bound[len(take):]
+        rows = np.asarray(take)
+        w = simulate_at_grip(tool, task, grasps[np.asarray(tried)[rows]], weak_grip, seed=0, randomize=None,
+                             scene=scene, backend=backend, nthread=nthread)
+        nominal = Labels(**{f: np.asarray(getattr(labels, f))[rows] for f in LABEL_FIELDS})
+        total[rows] = measured_total(nominal, weights, objective, weak_failures(w))
+        checked[rows] = True
+        for f in LABEL_FIELDS:
+            weak[f][rows] = np.asarray(getattr(w, f))
+        best = min(best, float(total[rows].min()))
+    return total, Labels(**weak), checked
 

@@ -23,7 +23,7 @@ def test_plan_writes_the_best_grasp_as_json(tmp_path, capsys):
     assert main(["plan", "--task", "reach", "--n", "40", "--top", "3", "--scorer", "random", "--sampling", "all",
                  "--no-verify", "--json", str(out)]) == 0
     res = json.loads(out.read_text())
-    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/7" and res["status"] == "ok"
+    assert set(res) == PLAN_KEYS and res["schema"] == "itup.plan/8" and res["status"] == "ok"
     assert res["sampling"]["mode"] == "all" and res["sampling"]["drawn"] == res["n_candidates"] == 40
     assert set(res["best"]) == GRASP_KEYS | {"rank"} and len(res["top"]) == 3
     totals = [r["costs"]["total"] for r in res["top"]]

@@ -203,6 +203,41 @@ def test_verified_pick_at_the_weak_grip_repeats_each_rollout_as_the_dataset_labe
         plain.candidate_labels("failed", weak=True)
 
 
+@pytest.mark.parametrize("grip", [25.0, 1.0])
+def test_nominal_check_rolls_out_at_the_weak_grip_only_what_can_win_and_picks_as_if_all_were(hammer_case, grip):
+    """Under nominal physics a grasp is rolled out at the weak grip only while its total without that
+    rollout (a lower bound) is no higher than the lowest full total so far: the pick, and every row that
+    was rolled out, are those of rolling out all of them; a grasp left out has a bound above the pick's
+    total. At 1 N per pad every grasp slips, so each bound is raised by w_weak and more are rolled out."""
+    from itup_jax.stress import simulate_at_grip
+    from itup_jax.verify import LABEL_FIELDS, objective_of, weak_failures
+
+    tool, task, scene, g, reach = hammer_case
+    good = np.nonzero(reach)[0][:4]
+    total = np.full(len(g), 10.0)
+    total[good] = [1.0, 2.0, 3.0, 4.0]
+    w = ScoreWeights()
+    v = best_grasp_verified(tool, task, g, k=4, weights=w, scores=_scores(total), scene=scene, weak_grip=grip,
+                            nthread=1)
+    host = itup.Grasps(*(np.asarray(a) for a in (g.p_tool_grasp, g.q_tool_grasp, g.width)))
+    every = simulate_at_grip(tool, task, host[v.shortlist], grip, seed=0, randomize=None, scene=scene)
+    full = measured_total(v.labels, w, objective_of(v.scores), weak_failures(every))
+    assert v.chosen_by == "measured" and v.index == v.shortlist[int(np.argmin(full))]
+    c = v.weak_checked
+    assert c.dtype == bool and c.shape == (len(v.shortlist),) and c[list(v.shortlist).index(v.index)]
+    for f in LABEL_FIELDS:
+        np.testing.assert_array_equal(np.asarray(getattr(v.weak_labels, f))[c], np.asarray(getattr(every, f))[c])
+    np.testing.assert_array_equal(v.measured_total[c], full[c])
+    bound = measured_total(v.labels, w, objective_of(v.scores))
+    np.testing.assert_array_equal(v.measured_total[~c], bound[~c])
+    assert (bound[~c] > full.min()).all() and not v.weak_failed[~c].any()
+    if grip == 1.0:  # everything slips at 1 N: a grasp is rolled out while bound <= min(bound) + w_weak
+        assert weak_failures(every).all()
+        np.testing.assert_array_equal(c, np.isfinite(bound) & (bound <= np.min(bound) + w.w_weak))
+    else:
+        assert (~c).any(), "the fixture should leave some grasp out at 25 N"
+
+
 @pytest.mark.parametrize("grip", [0.0, -5.0, 300.0])
 def test_verified_pick_refuses_a_weak_grip_out_of_range(hammer_case, grip):
     tool, task, scene, g, _ = hammer_case

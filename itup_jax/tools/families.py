@@ -6,13 +6,13 @@
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
     families.validation()                    # the six of the sealed evaluation's rounds that have run
-    families.sealed()                        # the next round's, never rolled out (none until added)
+    families.sealed()                        # round 3's three, never rolled out before it
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Twenty-three families (their builders in `tools.family_shapes`). The first four are the built-in tools'
+Twenty-six families (their builders in `tools.family_shapes`). The first four are the built-in tools'
 (`builtin.claw_hammer`, `hand_broom`, `mallet`, `l_stick`), drawn part-wise by `variants.part_variant`.
 The next five are held out of every training set (`held_out()`: the evaluations' families the network
 never saw), each assembled from primitive parts with their own materials (`builtin.assemble_tool`: mass
@@ -78,8 +78,20 @@ Round 2 (0.27.0):
   club         a round bar with a thick block head across its end, heavy where the hoe's blade is thin;
                pulls with the head's underside (L-stick's category; reach).
 
+The last three are the sealed-test families of round 3 (`sealed()`), added for it and never rolled out
+before it (only the geometry and placement tests build them):
+
+  offset_hammer  a handle, a neck out of its top and a round head whose axis lies beside the handle's
+               line, so the blow twists the handle about its axis; strikes with the head's end face
+               (hammer's category; hammer, knock).
+  leaning_broom  a box head and a handle leaning back from the push by 0.1-0.5 rad, as a floor broom's;
+               pushes with the head (broom's category; sweep).
+  fork_hook    a round bar ending in a crossbar and two parallel prongs; pulls with both prongs' inner
+               faces (L-stick's category; reach).
+
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
-from its butt at the origin, the contact normal along the category's direction. The ranges are typical
+from its butt at the origin (the leaning broom's leans from +z), the contact normal along the category's
+direction. The ranges are typical
 hand-tool dimensions (assumed); every draw inside them builds a closed mesh with positive inertia, and
 its contact lands on the task's target (tests/test_families.py).
 """
@@ -100,11 +112,14 @@ from itup_jax.tools.family_shapes import (
     HEAD_MATERIALS,
     baton,
     club,
+    fork_hook,
     hatchet,
     headed_stick,
     hoe,
     hook,
+    leaning_broom,
     mace,
+    offset_hammer,
     offset_pusher,
     paddle,
     pick,
@@ -348,6 +363,28 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         MappingProxyType({"bar_material": ("aluminium", "hickory", "steel"), "head_material": ("steel", "aluminium", "beech")}),
         summary="validation (sealed test, round 2): bar with a thick block head across its end; pulls with the head's underside",
         role="validation", category="l_stick"),
+    "offset_hammer": Family(
+        "offset_hammer", offset_hammer, ("hammer", "knock"),
+        _ranges(handle_length=(0.220, 0.380), handle_radius=(0.011, 0.017), offset=(0.020, 0.070),
+                head_radius=(0.010, 0.020), head_front=(0.030, 0.070), head_back=(0.020, 0.060)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": ("steel", "aluminium")}),
+        summary="sealed test (round 3): handle and round head beside its line on a neck; strikes with the head's end face",
+        role="sealed", category="hammer"),
+    "leaning_broom": Family(
+        "leaning_broom", leaning_broom, ("sweep",),
+        _ranges(half_width=(0.080, 0.200), head_height=(0.025, 0.060), head_depth=(0.020, 0.050),
+                handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), lean=(0.10, 0.50),
+                grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
+        summary="sealed test (round 3): box head and a handle leaning back from the push; pushes with the head",
+        role="sealed", category="broom"),
+    "fork_hook": Family(
+        "fork_hook", fork_hook, ("reach",),
+        _ranges(length=(0.300, 0.550), radius=(0.004, 0.008), spread=(0.015, 0.045), hook_end=(0.050, 0.110),
+                grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
+        summary="sealed test (round 3): bar ending in a crossbar and two parallel prongs; pulls with both prongs",
+        role="sealed", category="l_stick"),
 })
 
 

@@ -499,3 +499,85 @@ def club(*, length: float = 0.450, radius: float = 0.008, head_front: float = 0.
         thickness=head_thickness, contact_x=max(head_front - 0.015, 0.5 * (radius + head_front)),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=head_material,
         plate_name="head")
+
+
+# ---------------------------------------------------------------------------------------------------
+# Sealed-test families of sealed evaluation round 3: never rolled out before it
+# ---------------------------------------------------------------------------------------------------
+def offset_hammer(*, handle_length: float = 0.300, handle_radius: float = 0.014, offset: float = 0.040,
+                  head_radius: float = 0.015, head_front: float = 0.050, head_back: float = 0.040,
+                  handle_material: str = "hickory", head_material: str = "steel", name: str = "offset_hammer") -> Tool:
+    """A hammer whose head sits beside the handle's line: a handle along +z, a neck block from its top
+    out along +y, and a round head along x (head_radius) whose axis lies `offset` from the handle's axis
+    along y, so the blow on its face twists the handle about its own axis. It strikes with the head's +x
+    end face (hammer's category: hammer, knock). The grasp region is the handle's lower three quarters.
+    Default: 0.33 m, ~0.9 kg."""
+    z0, zc = handle_length, handle_length + head_radius
+    w = 0.7 * head_radius
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[
+            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
+            ("neck", head_material, box_part((-w, -handle_radius, z0), (w, offset, z0 + 2 * head_radius))),
+            ("head", head_material, cylinder_part(head_radius, (-head_back, offset, zc), (head_front, offset, zc))),
+        ],
+        contact_points=[(head_front, offset, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * z0)),
+    )
+
+
+def leaning_broom(*, half_width: float = 0.120, head_height: float = 0.040, head_depth: float = 0.035,
+                  handle_radius: float = 0.011, handle_length: float = 0.400, lean: float = 0.30,
+                  grasp_fraction: float = 0.5, head_material: str = "beech", handle_material: str = "hickory",
+                  name: str = "leaning_broom") -> Tool:
+    """A broom whose handle leans back: a box head (2 half_width wide along x, head_depth along y,
+    head_height tall, its bottom at z = 0) and a handle from the top of its centre tilted by `lean` (rad)
+    from +z towards -y, away from the push, as a floor broom's handle is, so the handle's top and the
+    grasp lie behind the head. It pushes along +y with the head's leading face 5 mm above its bottom edge,
+    at the head's centre and +-0.75 half_width from it (broom's category: sweep). The grasp region is the
+    handle's top grasp_fraction (a box about that part of the leaning handle). Default: 0.42 m tall,
+    0.24 m wide, ~0.4 kg."""
+    u = np.array([0.0, -math.sin(lean), math.cos(lean)])
+    base = np.array([0.0, 0.0, head_height])
+    top = base + handle_length * u
+    start = base + (1.0 - grasp_fraction) * handle_length * u
+    g = handle_radius + 0.009
+    cx = 0.75 * half_width
+    y1 = head_depth / 2
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[
+            ("head", head_material, box_part((-half_width, -y1, 0.0), (half_width, y1, head_height))),
+            ("handle", handle_material, cylinder_part(handle_radius, base, top)),
+        ],
+        contact_points=[(0.0, y1, 0.005), (-cx, y1, 0.005), (cx, y1, 0.005)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, top[1] - g, start[2] - g), (g, start[1] + g, top[2] + g)),
+    )
+
+
+def fork_hook(*, length: float = 0.450, radius: float = 0.006, spread: float = 0.030, hook_end: float = 0.080,
+              grasp_fraction: float = 0.5, material: str = "aluminium", name: str = "fork_hook") -> Tool:
+    """A hook with two prongs: a round bar along +z, a crossbar across its far end along y (2 spread
+    long) and two prongs from the crossbar's ends along +x, parallel, `spread` either side of the bar's
+    plane, of one material. It pulls with both prongs' inner faces (-z), 30 mm from their tips (halfway
+    along shorter prongs) (L-stick's category: reach). The grasp region runs from the butt over
+    grasp_fraction of the length. Default: 0.45 m, ~0.2 kg."""
+    r = radius
+    z1 = length - r
+    g = r + 0.006
+    xc = max(hook_end - 0.030, 0.5 * (r + hook_end))
+    return assemble_tool(
+        name=name, category="l_stick",
+        parts=[
+            ("bar", material, cylinder_part(r, (0, 0, 0), (0, 0, z1))),
+            ("crossbar", material, cylinder_part(r, (0, -spread, z1), (0, spread, z1))),
+            ("prong_a", material, cylinder_part(r, (0, -spread, z1), (hook_end, -spread, z1))),
+            ("prong_b", material, cylinder_part(r, (0, spread, z1), (hook_end, spread, z1))),
+        ],
+        contact_points=[(xc, -spread, z1 - r), (xc, spread, z1 - r)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 2 * r))),
+    )
