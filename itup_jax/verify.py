@@ -42,6 +42,7 @@ native MuJoCo or MJX (`simulate`).
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Any
 
 import numpy as np
@@ -290,15 +291,14 @@ def weak_where_it_can_win(tool: Tool, task: Task, grasps: Grasps, tried: list[in
     the lowest full total so far; a grasp left out has a bound above that total and cannot be the
     lowest. The pick (the lowest full total, the first of a tie in `tried`'s order) is the one that
     rolling every grasp out at `weak_grip` gives: under nominal physics a grasp's rollout does not
-    depend on the other rows of its call. A grasp left out keeps its bound as its measured total and
+    depend on the other rows of its call (native MuJoCo: bit for bit; MJX's batched kernels can differ
+    in the last float bits with the batch's size). A grasp left out keeps its bound as its measured total and
     `Labels.unmeasured` rows as its weak-grip labels. Usually the best at the default grip holds at
     25 N and one call of weak-grip rollouts replaces k. Host side.
 
     grasps: host arrays of the candidates; tried: [M] the indices rolled out, labels: their nominal
     `Labels` [M] (one draw each).
     """
-    import os
-
     bound = measured_total(labels, weights, objective)
     total = bound.copy()
     checked = np.zeros(len(tried), bool)

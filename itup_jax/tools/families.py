@@ -5,8 +5,8 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.validation()                    # the six of the sealed evaluation's rounds that have run
-    families.sealed()                        # round 3's three, never rolled out before it
+    families.validation()                    # the nine of the sealed evaluation's rounds that have run
+    families.sealed()                        # the next round's, never rolled out (none until added)
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
@@ -56,8 +56,8 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last six were the sealed-test families of the sealed evaluation's rounds 1 and 2
-(`experiments/sealed_eval.py`); both have run, so they are validation families (`validation()`), looked
+The last nine were the sealed-test families of the sealed evaluation's rounds 1 to 3
+(`experiments/sealed_eval.py`); all three have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
 
@@ -78,8 +78,7 @@ Round 2 (0.27.0):
   club         a round bar with a thick block head across its end, heavy where the hoe's blade is thin;
                pulls with the head's underside (L-stick's category; reach).
 
-The last three are the sealed-test families of round 3 (`sealed()`), added for it and never rolled out
-before it (only the geometry and placement tests build them):
+Round 3 (0.28.0):
 
   offset_hammer  a handle, a neck out of its top and a round head whose axis lies beside the handle's
                line, so the blow twists the handle about its axis; strikes with the head's end face
@@ -368,23 +367,23 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(handle_length=(0.220, 0.380), handle_radius=(0.011, 0.017), offset=(0.020, 0.070),
                 head_radius=(0.010, 0.020), head_front=(0.030, 0.070), head_back=(0.020, 0.060)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "head_material": ("steel", "aluminium")}),
-        summary="sealed test (round 3): handle and round head beside its line on a neck; strikes with the head's end face",
-        role="sealed", category="hammer"),
+        summary="validation (sealed test, round 3): handle and round head beside its line on a neck; strikes with the head's end face",
+        role="validation", category="hammer"),
     "leaning_broom": Family(
         "leaning_broom", leaning_broom, ("sweep",),
         _ranges(half_width=(0.080, 0.200), head_height=(0.025, 0.060), head_depth=(0.020, 0.050),
                 handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), lean=(0.10, 0.50),
                 grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
-        summary="sealed test (round 3): box head and a handle leaning back from the push; pushes with the head",
-        role="sealed", category="broom"),
+        summary="validation (sealed test, round 3): box head and a handle leaning back from the push; pushes with the head",
+        role="validation", category="broom"),
     "fork_hook": Family(
         "fork_hook", fork_hook, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.004, 0.008), spread=(0.015, 0.045), hook_end=(0.050, 0.110),
                 grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
-        summary="sealed test (round 3): bar ending in a crossbar and two parallel prongs; pulls with both prongs",
-        role="sealed", category="l_stick"),
+        summary="validation (sealed test, round 3): bar ending in a crossbar and two parallel prongs; pulls with both prongs",
+        role="validation", category="l_stick"),
 })
 
 
