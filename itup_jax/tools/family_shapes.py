@@ -454,18 +454,26 @@ def pick(*, handle_length: float = 0.300, handle_radius: float = 0.014, hub: flo
     region is the handle's lower three quarters. Default: 0.33 m, ~0.7 kg."""
     z0, h = handle_length, hub / 2
     zc, t, w = z0 + h, arm_thickness / 2, arm_width / 2
+    return _striking_head_on_handle(
+        name=name, handle_length=z0, handle_radius=handle_radius, handle_material=handle_material,
+        head=[("hub", head_material, box_part((-h, -h, z0), (h, h, z0 + hub))),
+              ("front_arm", head_material, box_part((h, -w, zc - t), (h + front, w, zc + t))),
+              ("back_arm", head_material, box_part((-h - back, -w, zc - t), (-h, w, zc + t)))],
+        contact=(h + front, 0.0, zc))
+
+
+def _striking_head_on_handle(*, name: str, handle_length: float, handle_radius: float, handle_material: str,
+                             head: list, contact: tuple) -> Tool:
+    """A hammer-category tool: a round handle along +z from the origin to handle_length, the `head`
+    parts (name, material, part) on its top, striking along +x at `contact`; the grasp region is the
+    handle's lower three quarters."""
     g = handle_radius + 0.006
     return assemble_tool(
         name=name, category="hammer",
-        parts=[
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("hub", head_material, box_part((-h, -h, z0), (h, h, z0 + hub))),
-            ("front_arm", head_material, box_part((h, -w, zc - t), (h + front, w, zc + t))),
-            ("back_arm", head_material, box_part((-h - back, -w, zc - t), (-h, w, zc + t))),
-        ],
-        contact_points=[(h + front, 0.0, zc)],
+        parts=[("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, handle_length))), *head],
+        contact_points=[contact],
         contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * z0)),
+        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * handle_length)),
     )
 
 
@@ -514,18 +522,11 @@ def offset_hammer(*, handle_length: float = 0.300, handle_radius: float = 0.014,
     Default: 0.33 m, ~0.9 kg."""
     z0, zc = handle_length, handle_length + head_radius
     w = 0.7 * head_radius
-    g = handle_radius + 0.006
-    return assemble_tool(
-        name=name, category="hammer",
-        parts=[
-            ("handle", handle_material, cylinder_part(handle_radius, (0, 0, 0), (0, 0, z0))),
-            ("neck", head_material, box_part((-w, -handle_radius, z0), (w, offset, z0 + 2 * head_radius))),
-            ("head", head_material, cylinder_part(head_radius, (-head_back, offset, zc), (head_front, offset, zc))),
-        ],
-        contact_points=[(head_front, offset, zc)],
-        contact_normal=(1.0, 0.0, 0.0),
-        grasp_region=((-g, -g, 0.0), (g, g, 0.75 * z0)),
-    )
+    return _striking_head_on_handle(
+        name=name, handle_length=z0, handle_radius=handle_radius, handle_material=handle_material,
+        head=[("neck", head_material, box_part((-w, -handle_radius, z0), (w, offset, z0 + 2 * head_radius))),
+              ("head", head_material, cylinder_part(head_radius, (-head_back, offset, zc), (head_front, offset, zc)))],
+        contact=(head_front, offset, zc))
 
 
 def leaning_broom(*, half_width: float = 0.120, head_height: float = 0.040, head_depth: float = 0.035,
