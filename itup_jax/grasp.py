@@ -68,6 +68,11 @@ class Grasps:
     def __getitem__(self, idx: Any) -> "Grasps":
         return jax.tree_util.tree_map(lambda a: a[idx], self)
 
+    def to_host(self, dtype: Any = None) -> "Grasps":
+        """The same grasps as NumPy arrays (of `dtype`, default their own): indexing them with varying
+        index arrays compiles nothing, as indexing device arrays does (one gather per shape)."""
+        return jax.tree_util.tree_map(lambda a: np.asarray(a, dtype), self)
+
     @property
     def rotation(self) -> jax.Array:
         """[..., 3, 3] R_tool_grasp."""

@@ -226,9 +226,7 @@ def best_grasp_verified(tool: Tool, task: Task, grasps: Grasps, model: Any = Non
             raise InputError(f"best_grasp_verified: order must list distinct candidate indices in [0, {len(grasps)}), "
                              f"got {np.asarray(order).tolist()[:8]}{'...' if np.size(order) > 8 else ''}")
     scene = scene or build_scene(tool, task)
-    # the rows rolled out are taken on the host: indexing device arrays with each batch's indices would
-    # compile a gather per batch size (~0.04 s each)
-    host = Grasps(*(np.asarray(a) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
+    host = grasps.to_host()  # the rows rolled out are taken on the host: no gather compiled per batch size
     # reachability is checked this many candidates at a time (IK ~0.2 ms each, warm)
     walk = reachability_in_order(task, host, order, chunk=max(4 * int(k), 16))
     queue: list[int] = []  # reachable, not yet rolled out, in score order

@@ -219,7 +219,7 @@ def test_nominal_check_rolls_out_at_the_weak_grip_only_what_can_win_and_picks_as
     w = ScoreWeights()
     v = best_grasp_verified(tool, task, g, k=4, weights=w, scores=_scores(total), scene=scene, weak_grip=grip,
                             nthread=1)
-    host = itup.Grasps(*(np.asarray(a) for a in (g.p_tool_grasp, g.q_tool_grasp, g.width)))
+    host = g.to_host()
     every = simulate_at_grip(tool, task, host[v.shortlist], grip, seed=0, randomize=None, scene=scene)
     full = measured_total(v.labels, w, objective_of(v.scores), weak_failures(every))
     assert v.chosen_by == "measured" and v.index == v.shortlist[int(np.argmin(full))]

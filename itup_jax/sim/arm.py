@@ -118,7 +118,7 @@ def reachable(task: Task, grasps: Grasps) -> np.ndarray:
     the complement of `plan(...).infeasible`, without building controls). The grasps the arm cannot
     carry through the first two samples are ruled out first (`infeasible_at_start`), the others checked
     over the whole trajectory in chunks of REACHABLE_CHUNK."""
-    g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
+    g = grasps.to_host(float)
     ok = np.zeros(len(g), bool)
     idx = np.nonzero(~infeasible_at_start(task, g))[0]
     for s in range(0, len(idx), REACHABLE_CHUNK):
@@ -143,7 +143,7 @@ def unreachable_reasons(task: Task, grasps: Grasps) -> tuple[np.ndarray, np.ndar
     below_table: every sample has a branch, but the tracked posture dips below `robot.ARM_CLEARANCE`;
     joint_limits: the tracked posture leaves `robot.JOINT_LIMITS`. The same test as `arm_trajectory`,
     taken apart (its infeasible flag is code >= 0), in chunks of REACHABLE_CHUNK."""
-    g = Grasps(*(np.asarray(a, float) for a in (grasps.p_tool_grasp, grasps.q_tool_grasp, grasps.width)))
+    g = grasps.to_host(float)
     codes, firsts = [], []
     for s in range(0, len(g), REACHABLE_CHUNK):
         T06 = flange_poses(task, g[s: s + REACHABLE_CHUNK])
