@@ -17,9 +17,9 @@ the salted bytes: never a sealed tool). Per tool:
     every method);
   * the picks: `itup plan`'s default (`planning.default_pick`: SDG-Net under the shipped weights, its
     DEFAULT_VERIFY best rolled out under nominal physics and again at 25 N per pad, the lowest measured
-    total kept; when the out-of-distribution guard fires, the shortlist mixes in the analytic wrench
-    cost's best, `planning.guard_order`), the analytic cost in the paper's and the wrench form, force
-    closure, geometric ranking;
+    total kept; when the out-of-distribution guard fires, GUARD_VERIFY_K grasps and a shortlist that
+    mixes in the analytic wrench cost's best, `planning.guard_order`), the analytic cost in the paper's
+    and the wrench form, force closure, geometric ranking;
   * every distinct pick rolled out under the same 5 randomised physics draws (the headline: the mean
     full induced peak wrist torque; the raw peak and the induced torque's grasp-frame components
     beside it), and, on tools i % 8 < 5 (10 per task), 5 more at 25 N per pad;
@@ -68,7 +68,7 @@ from itup_jax.errors import InputError
 from itup_jax.evaluate import MEASURED
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.heldout import oracle_index
-from itup_jax.planning import DEFAULT_VERIFY, default_pick
+from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K, default_pick
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet.config import DEFAULT_MODEL
 from itup_jax.sdgnet.objective import OBJECTIVES
@@ -97,6 +97,9 @@ ROUND = 4
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.
 HEADROOM_SEED = 100
+#: Grasps the planners up to itup-jax 0.28.0 verified where the guard fired (max(verify, 5); their runs
+#: record no `guard_verify`), for --reopen to replay them
+EARLIER_GUARD_VERIFY = 5
 
 
 def sealed_seed(checkpoint: bytes, task: str, i: int) -> int:
@@ -134,14 +137,16 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
     return out
 
 
-def planner_pick(tool, task, grasps, scene, verify: int = DEFAULT_VERIFY,
-                 weak_grip: float | None = WEAK_GRIP) -> tuple[int | None, dict]:
+def planner_pick(tool, task, grasps, scene, verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP,
+                 guard_verify: int = GUARD_VERIFY_K) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among `grasps` (`planning.default_pick`): SDG-Net's scores, the guard,
-    `verify` grasps rolled out under nominal physics (the guard's shortlist when it fired), each again at
+    `verify` grasps rolled out under nominal physics (max(verify, guard_verify) of the guard's shortlist
+    where it fired), each again at
     `weak_grip` N per pad, the lowest measured total kept; None when none of them did the task and held
     (`itup plan` then recommends no grasp). verify 0 and weak_grip None: the planner of 0.25.0 (verified
     only when the guard fired, at the default grip alone)."""
-    index, info = default_pick(tool, task, grasps, scene=scene, verify=verify, weak_grip=weak_grip)
+    index, info = default_pick(tool, task, grasps, scene=scene, verify=verify, weak_grip=weak_grip,
+                               guard_verify=guard_verify)
     info.pop("shortlist", None)
     return index, info
 
@@ -218,8 +223,8 @@ def rebuild_tool(row: dict):
     return families.draw(row["family"], int(row["seed"]))
 
 
-def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, verify: int = DEFAULT_VERIFY,
-               weak_grip: float | None = WEAK_GRIP) -> dict:
+def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, was_guard_verify: int,
+               verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
     """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
     tool = rebuild_tool(row)
     if tool.name != row["tool"]:
@@ -231,11 +236,11 @@ def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: fl
     if len(g) != row["candidates"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: {len(g)} candidates, the run had {row['candidates']}")
     scene = build_scene(tool, task)
-    old, _ = planner_pick(tool, task, g, scene, verify=was_verify, weak_grip=was_weak_grip)
+    old, _ = planner_pick(tool, task, g, scene, verify=was_verify, weak_grip=was_weak_grip, guard_verify=was_guard_verify)
     if old != row["picks"][PLANNER]["index"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
                            f"{row['picks'][PLANNER]['index']}, re-planned {old}")
-    new, info = planner_pick(tool, task, g, scene, verify=verify, weak_grip=weak_grip)
+    new, info = planner_pick(tool, task, g, scene, verify=verify, weak_grip=weak_grip, guard_verify=guard_verify)
     out = {**row, "planner": info, "picks": dict(row["picks"]), "replaced": None}
     if new != old:
         weak = "weak" in row["picks"][PLANNER]
@@ -294,7 +299,7 @@ def _oracle_summary(rows: list[dict]) -> dict:
 
 
 def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (), verify: int = DEFAULT_VERIFY,
-           weak_grip: float | None = WEAK_GRIP) -> dict:
+           weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
     """--reopen: the run at `path` with the planner of this code (module docstring)."""
     import json
 
@@ -308,10 +313,11 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
         # the run's planner: verify and weak grip as recorded (none recorded: 0.25.0's, verified only where
         # the guard fired, at the default grip alone); a tool it did not verify is re-planned only when
         # the planner of this code verifies every tool
-        was = (cfg.get("verify", 0), cfg.get("verify_weak_grip"))
+        was = (cfg.get("verify", 0), cfg.get("verify_weak_grip"), cfg.get("guard_verify", EARLIER_GUARD_VERIFY))
         if row["picks"] and (verify > 0 or was[0] > 0 or row.get("planner", {}).get("guard_fired")):
             t = time.perf_counter()
-            rows.append(replan_row(row, cfg["n"], cfg["draws"], *was, verify=verify, weak_grip=weak_grip))
+            rows.append(replan_row(row, cfg["n"], cfg["draws"], *was, verify=verify, weak_grip=weak_grip,
+                                   guard_verify=guard_verify))
             r = rows[-1]
             was, now = r["replaced"] or r["picks"][PLANNER], r["picks"][PLANNER]
             print(f"{r['task']:7s} {r['tool']:28s} planner {was['index']} -> {now['index']}  torque "
@@ -334,7 +340,7 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
     res = {**run, "version": itup.__version__, "commit": _commit(), "summary": summarise(rows), "per_tool": rows,
            "wall_s": time.perf_counter() - t0, "machine": machine_info(),
            "reopened": {"from": os.path.abspath(path), "commit": run["commit"], "version": run["version"],
-                        "verify": verify, "weak_grip": weak_grip, "replaced": sum(r["replaced"] is not None for r in rows),
+                        "verify": verify, "weak_grip": weak_grip, "guard_verify": guard_verify, "replaced": sum(r["replaced"] is not None for r in rows),
                         "headroom": {"repeats": headroom, "tasks": list(headroom_tasks),
                                      "summary": _oracle_summary(rows)} if headroom else None}}
     os.makedirs(out_dir, exist_ok=True)
@@ -453,18 +459,23 @@ def main(argv=None) -> dict:
                     "default %(default)s, `itup plan`'s)")
     ap.add_argument("--planner-weak-grip", type=float, default=WEAK_GRIP, metavar="N",
                     help="with --reopen: its verification repeats each rollout at N per pad (0: none; default %(default)g)")
+    ap.add_argument("--planner-guard-verify", type=int, default=GUARD_VERIFY_K, metavar="K",
+                    help="with --reopen: where the guard fires it verifies max(--planner-verify, K) grasps (default "
+                    "%(default)s, `itup plan`'s)")
     ap.add_argument("--headroom", type=int, default=0, metavar="R",
                     help="with --reopen: the oracle pick of the --tasks' tools from R rollouts of every candidate")
     a = ap.parse_args(argv)
-    if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP) and not a.reopen:
-        ap.error("--headroom, --planner-verify and --planner-weak-grip apply to --reopen")
+    if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP
+            or a.planner_guard_verify != GUARD_VERIFY_K) and not a.reopen:
+        ap.error("--headroom, --planner-verify, --planner-weak-grip and --planner-guard-verify apply to --reopen")
     if a.round < 1:
         ap.error(f"--round must be >= 1, got {a.round}")
-    if a.planner_verify < 0:
-        ap.error(f"--planner-verify must be >= 0, got {a.planner_verify}")
+    if a.planner_verify < 0 or a.planner_guard_verify < 0:
+        ap.error(f"--planner-verify and --planner-guard-verify must be >= 0, got {a.planner_verify}, "
+                 f"{a.planner_guard_verify}")
     if a.reopen:
         return reopen(a.reopen, a.out, a.headroom, tuple(t for t in a.tasks.split(",") if t), a.planner_verify,
-                      a.planner_weak_grip or None)
+                      a.planner_weak_grip or None, a.planner_guard_verify)
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)
@@ -496,7 +507,7 @@ def main(argv=None) -> dict:
 
     out = {"schema": "itup.sealed/1", "checkpoint_sha256": hashlib.sha256(checkpoint).hexdigest(),
            "version": itup.__version__, "commit": commit, "config": {"tools": a.tools, "n": a.n, "draws": a.draws, "tasks": list(tasks),
-                                                   "quick": a.quick, "round": a.round, "verify": DEFAULT_VERIFY,
+                                                   "quick": a.quick, "round": a.round, "verify": DEFAULT_VERIFY, "guard_verify": GUARD_VERIFY_K,
                                                    "verify_weak_grip": WEAK_GRIP},
            "weights": ScoreWeights().__dict__, "paper": PAPER, "summary": summarise(rows),
            "per_tool": rows, "wall_s": time.perf_counter() - t0, "machine": machine_info()}

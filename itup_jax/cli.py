@@ -116,7 +116,7 @@ def _make_task(args, tool) -> Any:
 
 
 #: `plan_grasp`'s keyword options, as `itup plan` names them in a message (longest first).
-PLAN_OPTIONS = ("guard_threshold", "verify_weak_grip", "verify_draws", "verify_physics", "torque_first", "w_tau",
+PLAN_OPTIONS = ("guard_threshold", "guard_verify", "verify_weak_grip", "verify_draws", "verify_physics", "torque_first", "w_tau",
                 "w_slip", "w_align", "w_task", "w_fail", "w_weak", "w_grip", "verify", "top", "sampling", "budget", "n")
 
 
@@ -181,7 +181,7 @@ def cmd_plan(args) -> int:
                           torque_first=args.torque_first, top=args.top, verify=0 if args.no_verify else args.verify,
                           verify_draws=args.verify_draws, verify_physics=args.verify_physics, sampling=args.sampling,
                           budget=args.budget, guard=not args.no_guard, guard_threshold=args.guard_threshold,
-                          verify_weak_grip=args.verify_weak_grip or None)
+                          verify_weak_grip=args.verify_weak_grip or None, guard_verify=args.guard_verify)
     except InputError as exc:  # the library's names for the options, written as the flags that set them
         raise_input(_as_flags(str(exc).replace("plan_grasp: ", "")))
     print(plan.report())
@@ -227,7 +227,7 @@ def cmd_run(args) -> int:
           + ", ".join(f"{i + 1} {t.name}" for i, t in enumerate(top.tools)) + f"), method {args.method}", flush=True)
     r = itup.run(args.instruction, tabletop=top, seed=args.seed, method=args.method, samples=args.samples,
                  grip_force=args.grip_force, randomize=not args.nominal, model=model, traces=True, grounder=grounder,
-                 max_attempts=args.attempts, verify=0 if args.no_verify else args.verify)
+                 max_attempts=args.attempts, verify=0 if args.no_verify else args.verify, guard_verify=args.guard_verify)
     if r.stage == "grounding":
         raise GroundingError(r.message)
     print(r.report())

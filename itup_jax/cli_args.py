@@ -125,7 +125,10 @@ def add_plan(p: argparse.ArgumentParser) -> None:
                    "(default %(default)s; 20 carried less torque on the sealed rounds' tools, ~1 s more on 2 cores)")
     p.add_argument("--no-verify", action="store_true",
                    help="no rollouts: the best-scored reachable grasp is the pick (unless the out-of-distribution "
-                   "guard fires: it then verifies 5; --no-guard stops it)")
+                   "guard fires: it then verifies --guard-verify; --no-guard stops it)")
+    p.add_argument("--guard-verify", type=int, default=default(plan_grasp, "guard_verify"), metavar="K",
+                   help="sdgnet: where the out-of-distribution guard fires, roll out max(--verify, K) grasps, the "
+                   "analytic wrench cost's best among them (default %(default)s)")
     p.add_argument("--verify-physics", choices=("nominal", "random"), default=None,
                    help="physics of the --verify rollouts: the priors' nominal values (the default for one draw) or one "
                    "draw each from --seed (the default with --verify-draws > 1)")
@@ -140,7 +143,7 @@ def add_plan(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-guard", action="store_true",
                    help="sdgnet: when the tool lies outside the network's training data (the out-of-distribution "
                    "guard, itup_jax/ood.py; it still reports), neither mix the analytic wrench cost's best into the "
-                   "verified grasps nor, with --no-verify, verify 5 anyway")
+                   "verified grasps nor verify --guard-verify of them")
     p.add_argument("--guard-threshold", type=float, default=None, metavar="X",
                    help="sdgnet: the guard's threshold (default: ood.GUARD_THRESHOLD, calibrated for the shipped "
                    "checkpoint; for a checkpoint of your own, calibrate it with experiments/ood_guard.py)")
@@ -193,7 +196,7 @@ def add_demo(p: argparse.ArgumentParser) -> None:
 
 def add_run(p: argparse.ArgumentParser) -> None:
     from itup_jax.pipeline import DEFAULT_SAMPLES, MAX_PICK_ATTEMPTS, METHODS
-    from itup_jax.planning import DEFAULT_VERIFY
+    from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K
     from itup_jax.robot import GRIP_FORCE
     from itup_jax.tabletop import DEFAULT_TOOLS, MAX_CLUTTER
 
@@ -223,6 +226,9 @@ def add_run(p: argparse.ArgumentParser) -> None:
                    "and pick the lowest measured total, as itup plan does (default %(default)s)")
     p.add_argument("--no-verify", action="store_true",
                    help="SDG-Net's methods: the best-scored grasp, no rollout (unless the out-of-distribution guard fires)")
+    p.add_argument("--guard-verify", type=int, default=GUARD_VERIFY_K, metavar="K",
+                   help="SDG-Net's methods: where the out-of-distribution guard fires, roll out max(--verify, K) grasps, "
+                   "as itup plan does (default %(default)s)")
     p.add_argument("--nominal", action="store_true", help="nominal physics for the task (default: drawn around the priors)")
     p.add_argument("--model", default=None, help="SDG-Net checkpoint (default: the shipped one)")
     p.add_argument("--grounder", choices=("rule", "vlm"), default="rule",

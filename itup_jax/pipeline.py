@@ -349,7 +349,8 @@ def _plan(top: Tabletop, g: Any, tool: Tool, task: Any, *, seed: int, samples: i
 def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0, seed: int = 0,
         method: str = "itup", grounder: Any = "rule", samples: int = DEFAULT_SAMPLES,
         grip_force: float = robot.GRIP_FORCE, randomize: bool = True, model: Any = None,
-        traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS, verify: int | None = None) -> RunResult:
+        traces: bool = False, max_attempts: int = MAX_PICK_ATTEMPTS, verify: int | None = None,
+        guard_verify: int | None = None) -> RunResult:
     """Run the whole chain once (module docstring).
 
     Args:
@@ -367,6 +368,8 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
       verify: the SDG-Net methods' check (`planning.default_pick`): the K best rolled out in MuJoCo
         (default `planning.DEFAULT_VERIFY`, 5, as `itup plan`); 0: the best-scored grasp (unless the guard
         fires). The baselines pick their best-scored grasp.
+      guard_verify: where the out-of-distribution guard fires, the check covers max(verify, guard_verify)
+        grasps (default `planning.GUARD_VERIFY_K`, 20, as `itup plan`).
       max_attempts: picks made at most. A pick that does not lift the tool, or lifts it into a grasp
         that cannot be carried through the task, puts it back down (`regrasp.put_back`); where no
         pickable grasp can be carried through the task, a pick turns the tool over (`regrasp.turn_over`);
@@ -390,12 +393,13 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
     if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
         raise InputError(f"run: max_attempts must be an integer >= 1, got {max_attempts!r}")
-    if verify is None:
-        from itup_jax.planning import DEFAULT_VERIFY
+    from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K
 
-        verify = DEFAULT_VERIFY
-    if isinstance(verify, bool) or not isinstance(verify, (int, np.integer)) or verify < 0:
-        raise InputError(f"run: verify must be an integer >= 0 (grasps checked in MuJoCo), got {verify!r}")
+    verify = DEFAULT_VERIFY if verify is None else verify
+    guard_verify = GUARD_VERIFY_K if guard_verify is None else guard_verify
+    for name, k in (("verify", verify), ("guard_verify", guard_verify)):
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+            raise InputError(f"run: {name} must be an integer >= 0 (grasps checked in MuJoCo), got {k!r}")
     t0 = time.perf_counter()
     top = tabletop if tabletop is not None else make_tabletop(clutter=clutter, seed=seed)
     rng = np.random.default_rng([int(seed), 4049])
@@ -471,7 +475,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
             from itup_jax.planning import default_pick
 
             best, info = default_pick(tool, task, grasps_k, model=model, seed=int(seed), verify=int(verify),
-                                      scores=scores)
+                                      scores=scores, guard_verify=int(guard_verify))
             check = {"checked": [{"index": i, "measured_total": None if m is None else round(m, 4)}
                                  for i, m in zip(info.get("shortlist", []), info.get("measured_total", []))],
                      "guard_score": round(info["guard_score"], 4), "guard_fired": info["guard_fired"]}

@@ -39,8 +39,12 @@ SAMPLING_MODES = ("reachable", "all")
 #: (docs/results.md, "The planner verifies its pick"). 20 carries less still on both sealed rounds' tools
 #: but costs ~0.6-1.0 s more per plan on a 2-core CPU, over the plan's 3 s goal ("How many grasps to check").
 DEFAULT_VERIFY = 5
-#: Grasps rolled out in MuJoCo when the out-of-distribution guard fires and verification was turned off.
-GUARD_VERIFY_K = 5
+#: Grasps rolled out in MuJoCo when the out-of-distribution guard fires (`plan_grasp(guard_verify=)`): the
+#: check then covers max(verify, GUARD_VERIFY_K) grasps, also with verify 0. Where the guard fires the
+#: network's ranking is least to be trusted and 20 rollouts reach further down it; where it is quiet (the
+#: built-in tools) the plan keeps its DEFAULT_VERIFY and its time. Chosen on validation tools by a rule
+#: written before the re-run (docs/results.md, "Checking more where the guard fires").
+GUARD_VERIFY_K = 20
 #: The share of a verified shortlist the analytic wrench cost chooses when the guard fired (`guard_order`):
 #: 2 of 5. Chosen on the held-out families' calibration tools (`experiments/guard_shortlist.py`, rule
 #: fixed before the run): picks that did the task and held in 3 random draws, 35 tools: SDG-Net's 5 best
@@ -64,7 +68,7 @@ class GraspPlan:
       sampling: how they were drawn: {"mode", "requested", "reachable", "drawn", "budget", "complete"}
         (mode "all": drawn = requested, and reachable counts only the candidates checked).
       guard: the out-of-distribution guard's reading (`ood.Guard`) for an SDG-Net scorer, else None;
-        when it fired and no verification was asked for, the plan verified GUARD_VERIFY_K grasps.
+        when it fired, the plan verified max(verify, guard_verify) grasps (`plan_grasp`).
       ranking: [N] candidate indices by increasing total.  top: the first `top` of them.
       reachable: {index: bool} for every candidate whose reachability was checked (closed-form IK).
       pick_rank: 0-based rank of the best-scored reachable candidate (0 when none is).
@@ -151,16 +155,15 @@ class GraspPlan:
                 f"the task; {describe_unreachable(sm['unreachable'], self.task)}")
         g = self.guard
         if g is not None and g.fired:
-            if self.guard_verified:
-                what = (f"{self.verify_k} grasps are rolled out in MuJoCo and the pick is the best measured (--no-guard: "
-                        "trust the learned score)")
+            if self.verified is not None:
+                what = f"{self.verify_k} grasps are rolled out in MuJoCo and the pick is the best measured"
             else:
-                what = ("the verification rollouts decide the pick" if self.verified is not None
-                        else "--no-guard: the learned score decides the pick")
+                what = "--no-guard: the learned score decides the pick"
             if self.shortlist_rule == "guard_mixed":
                 m = int(GUARD_ANALYTIC_SHARE * self.verify_k)
                 what += (f"; the grasps verified are SDG-Net's {self.verify_k - m} best and the analytic wrench cost's "
-                         f"{m} best")
+                         f"{m} best (--guard-verify K: how many where the guard fires; --no-guard: trust the learned "
+                         "score)")
             out("warning: " + g.message(tool.name, self.task.kind) + "; " + what)
         if costs is None:  # the reachable sampler found none: nothing was scored
             out(f"no pick: none of the {sm['drawn']} drawn candidates is reachable for the arm along the task "
@@ -319,17 +322,25 @@ def verified_pick(tool: Tool, task, grasps: Grasps, scores: Any, *, k: int = DEF
     return v, rule
 
 
+def checked_count(verify: int, guard_fired: bool, guard_verify: int = GUARD_VERIFY_K) -> int:
+    """How many grasps `itup plan`'s check rolls out: `verify`, or max(verify, guard_verify) where the
+    out-of-distribution guard fired (0: none, the best-scored grasp is the pick)."""
+    return max(verify, guard_verify) if guard_fired else verify
+
+
 def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any = None, k: int = DEFAULT_VERIFY,
                   seed: int = 0, scene: Any = None, weak_grip: float | None = robot.WEAK_GRIP,
-                  reading: Any = None) -> tuple[Any, Any, str]:
+                  reading: Any = None, guard_k: int = GUARD_VERIFY_K) -> tuple[Any, Any, str]:
     """`itup plan`'s default check of SDG-Net's `scores` of the candidates: the out-of-distribution guard
-    read (`ood.check` for `model`, unless its `reading` is given), then `verified_pick` of k grasps under
-    nominal physics (the guard's shortlist when it fired), each again at `weak_grip`. Returns (the
-    `verify.Verified`, the guard's reading, the shortlist rule). Host side."""
+    read (`ood.check` for `model`, unless its `reading` is given), then `verified_pick` under nominal
+    physics of k grasps, or of max(k, guard_k) and the guard's shortlist where it fired
+    (`checked_count`; never more than there are candidates, at least one), each again at `weak_grip`.
+    Returns (the `verify.Verified`, the guard's reading, the shortlist rule). Host side."""
     if reading is None:
         from itup_jax import ood
 
         reading = ood.check(tool, task, grasps, model=model)
+    k = max(1, min(checked_count(k, bool(reading.fired), guard_k), len(grasps)))
     v, rule = verified_pick(tool, task, grasps, scores, k=k, guard_fired=bool(reading.fired), seed=seed,
                             weak_grip=weak_grip, scene=scene)
     return v, reading, rule
@@ -337,11 +348,11 @@ def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any =
 
 def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: int = 0, scene: Any = None,
                  verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP,
-                 scores: Any = None) -> tuple[int | None, dict]:
+                 scores: Any = None, guard_verify: int = GUARD_VERIFY_K) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among given candidates (the arm can carry them): SDG-Net's scores under
     the default weights (`scores`, when already computed for `model` and these grasps), the
-    out-of-distribution guard read, `verified_pick` of `verify` grasps under nominal physics
-    (`guarded_check`; verify 0: the best-scored grasp unless the guard fired, then GUARD_VERIFY_K).
+    out-of-distribution guard read, `verified_pick` of `verify` grasps under nominal physics, of
+    max(verify, guard_verify) where the guard fired (`guarded_check`; none checked: the best-scored).
     Returns (the pick's index, or None when no verified grasp did the task and held, as `itup plan` then
     recommends none; {"guard_score", "guard_fired", "verified_succeeded" (when verified), "shortlist":
     [the grasps rolled out], "measured_total": [their lowest measured totals, None where no rollout was
@@ -352,10 +363,10 @@ def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: i
     s = itup.score(tool, task, grasps, model=model, seed=seed) if scores is None else scores
     reading = ood.check(tool, task, grasps, model=model)
     info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
-    if verify == 0 and not reading.fired:
+    if checked_count(verify, bool(reading.fired), guard_verify) == 0:
         return int(np.argmin(np.asarray(s.total, float))), info
-    v, _, _ = guarded_check(tool, task, grasps, s, k=min(verify or GUARD_VERIFY_K, len(grasps)), seed=seed,
-                            scene=scene, weak_grip=weak_grip, reading=reading)
+    v, _, _ = guarded_check(tool, task, grasps, s, k=verify, seed=seed, scene=scene, weak_grip=weak_grip,
+                            reading=reading, guard_k=guard_verify)
     info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist],
                 measured_total=[float(m) if np.isfinite(m) else None for m in v.measured_total])
     return (int(v.index) if v.succeeded else None), info
@@ -365,7 +376,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                weights: dict | None = None, torque_first: bool = False, top: int = DEFAULT_TOP, verify: int = DEFAULT_VERIFY,
                verify_draws: int = 1, verify_physics: str | None = None, sampling: str = "reachable",
                budget: int | None = None, guard: bool = True, guard_threshold: float | None = None,
-               verify_weak_grip: float | None = robot.WEAK_GRIP) -> GraspPlan:
+               verify_weak_grip: float | None = robot.WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> GraspPlan:
     """Sample `n` candidates, score them, and pick the best-scored one the arm can carry along the task.
 
     Args:
@@ -394,8 +405,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
       guard: an SDG-Net scorer's plan reads the out-of-distribution guard (`ood.check`) always; with guard
         True, when the tool lies outside the network's training data the verified grasps mix the analytic
         wrench cost's best into SDG-Net's (`guard_order`; the plan's `shortlist_rule` "guard_mixed"), and
-        with verify 0 it verifies GUARD_VERIFY_K grasps instead of trusting the learned score (the plan's
-        `guard_verified`).
+        the check covers max(verify, guard_verify) grasps (default GUARD_VERIFY_K, 20), with verify 0
+        too, instead of trusting the learned score (then the plan's `guard_verified`).
       guard_threshold: the guard's threshold (default `ood.GUARD_THRESHOLD`, calibrated for the shipped
         checkpoint; a checkpoint of your own: calibrate it with `experiments/ood_guard.py`).
     Returns:
@@ -407,7 +418,8 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
     from itup_jax.scoring import ANALYTIC_SCORERS, SCORERS, SDGNET_SCORERS, ScoreWeights
     from itup_jax.sdgnet.objective import OBJECTIVES
 
-    for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1)):
+    for flag, v, lowest in (("n", n, 1), ("top", top, 1), ("verify", verify, 0), ("verify_draws", verify_draws, 1),
+                            ("guard_verify", guard_verify, 0)):
         if not isinstance(v, (int, np.integer)) or v < lowest:
             raise InputError(f"plan_grasp: {flag} must be an integer >= {lowest}, got {v!r}")
     if n > MAX_CANDIDATES:
@@ -481,8 +493,9 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
 
         reading = ood.check(tool, task, grasps, model=PAPER_MODEL if scorer == "sdgnet_paper" else model,
                             threshold=guard_threshold)
-        if guard and reading.fired and verify == 0:
-            verify, guard_verified = GUARD_VERIFY_K, True
+        if guard and reading.fired:
+            guard_verified = verify == 0 and guard_verify > 0
+            verify = checked_count(verify, True, guard_verify)
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))
