@@ -203,6 +203,7 @@ def cmd_run(args) -> int:
     _check_out_dir("--out", args.out)
     _check_count("--attempts", args.attempts, 1, why="picks tried")
     _check_count("--verify", args.verify, 1, why="the grasps checked in MuJoCo; --no-verify picks by the score alone")
+    _check_count("--guard-verify", args.guard_verify, 0, why="the grasps checked where the out-of-distribution guard fires")
     _check_count("--samples", args.samples, 1, MAX_CANDIDATES, why="grasps sampled per round")
     model = _check_model_arg(args)
     grounder = "rule"

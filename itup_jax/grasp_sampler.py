@@ -171,7 +171,8 @@ def ray_hits(mesh: trimesh.Trimesh, origins: np.ndarray, dirs: np.ndarray) -> tu
                                                      line_origins=origins[ray_id], line_directions=dirs[ray_id])
         if not valid.any():
             continue
-        bary = triangles_mod.points_to_barycentric(tris[cand[valid]], location)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero-area sliver of a union: NaN, never inside
+            bary = triangles_mod.points_to_barycentric(tris[cand[valid]], location)
         inside = (bary > -tol.zero).all(axis=1) & (bary < 1 + tol.zero).all(axis=1)
         tri_hit, ray_hit, location = cand[valid][inside], ray_id[valid][inside], location[inside]
         forward = util.diagonal_dot(location - origins[ray_hit], dirs[ray_hit]) > -1e-6

@@ -85,7 +85,7 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
 
 def test_held_out_training_calibration_and_sealed_families():
     """The five held-out families, the four training ones, the four calibration ones, the nine of the
-    three sealed evaluations that have run (validation; none sealed until a next round adds its own),
+    three sealed evaluations that have run (validation) and the three of the next round (sealed),
     disjoint; every one but the held-out families' tools takes a built-in category (its priors and tool
     frame), so its labels teach (or its draws calibrate on) that category's network; each round's
     sealed-test families did every task between them."""
@@ -94,7 +94,7 @@ def test_held_out_training_calibration_and_sealed_families():
     assert families.calibration() == ("paddle", "mace", "scraper", "t_hook")
     assert families.validation() == ("rolling_pin", "rake", "hoe", "pick", "offset_pusher", "club", "offset_hammer",
                                      "leaning_broom", "fork_hook")
-    assert families.sealed() == ()  # the next round's families are added before its draw
+    assert families.sealed() == ("skillet", "deck_brush", "ladle")  # added before round 4's draw
     builtin = {f for f in families.names() if families.get(f).builtin}
     for name in families.training() + families.calibration() + families.validation() + families.sealed():
         fam = families.get(name)
@@ -102,7 +102,7 @@ def test_held_out_training_calibration_and_sealed_families():
         assert fam.training + fam.calibration + fam.validation + fam.sealed == 1
         assert families.draw(name, 7).category == fam.tool_category
     for round_families in (("rolling_pin", "rake", "hoe"), ("pick", "offset_pusher", "club"),
-                           ("offset_hammer", "leaning_broom", "fork_hook")):
+                           ("offset_hammer", "leaning_broom", "fork_hook"), ("skillet", "deck_brush", "ladle")):
         assert {k for f in round_families for k in families.get(f).tasks} == {"hammer", "sweep", "knock", "reach"}
     assert families.with_role("builtin") == ("hammer", "broom", "mallet", "l_stick")
     assert sorted(f for r in families.ROLES for f in families.with_role(r)) == sorted(families.names())
@@ -115,6 +115,19 @@ def test_held_out_training_calibration_and_sealed_families():
     # every built-in category's tasks have a calibration family
     assert {k for f in families.calibration() for k in families.get(f).tasks} == {"hammer", "sweep", "knock", "reach"}
     assert all(families.get(f).tool_category == f for f in families.held_out())
+
+
+def test_a_disc_collides_as_its_own_hull():
+    """`sealed_shapes.disc_part`: a thin disc's collision primitive is its convex hull, the disc's own
+    extent (a capsule as long as the disc is thin would be a ball of its radius)."""
+    from itup_jax.tools.sealed_shapes import disc_part, skillet
+
+    mesh, prim = disc_part(0.07, (0.0, 0.0, 0.3), 0, 0.005)
+    assert prim[0] == "hull" and mesh.is_watertight
+    np.testing.assert_allclose(np.ptp(prim[1], axis=0), [0.005, 0.14, 0.14], atol=1e-3)
+    tool = skillet(pan_radius=0.07, pan_thickness=0.005)
+    assert [p[0] for p in tool.primitives] == ["capsule", "hull"]
+    assert tool.contact_point[0] == pytest.approx(0.0025) and tool.contact_point[2] == pytest.approx(0.27)
 
 
 def _span(name, measure, n=24):

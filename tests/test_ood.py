@@ -99,19 +99,19 @@ def test_plan_switches_to_verified_picking_when_the_guard_fires(tmp_path, capsys
 
     monkeypatch.setattr(cli, "_load_tool_arg", lambda args: far_tool)
     out = tmp_path / "p.json"
-    # verification on (the default): the guard mixes the analytic cost's best into the shortlist
+    # verification on (the default): the guard checks 20 and mixes the analytic cost's best into them
     code = main(["plan", "--task", "knock", "--n", "24", "--json", str(out)])
     res = json.loads(out.read_text())
     g = res["guard"]
     assert g["fired"] and not g["verified"] and g["score"] > g["threshold"]
-    assert res["verified"]["k"] == 5 and len(res["verified"]["labels"]) >= 5
+    assert res["verified"]["k"] == 20 and len(res["verified"]["labels"]) >= 20
     assert res["verified"]["shortlist_rule"] == "guard_mixed"
     text = capsys.readouterr().out
-    assert "outside SDG-Net's training data" in text and "the verification rollouts decide the pick" in text
-    assert "SDG-Net's 3 best and the analytic wrench cost's 2 best" in text
+    assert "outside SDG-Net's training data" in text and "20 grasps are rolled out in MuJoCo" in text
+    assert "SDG-Net's 12 best and the analytic wrench cost's 8 best (--guard-verify K" in text
     assert code == (0 if res["status"] == "ok" else 3)
-    # --no-verify: the guard turns verification on
-    code = main(["plan", "--task", "knock", "--n", "24", "--no-verify", "--json", str(out)])
+    # --no-verify: the guard turns verification on, here with --guard-verify 5
+    code = main(["plan", "--task", "knock", "--n", "24", "--no-verify", "--guard-verify", "5", "--json", str(out)])
     res = json.loads(out.read_text())
     g = res["guard"]
     assert g["fired"] and g["verified"] and res["verified"]["k"] == 5
@@ -127,9 +127,10 @@ def test_plan_switches_to_verified_picking_when_the_guard_fires(tmp_path, capsys
 
 
 def test_the_guards_shortlist_mixes_in_the_analytic_costs_best(far_tool):
-    """When the guard fired, the verified grasps are SDG-Net's 3 best and the analytic wrench cost's 2 best
-    of the others (`planning.guard_order`), in that order; the pick is the lowest measured total."""
-    from itup_jax.planning import guard_order, plan_grasp
+    """When the guard fired, the GUARD_VERIFY_K (20) verified grasps are SDG-Net's 12 best and the analytic
+    wrench cost's 8 best of the others (`planning.guard_order`), in that order; the pick is the lowest
+    measured total."""
+    from itup_jax.planning import GUARD_VERIFY_K, guard_order, plan_grasp
     from itup_jax.sdgnet.objective import OBJECTIVES
 
     task = itup.make_task("knock", far_tool)
@@ -137,10 +138,11 @@ def test_the_guards_shortlist_mixes_in_the_analytic_costs_best(far_tool):
     assert plan.guard.fired and plan.guard_verified and plan.shortlist_rule == "guard_mixed"
     net = np.asarray(plan.scores.total)
     physics = np.asarray(itup.wrench_costs(far_tool, task, plan.grasps, OBJECTIVES["wrench"].analytic).total)
-    order = guard_order(net, physics, 5)
+    order = guard_order(net, physics, GUARD_VERIFY_K)
     v = plan.verified
-    assert v.shortlist.tolist() == order[: len(v.shortlist)].tolist()  # every rollout valid: the first 5
-    assert set(order[:3].tolist()) == set(np.argsort(net, kind="stable")[:3].tolist())
+    assert plan.verify_k == GUARD_VERIFY_K == 20
+    assert v.shortlist.tolist() == order[: len(v.shortlist)].tolist()  # every rollout valid: the first 20
+    assert set(order[:12].tolist()) == set(np.argsort(net, kind="stable")[:12].tolist())
     assert v.index == v.shortlist[int(np.argmin(v.measured_total))]
     # the same candidates verified at the user's request with --no-guard: the scorer's 5 best
     plain = plan_grasp(far_tool, task, n=24, verify=5, guard=False)

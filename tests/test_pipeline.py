@@ -571,13 +571,14 @@ def test_run_does_the_hammer_task_from_the_table(tables):
     assert j["grounding"]["tool"] == "hammer" and j["pick"]["lifted"] and j["counts"]["task_reachable"] > 0
     # scored only grasps whose lift loads the pads' torsion within the share
     assert 0 < j["counts"]["scored"] == j["counts"]["lift_within_share"] and j["choice"]["lift_load"] <= pickup.LIFT_TORQUE_SHARE
-    # the pick is itup plan's: the 5 best checked in MuJoCo, the lowest measured total kept
+    # the pick is itup plan's: the 5 best checked in MuJoCo (20 where the guard fired), the lowest measured total kept
     checked = j["choice"]["checked"]
-    assert len(checked) == min(planning.DEFAULT_VERIFY, j["counts"]["scored"])
+    n = min(planning.checked_count(planning.DEFAULT_VERIFY, j["choice"]["guard_fired"]), j["counts"]["scored"])
+    assert len(checked) == n
     assert j["choice"]["guard_fired"] == (j["choice"]["guard_score"] > ood.GUARD_THRESHOLD)
     measured = {c["index"]: c["measured_total"] for c in checked}
     assert measured[j["choice"]["index"]] == min(m for m in measured.values() if m is not None)
-    assert "checked in MuJoCo: 5 grasps (guard " in r.report() and "the lowest measured total" in r.report()
+    assert f"checked in MuJoCo: {n} grasps (guard " in r.report() and "the lowest measured total" in r.report()
     import jsonschema
 
     with open(os.path.join(ROOT, "itup_jax", "schemas", "run.schema.json")) as fh:
@@ -663,12 +664,13 @@ def test_the_check_picks_among_the_best_scored_and_none_passing_ends_the_run_at_
     top = tables[0]
     plain = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=0, max_attempts=1)
     checked = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=3, max_attempts=1)
-    assert len(checked.choice["checked"]) == 3
     g, tool = pipeline.ground_for("itup", "drive the nail with the hammer", top, "rule", np.random.default_rng(0))
     task = itup.make_task(g.task, tool)
     planned = pipeline._plan(top, g, tool, task, seed=0, samples=1024, grip_force=robot.GRIP_FORCE, tried=[])
     order = np.argsort(np.asarray(itup.score(tool, task, planned["grasps"], seed=0).total), kind="stable")
     assert checked.choice["index"] in [c["index"] for c in checked.choice["checked"]]
+    # 3 checked, or GUARD_VERIFY_K where the guard fired (the table's pickable grasps lie outside the training data)
+    assert len(checked.choice["checked"]) == min(planning.checked_count(3, checked.choice["guard_fired"]), len(order))
     if plain.choice["guard_fired"]:  # the table's pickable grasps lie outside the training data: checked anyway
         assert len(plain.choice["checked"]) == min(planning.GUARD_VERIFY_K, len(order))
     else:
@@ -681,13 +683,15 @@ def test_the_check_picks_among_the_best_scored_and_none_passing_ends_the_run_at_
         idx, info = real(*a, **kw)
         return None, info
     monkeypatch.setattr(planning, "default_pick", none_passes)
-    r = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=3)
+    r = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, verify=3, guard_verify=0)
     assert r.stage == "plan" and r.pick is None and r.labels is None and "none of the 3 grasps checked" in r.message
     assert r.choice["index"] is None and len(r.choice["checked"]) == 3
     base = itup.run("drive the nail with the hammer", tabletop=top, seed=0, samples=1024, method="no_sdgnet", max_attempts=1)
     assert "checked" not in base.choice  # the baselines pick their best-scored
     with pytest.raises(InputError, match="verify must be an integer >= 0"):
         itup.run("drive the nail", tabletop=top, verify=-1)
+    with pytest.raises(InputError, match="guard_verify must be an integer >= 0"):
+        itup.run("drive the nail", tabletop=top, guard_verify=-2)
 
 
 def test_run_reports_the_stage_it_ended_at(tables):
@@ -730,6 +734,8 @@ def test_itup_run_cli_writes_json_picture_and_mcap(tmp_path, capsys):
     assert "--attempts must be an integer >= 1" in capsys.readouterr().err and not (tmp_path / "z").exists()
     assert main(["run", "drive the nail", "--verify", "0", "--out", str(tmp_path / "z")]) == 2
     assert "--verify must be an integer >= 1" in capsys.readouterr().err and not (tmp_path / "z").exists()
+    assert main(["run", "drive the nail", "--guard-verify", "-1", "--out", str(tmp_path / "z")]) == 2
+    assert "--guard-verify must be an integer >= 0" in capsys.readouterr().err and not (tmp_path / "z").exists()
 
 
 @pytest.mark.slow

@@ -126,6 +126,31 @@ def test_the_guard_threshold_decides_whether_the_plan_verifies(tasks):
     assert not high.guard.fired and not high.guard_verified and high.pick == plan.pick
 
 
+def test_where_the_guard_fires_the_check_covers_guard_verify_grasps(tasks, monkeypatch):
+    """The guard fired (a threshold below the candidates' score): the check covers max(verify,
+    guard_verify) grasps of the guard's mixed shortlist, also with verify 0; guard_verify 0 keeps verify;
+    `default_pick` and `itup plan` agree on it."""
+    from itup_jax import ood, planning
+
+    assert planning.checked_count(5, False) == 5 and planning.checked_count(5, True, 20) == 20
+    assert planning.checked_count(30, True, 20) == 30 and planning.checked_count(0, True, 0) == 0
+    tool, task = tasks["hammer"]
+    score = itup.plan_grasp(tool, task, n=8, seed=2, verify=0, guard=False).guard.score
+    kw = dict(n=8, seed=2, guard_threshold=0.5 * score, verify_weak_grip=None)
+    more = itup.plan_grasp(tool, task, verify=1, guard_verify=3, **kw)
+    assert more.guard.fired and more.verify_k == 3 and len(more.verified.shortlist) == 3
+    assert more.shortlist_rule == "guard_mixed" and not more.guard_verified and "3 grasps are rolled out" in more.report()
+    off = itup.plan_grasp(tool, task, verify=0, guard_verify=2, **kw)
+    assert off.guard_verified and off.verify_k == 2 and len(off.verified.shortlist) == 2
+    none = itup.plan_grasp(tool, task, verify=0, guard_verify=0, **kw)
+    assert none.verified is None and not none.guard_verified and none.pick == none.best_index
+    monkeypatch.setattr(ood, "GUARD_THRESHOLD", 0.5 * score)
+    i, info = planning.default_pick(tool, task, more.grasps, verify=1, guard_verify=3, weak_grip=None)
+    assert info["guard_fired"] and info["shortlist"] == more.verified.shortlist.tolist() and i == more.pick
+    with pytest.raises(itup.InputError, match="guard_verify must be an integer >= 0"):
+        itup.plan_grasp(tool, task, guard_verify=-1)
+
+
 def test_default_pick_is_itup_plans_pick_among_given_candidates(tasks):
     """`default_pick` among the candidates `plan_grasp` drew gives `plan_grasp`'s pick: the verified one by
     default (each rollout again at 25 N per pad), the best-scored one with verify=0 (the guard quiet)."""

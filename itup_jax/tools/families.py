@@ -6,13 +6,13 @@
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
     families.validation()                    # the nine of the sealed evaluation's rounds that have run
-    families.sealed()                        # the next round's, never rolled out (none until added)
+    families.sealed()                        # round 4's, never rolled out before its draw
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Twenty-six families (their builders in `tools.family_shapes`). The first four are the built-in tools'
+Twenty-nine families (their builders in `tools.family_shapes`, round 4's in `tools.sealed_shapes`). The first four are the built-in tools'
 (`builtin.claw_hammer`, `hand_broom`, `mallet`, `l_stick`), drawn part-wise by `variants.part_variant`.
 The next five are held out of every training set (`held_out()`: the evaluations' families the network
 never saw), each assembled from primitive parts with their own materials (`builtin.assemble_tool`: mass
@@ -56,7 +56,7 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last nine were the sealed-test families of the sealed evaluation's rounds 1 to 3
+The next nine were the sealed-test families of the sealed evaluation's rounds 1 to 3
 (`experiments/sealed_eval.py`); all three have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
@@ -87,6 +87,16 @@ Round 3 (0.28.0):
                pushes with the head (broom's category; sweep).
   fork_hook    a round bar ending in a crossbar and two parallel prongs; pulls with both prongs' inner
                faces (L-stick's category; reach).
+
+The last three are the sealed-test families of round 4 (`sealed()`), added before its draw; only the
+geometry, placement and reachability checks have built them, none has been rolled out:
+
+  skillet      a handle and a flat round steel or aluminium pan across the strike, most of the mass in a
+               wide disc; strikes with the pan's underside (hammer's category; hammer, knock).
+  deck_brush   a deep, tall bristle head with the handle rising near its rear edge, so the drag acts
+               well ahead of the handle's line; pushes with the head (broom's category; sweep).
+  ladle        a round bar with a round bowl on its end; pulls with the bowl's underside (L-stick's
+               category; reach).
 
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin (the leaning broom's leans from +z), the contact normal along the category's
@@ -132,6 +142,7 @@ from itup_jax.tools.family_shapes import (
     squeegee,
     t_hook,
 )
+from itup_jax.tools.sealed_shapes import deck_brush, ladle, skillet
 from itup_jax.tools.tool import Tool
 from itup_jax.tools.variants import part_variant
 
@@ -384,6 +395,28 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
         summary="validation (sealed test, round 3): bar ending in a crossbar and two parallel prongs; pulls with both prongs",
         role="validation", category="l_stick"),
+    "skillet": Family(
+        "skillet", skillet, ("hammer", "knock"),
+        _ranges(handle_length=(0.140, 0.260), handle_radius=(0.010, 0.016), pan_radius=(0.050, 0.090),
+                pan_thickness=(0.003, 0.006)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "pan_material": ("steel", "aluminium")}),
+        summary="sealed test (round 4): handle and a flat round pan across the strike; strikes with the pan's underside",
+        role="sealed", category="hammer"),
+    "deck_brush": Family(
+        "deck_brush", deck_brush, ("sweep",),
+        _ranges(half_width=(0.060, 0.140), front=(0.045, 0.090), back=(0.014, 0.025), head_height=(0.065, 0.090),
+                handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS}),
+        summary="sealed test (round 4): deep head with the handle at its rear; pushes with the head's leading face",
+        role="sealed", category="broom"),
+    "ladle": Family(
+        "ladle", ladle, ("reach",),
+        _ranges(length=(0.300, 0.550), radius=(0.005, 0.009), bowl_radius=(0.025, 0.045), bowl_thickness=(0.006, 0.012),
+                grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"bar_material": ("aluminium", "steel", "hickory"),
+                          "bowl_material": ("steel", "aluminium", "polypropylene")}),
+        summary="sealed test (round 4): bar with a round bowl on its end; pulls with the bowl's underside",
+        role="sealed", category="l_stick"),
 })
 
 

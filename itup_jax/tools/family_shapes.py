@@ -252,7 +252,7 @@ def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.09
     )
 
 
-def _head_on_handle(*, name: str, half_width: float, y0: float, y1: float, head_height: float,
+def head_on_handle(*, name: str, half_width: float, y0: float, y1: float, head_height: float,
                     contact_z: float, handle_radius: float, handle_length: float, grasp_fraction: float,
                     head_material: str, handle_material: str, head_name: str, x_centre: float = 0.0) -> Tool:
     """A box head (2 half_width wide along x about x_centre, y0..y1 along y, head_height tall) whose bottom
@@ -283,7 +283,7 @@ def pusher(*, half_width: float = 0.120, head_height: float = 0.040, head_depth:
     handles. It pushes along +y with the head's leading face 5 mm above its bottom edge, at x = 0 and
     +-0.75 half_width, as the broom's category (sweep). The grasp region is the handle's top
     grasp_fraction. Default: 0.34 m tall, 0.24 m wide, ~0.3 kg."""
-    return _head_on_handle(
+    return head_on_handle(
         name=name, half_width=half_width, y0=-head_depth / 2, y1=head_depth / 2, head_height=head_height,
         contact_z=0.005, handle_radius=handle_radius, handle_length=handle_length,
         grasp_fraction=grasp_fraction, head_material=head_material, handle_material=handle_material,
@@ -333,13 +333,13 @@ def scraper(*, half_width: float = 0.100, blade_height: float = 0.050, blade_thi
     sweep tilts the tool back, so the plate's trailing edge, a thickness behind, sits lower by under
     1.5 mm). The grasp region is the handle's top half. Default: 0.35 m tall, 0.2 m wide, ~0.28 kg."""
     t = blade_thickness / 2
-    return _head_on_handle(
+    return head_on_handle(
         name=name, half_width=half_width, y0=-t, y1=t, head_height=blade_height, contact_z=0.0,
         handle_radius=handle_radius, handle_length=handle_length, grasp_fraction=0.5,
         head_material=blade_material, handle_material=handle_material, head_name="blade")
 
 
-def _bar_and_end_plate(*, name: str, length: float, radius: float, x0: float, x1: float, half_y: float,
+def bar_and_end_plate(*, name: str, length: float, radius: float, x0: float, x1: float, half_y: float,
                        thickness: float, contact_x: float, grasp_fraction: float, bar_material: str,
                        plate_material: str, plate_name: str) -> Tool:
     """A round bar along +z and a box plate across its end (x0..x1 along x, 2 half_y along y, `thickness`
@@ -366,7 +366,7 @@ def t_hook(*, length: float = 0.450, radius: float = 0.007, bar_half: float = 0.
     x = -back to +front. It pulls with the crossbar's underside (-z) 30 mm short of its front end (halfway
     along a shorter front arm), as the L-stick's category (reach). The grasp region runs from the butt
     over grasp_fraction of the length. Default: 0.45 m, ~0.22 kg."""
-    return _bar_and_end_plate(
+    return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-back, x1=front, half_y=bar_half, thickness=2 * bar_half,
         contact_x=max(front - 0.030, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
         bar_material=material, plate_material=material, plate_name="crossbar")
@@ -434,7 +434,7 @@ def hoe(*, length: float = 0.450, radius: float = 0.007, blade_end: float = 0.08
     x = -radius to +blade_end and 2 blade_half_width wide along y. It pulls with the blade's underside
     (-z) 20 mm short of its front edge (L-stick's category: reach). The grasp region runs from the butt
     over grasp_fraction of the length. Default: 0.45 m, ~0.38 kg."""
-    return _bar_and_end_plate(
+    return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-radius, x1=blade_end, half_y=blade_half_width,
         thickness=blade_thickness, contact_x=max(blade_end - 0.020, 0.5 * (radius + blade_end)),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=blade_material,
@@ -454,7 +454,7 @@ def pick(*, handle_length: float = 0.300, handle_radius: float = 0.014, hub: flo
     region is the handle's lower three quarters. Default: 0.33 m, ~0.7 kg."""
     z0, h = handle_length, hub / 2
     zc, t, w = z0 + h, arm_thickness / 2, arm_width / 2
-    return _striking_head_on_handle(
+    return striking_head_on_handle(
         name=name, handle_length=z0, handle_radius=handle_radius, handle_material=handle_material,
         head=[("hub", head_material, box_part((-h, -h, z0), (h, h, z0 + hub))),
               ("front_arm", head_material, box_part((h, -w, zc - t), (h + front, w, zc + t))),
@@ -462,7 +462,7 @@ def pick(*, handle_length: float = 0.300, handle_radius: float = 0.014, hub: flo
         contact=(h + front, 0.0, zc))
 
 
-def _striking_head_on_handle(*, name: str, handle_length: float, handle_radius: float, handle_material: str,
+def striking_head_on_handle(*, name: str, handle_length: float, handle_radius: float, handle_material: str,
                              head: list, contact: tuple) -> Tool:
     """A hammer-category tool: a round handle along +z from the origin to handle_length, the `head`
     parts (name, material, part) on its top, striking along +x at `contact`; the grasp region is the
@@ -487,7 +487,7 @@ def offset_pusher(*, half_width: float = 0.110, offset: float = 0.060, head_heig
     leading face 5 mm above its bottom edge, at the head's centre and +-0.75 half_width from it (broom's
     category: sweep). The grasp region is the handle's top grasp_fraction. Default: 0.39 m tall, 0.22 m
     wide, ~0.4 kg."""
-    return _head_on_handle(
+    return head_on_handle(
         name=name, half_width=half_width, y0=-head_depth / 2, y1=head_depth / 2, head_height=head_height,
         contact_z=0.005, handle_radius=handle_radius, handle_length=handle_length,
         grasp_fraction=grasp_fraction, head_material=head_material, handle_material=handle_material,
@@ -502,7 +502,7 @@ def club(*, length: float = 0.450, radius: float = 0.008, head_front: float = 0.
     is thin. It pulls with the head's underside (-z) 15 mm short of its front face (halfway along a
     shorter head) (L-stick's category: reach). The grasp region runs from the butt over grasp_fraction of
     the length. Default: 0.45 m, ~0.8 kg."""
-    return _bar_and_end_plate(
+    return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-head_back, x1=head_front, half_y=head_half_width,
         thickness=head_thickness, contact_x=max(head_front - 0.015, 0.5 * (radius + head_front)),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=head_material,
@@ -522,7 +522,7 @@ def offset_hammer(*, handle_length: float = 0.300, handle_radius: float = 0.014,
     Default: 0.33 m, ~0.9 kg."""
     z0, zc = handle_length, handle_length + head_radius
     w = 0.7 * head_radius
-    return _striking_head_on_handle(
+    return striking_head_on_handle(
         name=name, handle_length=z0, handle_radius=handle_radius, handle_material=handle_material,
         head=[("neck", head_material, box_part((-w, -handle_radius, z0), (w, offset, z0 + 2 * head_radius))),
               ("head", head_material, cylinder_part(head_radius, (-head_back, offset, zc), (head_front, offset, zc)))],
