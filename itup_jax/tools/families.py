@@ -5,8 +5,8 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.validation()                    # the nine of the sealed evaluation's rounds that have run
-    families.sealed()                        # round 4's, never rolled out before its draw
+    families.validation()                    # the twelve of the sealed evaluation's rounds that have run
+    families.sealed()                        # the next round's, never rolled out (none until added)
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
@@ -56,8 +56,8 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The next nine were the sealed-test families of the sealed evaluation's rounds 1 to 3
-(`experiments/sealed_eval.py`); all three have run, so they are validation families (`validation()`), looked
+The last twelve were the sealed-test families of the sealed evaluation's rounds 1 to 4
+(`experiments/sealed_eval.py`); all four have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
 
@@ -88,8 +88,7 @@ Round 3 (0.28.0):
   fork_hook    a round bar ending in a crossbar and two parallel prongs; pulls with both prongs' inner
                faces (L-stick's category; reach).
 
-The last three are the sealed-test families of round 4 (`sealed()`), added before its draw; only the
-geometry, placement and reachability checks have built them, none has been rolled out:
+Round 4 (0.29.0; builders in `tools.sealed_shapes`):
 
   skillet      a handle and a flat round steel or aluminium pan across the strike, most of the mass in a
                wide disc; strikes with the pan's underside (hammer's category; hammer, knock).
@@ -400,23 +399,23 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(handle_length=(0.140, 0.260), handle_radius=(0.010, 0.016), pan_radius=(0.050, 0.090),
                 pan_thickness=(0.003, 0.006)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "pan_material": ("steel", "aluminium")}),
-        summary="sealed test (round 4): handle and a flat round pan across the strike; strikes with the pan's underside",
-        role="sealed", category="hammer"),
+        summary="validation (sealed test, round 4): handle and a flat round pan across the strike; strikes with the pan's underside",
+        role="validation", category="hammer"),
     "deck_brush": Family(
         "deck_brush", deck_brush, ("sweep",),
         _ranges(half_width=(0.060, 0.140), front=(0.045, 0.090), back=(0.014, 0.025), head_height=(0.065, 0.090),
                 handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS}),
-        summary="sealed test (round 4): deep head with the handle at its rear; pushes with the head's leading face",
-        role="sealed", category="broom"),
+        summary="validation (sealed test, round 4): deep head with the handle at its rear; pushes with the head's leading face",
+        role="validation", category="broom"),
     "ladle": Family(
         "ladle", ladle, ("reach",),
         _ranges(length=(0.300, 0.550), radius=(0.005, 0.009), bowl_radius=(0.025, 0.045), bowl_thickness=(0.006, 0.012),
                 grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"bar_material": ("aluminium", "steel", "hickory"),
                           "bowl_material": ("steel", "aluminium", "polypropylene")}),
-        summary="sealed test (round 4): bar with a round bowl on its end; pulls with the bowl's underside",
-        role="sealed", category="l_stick"),
+        summary="validation (sealed test, round 4): bar with a round bowl on its end; pulls with the bowl's underside",
+        role="validation", category="l_stick"),
 })
 
 

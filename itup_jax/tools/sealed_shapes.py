@@ -1,5 +1,5 @@
 """The builders of the sealed-test families of the sealed evaluation's round 4 (`tools.families`
-registers them, role "sealed" until the round has run). Each is a shape of a built-in category that no
+registers them; validation families since the round has run). Each is a shape of a built-in category that no
 earlier family has, built from primitive parts as `tools.family_shapes` builds the others, whose shared
 part builders they use. Lengths in metres; every builder's defaults are its family's default tool.
 
