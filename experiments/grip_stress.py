@@ -8,8 +8,8 @@ holding grip, per task and method, on the same candidates and physics draws.
 Per task, the built-in tool and `--tools-per-task - 1` unseen stretched variants (`tools.variants.vary_tool`,
 seeds 10,000 + v, as `table1.py`: the test tools); with `--data DIR`, that dataset's unseen tools instead
 (variants 1 .. --tools-per-task of its manifest, `dataset.unit_tool`: e.g. the validation tools). A
-method is `itup plan`'s pick ('sdgnet_verified': SDG-Net's 5 best checked in MuJoCo, `planning.guarded_check`),
-a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
+method is `itup plan`'s pick ('sdgnet_verified': SDG-Net's 5 best checked in MuJoCo, 20 where the guard
+fires, `planning.guarded_check`), a scorer of `scoring.score` ('sdgnet', 'sdgnet_paper', 'force_closure', 'geometric', ...) or
 'sdgnet@w_NAME=V,...': the shipped SDG-Net under `ScoreWeights` with those weights changed
 (`method_scorer`); methods that pick the same candidate share its rollouts. On each tool every method
 picks one of the same reachable candidates (its lowest total score, or the one its check chose). Each pick is rolled out `--draws` times at every force of `--grid` (N per pad;

@@ -55,8 +55,8 @@ MEASURED = ("peak_torque_induced", "peak_torque", "peak_induced_closure", "peak_
 HEADLINE = "peak_torque_induced"
 #: `itup plan`'s default pick (`planning.guarded_check`): SDG-Net's VERIFY_K best rolled out once more
 #: under nominal physics and again at the weak grip (`robot.WEAK_GRIP`), the best measured kept; when the
-#: out-of-distribution guard fires, the shortlist mixes in the analytic wrench cost's best. Its check
-#: rollouts are not among the evaluation's draws.
+#: out-of-distribution guard fires, `planning.GUARD_VERIFY_K` of a shortlist that mixes in the analytic
+#: wrench cost's best. Its check rollouts are not among the evaluation's draws.
 VERIFIED = "sdgnet_verified"
 VERIFY_K = DEFAULT_VERIFY
 #: The torque-first verified pick: SDG-Net's VERIFY_TORQUE_K best by the torque-first total
