@@ -495,7 +495,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                             threshold=guard_threshold)
         if guard and reading.fired:
             guard_verified = verify == 0 and guard_verify > 0
-            verify = checked_count(verify, True, guard_verify)
+            verify = min(checked_count(verify, True, guard_verify), len(grasps))  # as `guarded_check`
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))

@@ -142,6 +142,8 @@ def test_where_the_guard_fires_the_check_covers_guard_verify_grasps(tasks, monke
     assert more.shortlist_rule == "guard_mixed" and not more.guard_verified and "3 grasps are rolled out" in more.report()
     off = itup.plan_grasp(tool, task, verify=0, guard_verify=2, **kw)
     assert off.guard_verified and off.verify_k == 2 and len(off.verified.shortlist) == 2
+    few = itup.plan_grasp(tool, task, verify=1, guard_verify=20, **kw)  # never more than the 8 candidates
+    assert few.verify_k == 8 == len(few.verified.shortlist) and "8 grasps are rolled out" in few.report()
     none = itup.plan_grasp(tool, task, verify=0, guard_verify=0, **kw)
     assert none.verified is None and not none.guard_verified and none.pick == none.best_index
     monkeypatch.setattr(ood, "GUARD_THRESHOLD", 0.5 * score)
