@@ -364,7 +364,10 @@ def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: i
     reading = ood.check(tool, task, grasps, model=model)
     info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
     if checked_count(verify, bool(reading.fired), guard_verify) == 0:
-        return int(np.argmin(np.asarray(s.total, float))), info
+        total = np.asarray(s.total, float)
+        if not np.isfinite(total).any():
+            raise InputError(f"default_pick: the scorer gave all {len(total)} candidates a non-finite score")
+        return int(np.argmin(np.where(np.isfinite(total), total, np.inf))), info  # a non-finite score never wins
     v, _, _ = guarded_check(tool, task, grasps, s, k=verify, seed=seed, scene=scene, weak_grip=weak_grip,
                             reading=reading, guard_k=guard_verify)
     info.update(verified_succeeded=bool(v.succeeded), shortlist=[int(i) for i in v.shortlist],

@@ -1,5 +1,7 @@
 """`plan_grasp`: the library function behind `itup plan`."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from jsonschema import validate
@@ -166,3 +168,10 @@ def test_default_pick_is_itup_plans_pick_among_given_candidates(tasks):
     assert not info["guard_fired"] and info["guard_score"] == pytest.approx(float(plan.guard.score))
     j, info0 = default_pick(tool, task, plan.grasps, verify=0)
     assert j == int(np.argmin(np.asarray(plan.scores.total))) and "shortlist" not in info0
+    # a non-finite score never wins the unchecked pick; none finite is refused
+    total = np.asarray(plan.scores.total, float).copy()
+    total[j] = np.nan
+    k, _ = default_pick(tool, task, plan.grasps, verify=0, scores=dataclasses.replace(plan.scores, total=total))
+    assert k == int(np.nanargmin(total)) and k != j
+    with pytest.raises(itup.InputError, match="non-finite score"):
+        default_pick(tool, task, plan.grasps, verify=0, scores=dataclasses.replace(plan.scores, total=total * np.nan))
