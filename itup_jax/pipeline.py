@@ -393,7 +393,7 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         raise InputError(f"run: grip_force must be a positive number of newtons, got {grip_force!r}")
     if isinstance(max_attempts, bool) or not isinstance(max_attempts, (int, np.integer)) or max_attempts < 1:
         raise InputError(f"run: max_attempts must be an integer >= 1, got {max_attempts!r}")
-    from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K
+    from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K, default_pick
 
     verify = DEFAULT_VERIFY if verify is None else verify
     guard_verify = GUARD_VERIFY_K if guard_verify is None else guard_verify
@@ -472,8 +472,6 @@ def run(instruction: str, *, tabletop: Tabletop | None = None, clutter: int = 0,
         total = np.asarray(scores.total, float)
         best, check = int(np.argmin(np.where(np.isfinite(total), total, np.inf))), {}
         if scorer == "sdgnet":
-            from itup_jax.planning import default_pick
-
             best, info = default_pick(tool, task, grasps_k, model=model, seed=int(seed), verify=int(verify),
                                       scores=scores, guard_verify=int(guard_verify))
             check = {"checked": [{"index": i, "measured_total": None if m is None else round(m, 4)}

@@ -322,10 +322,13 @@ def verified_pick(tool: Tool, task, grasps: Grasps, scores: Any, *, k: int = DEF
     return v, rule
 
 
-def checked_count(verify: int, guard_fired: bool, guard_verify: int = GUARD_VERIFY_K) -> int:
+def checked_count(verify: int, guard_fired: bool, guard_verify: int = GUARD_VERIFY_K,
+                  candidates: int | None = None) -> int:
     """How many grasps `itup plan`'s check rolls out: `verify`, or max(verify, guard_verify) where the
-    out-of-distribution guard fired (0: none, the best-scored grasp is the pick)."""
-    return max(verify, guard_verify) if guard_fired else verify
+    out-of-distribution guard fired, never more than the `candidates` there are (0: none, the best-scored
+    grasp is the pick)."""
+    k = max(verify, guard_verify) if guard_fired else verify
+    return k if candidates is None else min(k, candidates)
 
 
 def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any = None, k: int = DEFAULT_VERIFY,
@@ -340,7 +343,7 @@ def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any =
         from itup_jax import ood
 
         reading = ood.check(tool, task, grasps, model=model)
-    k = max(1, min(checked_count(k, bool(reading.fired), guard_k), len(grasps)))
+    k = max(1, checked_count(k, bool(reading.fired), guard_k, len(grasps)))
     v, rule = verified_pick(tool, task, grasps, scores, k=k, guard_fired=bool(reading.fired), seed=seed,
                             weak_grip=weak_grip, scene=scene)
     return v, reading, rule
@@ -498,7 +501,7 @@ def plan_grasp(tool: Tool, task, *, n: int = DEFAULT_N, seed: int = 0, scorer: s
                             threshold=guard_threshold)
         if guard and reading.fired:
             guard_verified = verify == 0 and guard_verify > 0
-            verify = min(checked_count(verify, True, guard_verify), len(grasps))  # as `guarded_check`
+            verify = checked_count(verify, True, guard_verify, len(grasps))
     total = np.asarray(scores.total)
     if not np.all(np.isfinite(total)):
         bad = int(np.sum(~np.isfinite(total)))

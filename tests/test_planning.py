@@ -136,6 +136,7 @@ def test_where_the_guard_fires_the_check_covers_guard_verify_grasps(tasks, monke
 
     assert planning.checked_count(5, False) == 5 and planning.checked_count(5, True, 20) == 20
     assert planning.checked_count(30, True, 20) == 30 and planning.checked_count(0, True, 0) == 0
+    assert planning.checked_count(1, True, 20, candidates=8) == 8 and planning.checked_count(5, False, 20, 3) == 3
     tool, task = tasks["hammer"]
     score = itup.plan_grasp(tool, task, n=8, seed=2, verify=0, guard=False).guard.score
     kw = dict(n=8, seed=2, guard_threshold=0.5 * score, verify_weak_grip=None)

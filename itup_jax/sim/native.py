@@ -15,7 +15,7 @@ from mujoco import rollout as mj_rollout
 from itup_jax.grasp import Grasps
 from itup_jax.sim.arm import Plan, concat_plans, plan, take_plan
 from itup_jax.sim.config import SimConfig
-from itup_jax.sim.labels import LABEL_FIELDS, Labels, feasible_labels, traces_of_rows
+from itup_jax.sim.labels import Labels, feasible_labels, traces_of_rows
 from itup_jax.sim.physics import Physics, pooled_models, randomized_model, slice_physics
 from itup_jax.sim.scene import Scene
 from itup_jax.task import Task
@@ -84,5 +84,4 @@ def simulate_native(scene: Scene, task: Task, grasps: Grasps, physics: Physics, 
         plans.append(p)
         if keep_sensordata:
             sens.append(traces_of_rows(scene, hi - lo, p.nstep, run, sensordata))
-    merged = Labels(**{f: np.concatenate([getattr(lab, f) for lab in labels]) for f in LABEL_FIELDS})
-    return concat_plans(plans), merged, (np.concatenate(sens) if keep_sensordata else None)
+    return concat_plans(plans), Labels.concatenate(labels), (np.concatenate(sens) if keep_sensordata else None)

@@ -253,8 +253,8 @@ def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.09
 
 
 def head_on_handle(*, name: str, half_width: float, y0: float, y1: float, head_height: float,
-                    contact_z: float, handle_radius: float, handle_length: float, grasp_fraction: float,
-                    head_material: str, handle_material: str, head_name: str, x_centre: float = 0.0) -> Tool:
+                   contact_z: float, handle_radius: float, handle_length: float, grasp_fraction: float,
+                   head_material: str, handle_material: str, head_name: str, x_centre: float = 0.0) -> Tool:
     """A box head (2 half_width wide along x about x_centre, y0..y1 along y, head_height tall) whose bottom
     is at z = 0 and a handle along +z from its top at x = 0, pushing along +y with the head's +y face at
     height contact_z, at the head's centre and +-0.75 half_width from it (broom's category: sweep); the
@@ -340,18 +340,19 @@ def scraper(*, half_width: float = 0.100, blade_height: float = 0.050, blade_thi
 
 
 def bar_and_end_plate(*, name: str, length: float, radius: float, x0: float, x1: float, half_y: float,
-                       thickness: float, contact_x: float, grasp_fraction: float, bar_material: str,
-                       plate_material: str, plate_name: str) -> Tool:
-    """A round bar along +z and a box plate across its end (x0..x1 along x, 2 half_y along y, `thickness`
-    along z, its top at z = length), pulling with the plate's underside (-z) at x = contact_x, as the
-    L-stick's category (reach); the grasp region runs from the butt over grasp_fraction of the length."""
+                      thickness: float, contact_x: float, grasp_fraction: float, bar_material: str,
+                      plate_material: str, plate_name: str, plate: tuple | None = None) -> Tool:
+    """A round bar along +z and a plate across its end (`thickness` along z, its top at z = length; by
+    default a box x0..x1 along x, 2 half_y along y; `plate`: another part, (mesh, primitive), in that
+    slab), pulling with the plate's underside (-z) at x = contact_x, as the L-stick's category (reach);
+    the grasp region runs from the butt over grasp_fraction of the length."""
     z1 = length - thickness
     g = radius + 0.006
     return assemble_tool(
         name=name, category="l_stick",
         parts=[
             ("bar", bar_material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
-            (plate_name, plate_material, box_part((x0, -half_y, z1), (x1, half_y, length))),
+            (plate_name, plate_material, plate or box_part((x0, -half_y, z1), (x1, half_y, length))),
         ],
         contact_points=[(contact_x, 0.0, z1)],
         contact_normal=(0.0, 0.0, -1.0),
@@ -463,7 +464,7 @@ def pick(*, handle_length: float = 0.300, handle_radius: float = 0.014, hub: flo
 
 
 def striking_head_on_handle(*, name: str, handle_length: float, handle_radius: float, handle_material: str,
-                             head: list, contact: tuple) -> Tool:
+                            head: list, contact: tuple) -> Tool:
     """A hammer-category tool: a round handle along +z from the origin to handle_length, the `head`
     parts (name, material, part) on its top, striking along +x at `contact`; the grasp region is the
     handle's lower three quarters."""

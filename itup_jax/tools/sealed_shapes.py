@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import trimesh
 
-from itup_jax.tools.builtin import assemble_tool, cylinder_part
-from itup_jax.tools.family_shapes import head_on_handle, striking_head_on_handle
+from itup_jax.tools.builtin import cylinder_part
+from itup_jax.tools.family_shapes import bar_and_end_plate, head_on_handle, striking_head_on_handle
 from itup_jax.tools.tool import Tool
 
 
@@ -65,15 +65,9 @@ def ladle(*, length: float = 0.450, radius: float = 0.007, bowl_radius: float = 
     bowl's underside (-z) 15 mm short of its front edge (halfway for a small bowl) (L-stick's category:
     reach). The grasp region runs from the butt over grasp_fraction of the length. Default: 0.45 m,
     ~0.5 kg."""
-    z1 = length - bowl_thickness
     front = 2.0 * bowl_radius - radius
-    g = radius + 0.006
-    return assemble_tool(
-        name=name, category="l_stick",
-        parts=[("bar", bar_material, cylinder_part(radius, (0, 0, 0), (0, 0, z1))),
-               ("bowl", bowl_material, disc_part(bowl_radius, (bowl_radius - radius, 0.0, z1 + bowl_thickness / 2), 2,
-                                                 bowl_thickness))],
-        contact_points=[(max(front - 0.015, 0.5 * (radius + front)), 0.0, z1)],
-        contact_normal=(0.0, 0.0, -1.0),
-        grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 0.02))),
-    )
+    bowl = disc_part(bowl_radius, (bowl_radius - radius, 0.0, length - bowl_thickness / 2), 2, bowl_thickness)
+    return bar_and_end_plate(
+        name=name, length=length, radius=radius, x0=-radius, x1=front, half_y=bowl_radius, thickness=bowl_thickness,
+        contact_x=max(front - 0.015, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
+        bar_material=bar_material, plate_material=bowl_material, plate_name="bowl", plate=bowl)
