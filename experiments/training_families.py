@@ -35,7 +35,8 @@ Evaluation (`itup_jax.family_eval`): `--tools` draws per held-out family and tas
 family (seeds 200..; no dataset holds them), `--grasps` candidates the arm can carry, rolled out once
 under nominal physics; the same rollouts judge every model. Per model, family and task: the median
 Spearman against the measured full induced peak wrist torque and grip demand, how often the guard
-fires, the learned and verified picks' outcomes.
+fires, the learned and verified picks' outcomes. `--judge-also FAMILY ...` judges more families on the same
+terms beside them (e.g. the calibration families, which no arm trains on), reported outside the reading.
 
 The reading, fixed before the first run: the training families teach the held-out ones if `trained`'s
 median over the held-out family-task rows (mean over seeds) exceeds `rehearsed`'s by more than twice
@@ -93,14 +94,18 @@ def _mean(values: list) -> float | None:
     return float(np.mean(v)) if v else None
 
 
-def _reading(table: dict, seeds: list[int], held: list, builtin: list, pair: tuple[str, str]) -> dict:
+def _reading(table: dict, seeds: list[int], held: list, builtin: list, pair: tuple[str, str],
+             also: list | tuple = ()) -> dict:
     """The module's reading of a (control, trained) pair of model kinds: per kind the held-out median per
-    seed, its mean and spread, each built-in row's mean; `teaches`, `margin`, `largest_builtin_loss`."""
+    seed, its mean and spread, each built-in row's mean, and the same median over the `also` rows
+    (--judge-also, outside the rule); `teaches`, `margin`, `largest_builtin_loss`."""
     reading = {}
     for kind in pair:
         per_seed = [held_out_median(table[f"{kind}_s{s}"], held) for s in seeds]
         per_seed = [v for v in per_seed if v is not None]
+        also_seed = [held_out_median(table[f"{kind}_s{s}"], list(also)) for s in seeds] if also else []
         reading[kind] = {"held_out_per_seed": per_seed,
+                         "also_per_seed": also_seed, "also_mean": _mean(also_seed),
                          "held_out_mean": float(np.mean(per_seed)) if per_seed else None,
                          "held_out_spread": float(np.ptp(per_seed)) if per_seed else None,
                          "builtin_mean": {f"{f}/{k}": _mean([table[f"{kind}_s{s}"][f"{f}/{k}"]["median_rho_induced"]
@@ -136,6 +141,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--epochs", type=int, default=None, help="adaptation epochs (default: the checkpoint's recipe)")
     ap.add_argument("--from-scratch", action="store_true",
                     help="also train the pair from scratch by the shipped checkpoint's recipe (module docstring)")
+    ap.add_argument("--judge-also", nargs="*", default=[], metavar="FAMILY",
+                    help="families judged beside the held-out ones, outside the reading (e.g. the calibration "
+                         "families, which no arm trains on)")
     ap.add_argument("--quick", action="store_true", help="tiny datasets made in --out, one evaluation tool (tests)")
     ap.add_argument("--out", default="results/training_families")
     args = ap.parse_args(argv)
@@ -151,6 +159,12 @@ def main(argv=None) -> dict:
             raise SystemExit(2)
         _check_dirs("--train", args.train)
         _check_dirs("--rehearse", args.rehearse)
+    unknown = [f for f in args.judge_also if f not in families.names()]
+    if unknown:
+        print(f"training_families: --judge-also {' '.join(unknown)}: no such family (itup tools lists them)",
+              file=sys.stderr)
+        raise SystemExit(2)
+    also = [(f, k) for f in args.judge_also for k in families.get(f).tasks]
     os.makedirs(os.path.join(args.out, "models"), exist_ok=True)
     t0 = time.time()
     if args.quick:
@@ -183,28 +197,30 @@ def main(argv=None) -> dict:
                 make(f"scratch_{name}_s{seed}", "trained", dirs,
                      lambda d, ref, config=config: train_on_datasets(d, config, guard_reference=ref))
     evals = []
-    for fam, kind in held + builtin:
+    for fam, kind in held + builtin + also:
         evals += family_rollouts(fam, (kind,), args.tools, args.grasps)
     print(f"{len(evals)} evaluation tools rolled out ({time.time() - t0:.0f} s)", flush=True)
     rows = {name: [dict(judge(path, ev, args.verify), family=ev["family"]) for ev in evals]
             for name, path in models.items()}
     table = {name: {f"{f}/{k}": summarise([r for r in rs if r["family"] == f and r["task"] == k])
-                    for f, k in held + builtin} for name, rs in rows.items()}
-    reading = _reading(table, seeds, held, builtin, ("rehearsed", "trained"))
-    reading["shipped"] = {"held_out": held_out_median(table["shipped"], held)}
+                    for f, k in held + builtin + also} for name, rs in rows.items()}
+    reading = _reading(table, seeds, held, builtin, ("rehearsed", "trained"), also)
+    reading["shipped"] = {"held_out": held_out_median(table["shipped"], held),
+                          "also": held_out_median(table["shipped"], also) if also else None}
     if args.from_scratch:
-        reading["scratch"] = _reading(table, seeds, held, builtin, ("scratch_rehearsed", "scratch_trained"))
+        reading["scratch"] = _reading(table, seeds, held, builtin, ("scratch_rehearsed", "scratch_trained"), also)
     doc = {"schema": "itup.training_families/1", "train": [os.path.abspath(d) for d in args.train],
            "rehearse": [os.path.abspath(d) for d in args.rehearse], "seeds": seeds, "tools": args.tools,
            "grasps": args.grasps, "verify": args.verify, "epochs": args.epochs, "from_scratch": args.from_scratch,
            "held_out": [f"{f}/{k}" for f, k in held], "builtin": [f"{f}/{k}" for f, k in builtin],
+           "judged_also": [f"{f}/{k}" for f, k in also],
            "reading": reading, "table": table, "rows": rows, "wall_s": round(time.time() - t0, 1),
            "machine": machine_info()}
     atomic_write_json(os.path.join(args.out, "training_families.json"), doc)
     names = list(models)
     w = max(13, *map(len, names))
     print(f"{'family/task':22s} " + " ".join(f"{n:>{w}s}" for n in names))
-    for f, k in held + builtin:
+    for f, k in held + builtin + also:
         cells = [table[n][f"{f}/{k}"] for n in names]
         print(f"{f + '/' + k:22s} " + " ".join(
             f"{c['median_rho_induced']:+.2f} g{c['guard_fired']:.2f}".rjust(w) if c["median_rho_induced"] is not None

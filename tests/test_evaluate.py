@@ -1020,9 +1020,13 @@ def test_training_families_quick(tmp_path, monkeypatch):
     the seeds' spread; with --from-scratch the pair trained from scratch beside them."""
     from itup_jax.sdgnet.checkpoint import load_model
 
-    _run_experiment("training_families.py", ["--quick", "--from-scratch", "--out", str(tmp_path)], monkeypatch)
+    _run_experiment("training_families.py", ["--quick", "--from-scratch", "--judge-also", "t_hook", "--out",
+                                             str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "training_families.json").read_text())
     assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0", "scratch_rehearsed_s0", "scratch_trained_s0"}
+    # the family judged beside: in the table and the reading, outside the rule
+    assert doc["judged_also"] == ["t_hook/reach"] and "t_hook/reach" in doc["table"]["shipped"]
+    assert len(doc["reading"]["scratch"]["scratch_trained"]["also_per_seed"]) == 1
     assert {"scratch_rehearsed", "scratch_trained"} <= set(doc["reading"]["scratch"])
     for name in ("scratch_rehearsed_s0", "scratch_trained_s0"):  # trained from scratch, not adapted
         assert "adapted_from" not in load_model(str(tmp_path / "models" / f"{name}.npz")).spec
@@ -1042,6 +1046,14 @@ def test_training_families_quick(tmp_path, monkeypatch):
     assert reading["trained"]["held_out_spread"] == 0.0  # one seed: no spread
     assert ("teaches" in reading) == (reading["trained"]["held_out_mean"] is not None
                                       and reading["rehearsed"]["held_out_mean"] is not None)
+
+
+def test_training_families_refuses_an_unknown_family_before_work(tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit) as e:
+        _run_experiment("training_families.py", ["--quick", "--judge-also", "no_such", "--out", str(tmp_path / "o")],
+                        monkeypatch)
+    assert e.value.code == 2 and "--judge-also no_such" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.slow
