@@ -351,7 +351,8 @@ def guarded_check(tool: Tool, task, grasps: Grasps, scores: Any, *, model: Any =
 
 def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: int = 0, scene: Any = None,
                  verify: int = DEFAULT_VERIFY, weak_grip: float | None = robot.WEAK_GRIP,
-                 scores: Any = None, guard_verify: int = GUARD_VERIFY_K) -> tuple[int | None, dict]:
+                 scores: Any = None, guard_verify: int = GUARD_VERIFY_K,
+                 guard_threshold: float | None = None) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among given candidates (the arm can carry them): SDG-Net's scores under
     the default weights (`scores`, when already computed for `model` and these grasps), the
     out-of-distribution guard read, `verified_pick` of `verify` grasps under nominal physics, of
@@ -359,12 +360,13 @@ def default_pick(tool: Tool, task, grasps: Grasps, *, model: Any = None, seed: i
     Returns (the pick's index, or None when no verified grasp did the task and held, as `itup plan` then
     recommends none; {"guard_score", "guard_fired", "verified_succeeded" (when verified), "shortlist":
     [the grasps rolled out], "measured_total": [their lowest measured totals, None where no rollout was
-    valid]}). Host side; the scorer jits itself."""
+    valid]}). `guard_threshold`: as `plan_grasp`'s (None: `ood.GUARD_THRESHOLD`, the shipped checkpoint's;
+    another checkpoint needs its own, `experiments/ood_guard.py`). Host side; the scorer jits itself."""
     import itup_jax as itup
     from itup_jax import ood
 
     s = itup.score(tool, task, grasps, model=model, seed=seed) if scores is None else scores
-    reading = ood.check(tool, task, grasps, model=model)
+    reading = ood.check(tool, task, grasps, model=model, threshold=guard_threshold)
     info: dict[str, Any] = {"guard_score": float(reading.score), "guard_fired": bool(reading.fired)}
     if checked_count(verify, bool(reading.fired), guard_verify) == 0:
         total = np.asarray(s.total, float)

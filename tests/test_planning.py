@@ -149,9 +149,15 @@ def test_where_the_guard_fires_the_check_covers_guard_verify_grasps(tasks, monke
     assert few.verify_k == 8 == len(few.verified.shortlist) and "8 grasps are rolled out" in few.report()
     none = itup.plan_grasp(tool, task, verify=0, guard_verify=0, **kw)
     assert none.verified is None and not none.guard_verified and none.pick == none.best_index
-    monkeypatch.setattr(ood, "GUARD_THRESHOLD", 0.5 * score)
-    i, info = planning.default_pick(tool, task, more.grasps, verify=1, guard_verify=3, weak_grip=None)
+    i, info = planning.default_pick(tool, task, more.grasps, verify=1, guard_verify=3, weak_grip=None,
+                                    guard_threshold=0.5 * score)
     assert info["guard_fired"] and info["shortlist"] == more.verified.shortlist.tolist() and i == more.pick
+    _, quiet = planning.default_pick(tool, task, more.grasps, verify=1, guard_verify=3, weak_grip=None,
+                                     guard_threshold=2.0 * score)
+    assert not quiet["guard_fired"] and len(quiet["shortlist"]) == 1
+    monkeypatch.setattr(ood, "GUARD_THRESHOLD", 0.5 * score)  # None: the module's threshold
+    j, _ = planning.default_pick(tool, task, more.grasps, verify=1, guard_verify=3, weak_grip=None)
+    assert j == more.pick
     with pytest.raises(itup.InputError, match="guard_verify must be an integer >= 0"):
         itup.plan_grasp(tool, task, guard_verify=-1)
 
