@@ -6,13 +6,13 @@
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
     families.validation()                    # the twelve of the sealed evaluation's rounds that have run
-    families.sealed()                        # the next round's, never rolled out (none until added)
+    families.sealed()                        # the next round's, never rolled out
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
     tool = itup.load_tool("spanner")         # the family's default dimensions
 
-Twenty-nine families (their builders in `tools.family_shapes`, round 4's in `tools.sealed_shapes`). The first four are the built-in tools'
+Thirty-two families (their builders in `tools.family_shapes`, rounds 4 and 5's in `tools.sealed_shapes`). The first four are the built-in tools'
 (`builtin.claw_hammer`, `hand_broom`, `mallet`, `l_stick`), drawn part-wise by `variants.part_variant`.
 The next five are held out of every training set (`held_out()`: the evaluations' families the network
 never saw), each assembled from primitive parts with their own materials (`builtin.assemble_tool`: mass
@@ -56,7 +56,7 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last twelve were the sealed-test families of the sealed evaluation's rounds 1 to 4
+The next twelve were the sealed-test families of the sealed evaluation's rounds 1 to 4
 (`experiments/sealed_eval.py`); all four have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
@@ -96,6 +96,17 @@ Round 4 (0.29.0; builders in `tools.sealed_shapes`):
                well ahead of the handle's line; pushes with the head (broom's category; sweep).
   ladle        a round bar with a round bowl on its end; pulls with the bowl's underside (L-stick's
                category; reach).
+
+The last three are round 5's sealed-test families (`sealed()`): never rolled out before that round's
+draw (builders in `tools.sealed_shapes`):
+
+  pommel_hammer  a round head across a handle that stands on a heavy pommel, mass at both ends; strikes
+               with the head's end face (hammer's category; hammer, knock).
+  angle_broom  a box head turned about the handle's axis, one end of its leading face ahead of the
+               other, so the drag lands unevenly and twists the handle; pushes with the head (broom's
+               category; sweep).
+  cranked_hook a square bar jogged sideways partway up, its hook beside the grasped part's line; pulls
+               with the hook's underside (L-stick's category; reach).
 
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin (the leaning broom's leans from +z), the contact normal along the category's
@@ -141,7 +152,7 @@ from itup_jax.tools.family_shapes import (
     squeegee,
     t_hook,
 )
-from itup_jax.tools.sealed_shapes import deck_brush, ladle, skillet
+from itup_jax.tools.sealed_shapes import angle_broom, cranked_hook, deck_brush, ladle, pommel_hammer, skillet
 from itup_jax.tools.tool import Tool
 from itup_jax.tools.variants import part_variant
 
@@ -416,6 +427,28 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
                           "bowl_material": ("steel", "aluminium", "polypropylene")}),
         summary="validation (sealed test, round 4): bar with a round bowl on its end; pulls with the bowl's underside",
         role="validation", category="l_stick"),
+    "pommel_hammer": Family(
+        "pommel_hammer", pommel_hammer, ("hammer", "knock"),
+        _ranges(handle_length=(0.200, 0.320), handle_radius=(0.011, 0.016), head_radius=(0.011, 0.018),
+                head_front=(0.030, 0.060), head_back=(0.020, 0.060), pommel_radius=(0.016, 0.026),
+                pommel_length=(0.015, 0.045)),
+        MappingProxyType({"handle_material": HANDLE_MATERIALS, "pommel_material": ("steel", "aluminium")}),
+        summary="sealed test, round 5: round head across a handle on a heavy pommel; strikes with the head's end face",
+        role="sealed", category="hammer"),
+    "angle_broom": Family(
+        "angle_broom", angle_broom, ("sweep",),
+        _ranges(half_width=(0.070, 0.150), head_depth=(0.020, 0.045), head_height=(0.030, 0.060), yaw=(0.05, 0.14),
+                handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
+        summary="sealed test, round 5: box head turned about the handle's axis; pushes with its leading face",
+        role="sealed", category="broom"),
+    "cranked_hook": Family(
+        "cranked_hook", cranked_hook, ("reach",),
+        _ranges(length=(0.300, 0.550), half=(0.005, 0.009), jog=(0.025, 0.070), jog_at=(0.5, 0.7),
+                hook_end=(0.050, 0.100), grasp_fraction=(0.5, 0.9)),
+        MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
+        summary="sealed test, round 5: square bar jogged sideways, its hook beside the grasped part's line; pulls with the hook",
+        role="sealed", category="l_stick"),
 })
 
 

@@ -1,5 +1,5 @@
-"""The builders of the sealed-test families of the sealed evaluation's round 4 (`tools.families`
-registers them; validation families since the round has run). Each is a shape of a built-in category that no
+"""The builders of the sealed-test families of the sealed evaluation's rounds 4 (validation families since
+it has run) and 5 (`tools.families` registers them). Each is a shape of a built-in category that no
 earlier family has, built from primitive parts as `tools.family_shapes` builds the others, whose shared
 part builders they use. Lengths in metres; every builder's defaults are its family's default tool.
 
@@ -9,9 +9,11 @@ part builders they use. Lengths in metres; every builder's defaults are its fami
 
 from __future__ import annotations
 
+import math
+
 import trimesh
 
-from itup_jax.tools.builtin import cylinder_part
+from itup_jax.tools.builtin import assemble_tool, box_part, cylinder_part
 from itup_jax.tools.family_shapes import bar_and_end_plate, head_on_handle, striking_head_on_handle
 from itup_jax.tools.tool import Tool
 
@@ -71,3 +73,87 @@ def ladle(*, length: float = 0.450, radius: float = 0.007, bowl_radius: float = 
         name=name, length=length, radius=radius, x0=-radius, x1=front, half_y=bowl_radius, thickness=bowl_thickness,
         contact_x=max(front - 0.015, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
         bar_material=bar_material, plate_material=bowl_material, plate_name="bowl", plate=bowl)
+
+
+def yawed_box_part(half_width: float, half_depth: float, height: float, yaw: float) -> tuple[trimesh.Trimesh, tuple]:
+    """A solid box part (2 half_width along x, 2 half_depth along y, `height` along z from z = 0), turned by
+    `yaw` rad about +z through its centre, and its collision primitive, its own convex hull (the
+    simulator's boxes are the tool frame's axis-aligned ones)."""
+    turn = trimesh.transformations.rotation_matrix(yaw, (0.0, 0.0, 1.0))
+    turn[2, 3] = height / 2
+    mesh = trimesh.creation.box(extents=(2 * half_width, 2 * half_depth, height), transform=turn)
+    return mesh, ("hull", mesh.vertices.copy(), mesh.faces.copy())
+
+
+def pommel_hammer(*, handle_length: float = 0.260, handle_radius: float = 0.013, head_radius: float = 0.014,
+                  head_front: float = 0.045, head_back: float = 0.040, pommel_radius: float = 0.020,
+                  pommel_length: float = 0.030, handle_material: str = "hickory", pommel_material: str = "steel",
+                  name: str = "pommel_hammer") -> Tool:
+    """A hammer with a heavy pommel: a round steel pommel (pommel_length along +z from the origin), the
+    handle on it, and a round steel head across the handle's top along x, from -head_back to head_front,
+    so mass sits at both ends and the centre of mass lies low on the handle. It strikes with the head's
+    +x end face at its centre (hammer's category: hammer, knock). The grasp region is the handle's lower
+    three quarters, clear of the pommel. Default: 0.32 m, ~0.8 kg."""
+    top = pommel_length + handle_length
+    zc = top + head_radius
+    g = handle_radius + 0.006
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[("pommel", pommel_material, cylinder_part(pommel_radius, (0, 0, 0), (0, 0, pommel_length))),
+               ("handle", handle_material, cylinder_part(handle_radius, (0, 0, pommel_length), (0, 0, top))),
+               ("head", "steel", cylinder_part(head_radius, (-head_back, 0, zc), (head_front, 0, zc)))],
+        contact_points=[(head_front, 0.0, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, pommel_length + 0.025), (g, g, pommel_length + 0.75 * handle_length)),
+    )
+
+
+def angle_broom(*, half_width: float = 0.110, head_depth: float = 0.035, head_height: float = 0.045,
+                yaw: float = 0.10, handle_radius: float = 0.011, handle_length: float = 0.400,
+                grasp_fraction: float = 0.5, head_material: str = "beech", handle_material: str = "hickory",
+                name: str = "angle_broom") -> Tool:
+    """An angle broom: a box head (2 half_width wide, head_depth deep, head_height tall, its bottom at
+    z = 0) turned by `yaw` rad about the handle's axis, so one end of its leading face runs ahead of the
+    other, and a handle along +z from the head's top centre. It pushes along +y with the leading face 5 mm
+    above its bottom edge, at the face's centre and +-0.75 half_width along it (broom's category: sweep):
+    the three debris cubes are met at different points of the stroke and the drag twists the handle.
+    The family keeps yaw <= 0.14 rad: the sweep's square cubes meet the turned face along their own
+    face, so one corner of each starts 20 mm tan(yaw) - 1 mm inside it, within the placement's 2 mm. The
+    grasp region is the handle's top grasp_fraction. Default: 0.45 m tall, 0.22 m wide, ~0.36 kg."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    top = head_height + handle_length
+    g = handle_radius + 0.009
+    face = [(u * c - head_depth / 2 * s, u * s + head_depth / 2 * c, 0.005)
+            for u in (0.0, -0.75 * half_width, 0.75 * half_width)]
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[("head", head_material, yawed_box_part(half_width, head_depth / 2, head_height, yaw)),
+               ("handle", handle_material, cylinder_part(handle_radius, (0, 0, head_height), (0, 0, top)))],
+        contact_points=face,
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
+    )
+
+
+def cranked_hook(*, length: float = 0.450, half: float = 0.007, jog: float = 0.045, jog_at: float = 0.6,
+                 hook_end: float = 0.080, grasp_fraction: float = 0.7, material: str = "aluminium",
+                 name: str = "cranked_hook") -> Tool:
+    """A cranked hook: a square bar (2 half thick) along +z, jogged sideways by `jog` along +y at
+    jog_at of its length, so its upper part and the hook run beside the lower part's line, and bent at a
+    right angle along +x at its far end up to hook_end. It pulls with the hook's underside (-z) 30 mm from
+    its tip (halfway along a shorter hook), as the L-stick's category (reach): the pull acts `jog` beside
+    the grasped part's axis. The grasp region runs from the butt over grasp_fraction of the lower part.
+    Default: 0.45 m, ~0.3 kg."""
+    zj = jog_at * length
+    r = half
+    g = r * math.sqrt(2.0) + 0.006
+    parts = [("lower", material, box_part((-r, -r, 0.0), (r, r, zj))),
+             ("crank", material, box_part((-r, -r, zj), (r, jog + r, zj + 2 * r))),
+             ("upper", material, box_part((-r, jog - r, zj + 2 * r), (r, jog + r, length))),
+             ("hook", material, box_part((r, jog - r, length - 2 * r), (hook_end, jog + r, length)))]
+    return assemble_tool(
+        name=name, category="l_stick", parts=parts,
+        contact_points=[(max(hook_end - 0.030, 0.5 * (r + hook_end)), jog, length - 2 * r)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, grasp_fraction * zj)),
+    )
