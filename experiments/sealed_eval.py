@@ -92,7 +92,7 @@ QUICK_SALT = b"/quick"
 #: The round of the sealed evaluation this code runs: round 1 (0.25.0) drew its tools from the
 #: checkpoint's bytes alone; round r > 1 appends `round_salt(r)`, so that an unchanged checkpoint draws
 #: tools no one has seen. Rounds 1 to 4 have run; round 5 draws once new sealed-test families exist.
-ROUND = 5
+ROUND = 6
 #: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.

@@ -85,7 +85,7 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
 
 def test_held_out_training_calibration_and_sealed_families():
     """The five held-out families, the four training ones, the four calibration ones, the twelve of the
-    four sealed evaluations that have run (validation) and round 5's three (sealed),
+    five sealed evaluations that have run (validation; none sealed until a next round adds its own),
     disjoint; every one but the held-out families' tools takes a built-in category (its priors and tool
     frame), so its labels teach (or its draws calibrate on) that category's network; each round's
     sealed-test families did every task between them."""
@@ -93,8 +93,9 @@ def test_held_out_training_calibration_and_sealed_families():
     assert families.training() == ("baton", "headed_stick", "hook", "pusher")
     assert families.calibration() == ("paddle", "mace", "scraper", "t_hook")
     assert families.validation() == ("rolling_pin", "rake", "hoe", "pick", "offset_pusher", "club", "offset_hammer",
-                                     "leaning_broom", "fork_hook", "skillet", "deck_brush", "ladle")
-    assert families.sealed() == ("pommel_hammer", "angle_broom", "cranked_hook")  # round 5's, before its draw
+                                     "leaning_broom", "fork_hook", "skillet", "deck_brush", "ladle",
+                                     "pommel_hammer", "angle_broom", "cranked_hook")
+    assert families.sealed() == ()  # the next round's families are added before its draw
     builtin = {f for f in families.names() if families.get(f).builtin}
     for name in families.training() + families.calibration() + families.validation() + families.sealed():
         fam = families.get(name)
@@ -129,6 +130,28 @@ def test_a_disc_collides_as_its_own_hull():
     tool = skillet(pan_radius=0.07, pan_thickness=0.005)
     assert [p[0] for p in tool.primitives] == ["capsule", "hull"]
     assert tool.contact_point[0] == pytest.approx(0.0025) and tool.contact_point[2] == pytest.approx(0.27)
+
+
+def test_round_5_shapes_put_their_mass_and_contacts_where_they_say():
+    """`sealed_shapes`: a turned box collides as its own hull and the angle broom's three contact points
+    lie on its turned leading face, one end ahead of the other; the cranked hook pulls `jog` beside the
+    grasped part's axis; the pommel hammer's grasp region starts clear of its pommel, and a steel pommel
+    pulls the centre of mass further down the handle than an aluminium one."""
+    from itup_jax.tools.sealed_shapes import angle_broom, cranked_hook, pommel_hammer, yawed_box_part
+
+    mesh, prim = yawed_box_part(0.1, 0.02, 0.05, 0.1)
+    assert prim[0] == "hull" and mesh.is_watertight and mesh.bounds[0][2] == pytest.approx(0.0)
+    np.testing.assert_allclose(np.ptp(prim[1], axis=0)[:2], [0.2 * np.cos(0.1) + 0.04 * np.sin(0.1),
+                                                            0.2 * np.sin(0.1) + 0.04 * np.cos(0.1)], atol=1e-9)
+    tool = angle_broom(yaw=0.1, head_depth=0.04)
+    normal = np.array([-np.sin(0.1), np.cos(0.1), 0.0])
+    np.testing.assert_allclose(tool.contact_points @ normal, 0.02, atol=1e-9)  # on the leading face
+    assert tool.contact_points[2, 1] - tool.contact_points[1, 1] == pytest.approx(1.5 * 0.11 * np.sin(0.1))
+    hook = cranked_hook(jog=0.05)
+    assert hook.contact_point[1] == pytest.approx(0.05) and hook.grasp_region.hi[1] < 0.05 - 0.007
+    ham = pommel_hammer(pommel_length=0.03, handle_length=0.26)
+    light = pommel_hammer(pommel_length=0.03, handle_length=0.26, pommel_material="aluminium")
+    assert ham.grasp_region.lo[2] > 0.03 and ham.params.com[2] < light.params.com[2] - 0.03
 
 
 def _span(name, measure, n=24):

@@ -5,8 +5,8 @@
     families.held_out()                      # the five no training set holds
     families.training()                      # the four the shipped network trains on beside the built-ins
     families.calibration()                   # the four the guard is calibrated on
-    families.validation()                    # the twelve of the sealed evaluation's rounds that have run
-    families.sealed()                        # the next round's, never rolled out
+    families.validation()                    # the fifteen of the sealed evaluation's rounds that have run
+    families.sealed()                        # the next round's, never rolled out (none until added)
     families.get("screwdriver").tasks        # ('knock',)
     tool = families.draw("spanner", seed=3)  # a random spanner within the family's ranges
     tool = itup.load_tool("spanner@3")       # the same tool by name (the CLI's --tool spanner@3)
@@ -43,7 +43,7 @@ evaluate it:
   pusher       a T-head, short or wide, on a short or long handle; pushes with the head (broom's
                category; sweep).
 
-The last four are calibration families (`calibration()`): other shapes of the built-in categories, in
+The next four are calibration families (`calibration()`): other shapes of the built-in categories, in
 no training set, drawn only to calibrate the out-of-distribution guard, so that the five held-out
 families stay the set the guard and the network are judged on:
 
@@ -56,8 +56,8 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The next twelve were the sealed-test families of the sealed evaluation's rounds 1 to 4
-(`experiments/sealed_eval.py`); all four have run, so they are validation families (`validation()`), looked
+The last fifteen were the sealed-test families of the sealed evaluation's rounds 1 to 5
+(`experiments/sealed_eval.py`); all five have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
 
@@ -97,8 +97,7 @@ Round 4 (0.29.0; builders in `tools.sealed_shapes`):
   ladle        a round bar with a round bowl on its end; pulls with the bowl's underside (L-stick's
                category; reach).
 
-The last three are round 5's sealed-test families (`sealed()`): never rolled out before that round's
-draw (builders in `tools.sealed_shapes`):
+Round 5 (0.30.0; builders in `tools.sealed_shapes`):
 
   pommel_hammer  a round head across a handle that stands on a heavy pommel, mass at both ends; strikes
                with the head's end face (hammer's category; hammer, knock).
@@ -433,22 +432,22 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
                 head_front=(0.030, 0.060), head_back=(0.020, 0.060), pommel_radius=(0.016, 0.026),
                 pommel_length=(0.015, 0.045)),
         MappingProxyType({"handle_material": HANDLE_MATERIALS, "pommel_material": ("steel", "aluminium")}),
-        summary="sealed test, round 5: round head across a handle on a heavy pommel; strikes with the head's end face",
-        role="sealed", category="hammer"),
+        summary="validation (sealed test, round 5): round head across a handle on a heavy pommel; strikes with the head's end face",
+        role="validation", category="hammer"),
     "angle_broom": Family(
         "angle_broom", angle_broom, ("sweep",),
         _ranges(half_width=(0.070, 0.150), head_depth=(0.020, 0.045), head_height=(0.030, 0.060), yaw=(0.05, 0.14),
                 handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
-        summary="sealed test, round 5: box head turned about the handle's axis; pushes with its leading face",
-        role="sealed", category="broom"),
+        summary="validation (sealed test, round 5): box head turned about the handle's axis; pushes with its leading face",
+        role="validation", category="broom"),
     "cranked_hook": Family(
         "cranked_hook", cranked_hook, ("reach",),
         _ranges(length=(0.300, 0.550), half=(0.005, 0.009), jog=(0.025, 0.070), jog_at=(0.5, 0.7),
                 hook_end=(0.050, 0.100), grasp_fraction=(0.5, 0.9)),
         MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
-        summary="sealed test, round 5: square bar jogged sideways, its hook beside the grasped part's line; pulls with the hook",
-        role="sealed", category="l_stick"),
+        summary="validation (sealed test, round 5): square bar jogged sideways, its hook beside the grasped part's line; pulls with the hook",
+        role="validation", category="l_stick"),
 })
 
 

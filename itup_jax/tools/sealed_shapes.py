@@ -1,5 +1,5 @@
-"""The builders of the sealed-test families of the sealed evaluation's rounds 4 (validation families since
-it has run) and 5 (`tools.families` registers them). Each is a shape of a built-in category that no
+"""The builders of the sealed-test families of the sealed evaluation's rounds 4 and 5 (`tools.families` registers
+them; validation families since the rounds have run). Each is a shape of a built-in category that no
 earlier family has, built from primitive parts as `tools.family_shapes` builds the others, whose shared
 part builders they use. Lengths in metres; every builder's defaults are its family's default tool.
 
@@ -91,7 +91,7 @@ def pommel_hammer(*, handle_length: float = 0.260, handle_radius: float = 0.013,
                   name: str = "pommel_hammer") -> Tool:
     """A hammer with a heavy pommel: a round steel pommel (pommel_length along +z from the origin), the
     handle on it, and a round steel head across the handle's top along x, from -head_back to head_front,
-    so mass sits at both ends and the centre of mass lies low on the handle. It strikes with the head's
+    so mass sits at both ends and the centre of mass lies near the handle's middle, not by the head. It strikes with the head's
     +x end face at its centre (hammer's category: hammer, knock). The grasp region is the handle's lower
     three quarters, clear of the pommel. Default: 0.32 m, ~0.8 kg."""
     top = pommel_length + handle_length
