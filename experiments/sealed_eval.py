@@ -48,6 +48,9 @@ the *oracle* the candidate with the lowest mean full induced peak torque among t
 and held in all R, measured on the run's draws like every pick (so its luck in the R draws does not
 flatter it); per tool its torque and the rank among the R-draw means of the planner's and the
 baselines' picks; per task its reduction against the better baseline (`reopened.headroom.summary`).
+With --fidelity-of [LABEL=]CHECKPOINT ..., nothing is planned: every tool's fidelity draw is rolled out
+again (the same candidates and seed) and ranked by those checkpoints beside the shipped one, per task
+the median Spearman on the built-in and the other families' tools (fidelity_of.json).
 """
 
 from __future__ import annotations
@@ -353,6 +356,54 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
     return res
 
 
+def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
+    """--fidelity-of: a finished run's fidelity draw of every tool rolled out again (the same candidates and
+    seed) and ranked by each checkpoint in `models` ("label=path" or a path) beside the run's SDG-Net;
+    per task the median Spearman on the built-in and the other families' tools. Writes fidelity_of.json."""
+    import json
+
+    from itup_jax.bench import machine_info
+
+    with open(path) as fh:
+        run = json.load(fh)
+    if run.get("schema") != "itup.sealed/1":
+        raise SystemExit(f"--fidelity-of: {path} is not a sealed run (schema itup.sealed/1)")
+    named = dict(m.split("=", 1) if "=" in m else (os.path.splitext(os.path.basename(m))[0], m) for m in models)
+    missing = [p for p in named.values() if not os.path.isfile(p)]
+    if missing:
+        raise SystemExit(f"--fidelity-of: no checkpoint at {', '.join(missing)}")
+    t0, rows = time.perf_counter(), []
+    for row in run["per_tool"]:
+        if not row.get("fidelity"):
+            continue
+        tool = rebuild_tool(row)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            task = make_task(row["task"], tool)
+        g = sample_reachable(tool, task, run["config"]["n"], seed=0).grasps
+        scene = build_scene(tool, task)
+        L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
+        ok = np.asarray(L.valid)
+        y = np.asarray(L.peak_torque_induced, float)[ok]
+        rho = {"sdgnet": spearman(np.asarray(itup.score(tool, task, g).tau, float)[ok], y)}
+        rho |= {label: spearman(np.asarray(itup.score(tool, task, g, model=p).tau, float)[ok], y) for label, p in named.items()}
+        rows.append({k: row[k] for k in ("task", "tool", "kind", "family")} | {"valid": int(ok.sum()), "run_sdgnet": row["fidelity"]["sdgnet"],
+                    "rho": {m: (None if not np.isfinite(v) else float(v)) for m, v in rho.items()}})
+        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {v:+.2f}" for m, v in rho.items()), flush=True)
+    summary = {k: {kind: {m: float(np.median([r["rho"][m] for r in rs if r["rho"][m] is not None]))
+                          for m in ["sdgnet", *named]}
+                   for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]] if rs}
+               for k in TASKS if any(r["task"] == k for r in rows)}
+    res = {"schema": "itup.sealed_fidelity_of/1", "from": os.path.abspath(path), "models": named, "summary": summary,
+           "per_tool": rows, "version": itup.__version__, "commit": _commit(), "wall_s": time.perf_counter() - t0,
+           "machine": machine_info()}
+    os.makedirs(out_dir, exist_ok=True)
+    atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
+    for k, s in summary.items():
+        print(f"{k:7s} " + "  ".join(f"{kind}: " + " ".join(f"{m} {v:.2f}" for m, v in d.items()) for kind, d in s.items()))
+    return res
+
+
 def _print_summary(summary: dict, before: dict | None = None) -> None:
     for k, s in summary.items():
         v = {b: s[f"vs_{b}"] for b in ("force_closure", "geometric", "better")}
@@ -464,7 +515,14 @@ def main(argv=None) -> dict:
                     "%(default)s, `itup plan`'s)")
     ap.add_argument("--headroom", type=int, default=0, metavar="R",
                     help="with --reopen: the oracle pick of the --tasks' tools from R rollouts of every candidate")
+    ap.add_argument("--fidelity-of", nargs="+", default=None, metavar="[LABEL=]CHECKPOINT",
+                    help="with --reopen: only the run's fidelity draw again, ranked by these checkpoints beside "
+                    "the shipped one (fidelity_of.json; no re-planning)")
     a = ap.parse_args(argv)
+    if a.fidelity_of and not a.reopen:
+        ap.error("--fidelity-of applies to --reopen")
+    if a.fidelity_of:
+        return fidelity_of(a.reopen, a.out, a.fidelity_of)
     if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP
             or a.planner_guard_verify != GUARD_VERIFY_K) and not a.reopen:
         ap.error("--headroom, --planner-verify, --planner-weak-grip and --planner-guard-verify apply to --reopen")

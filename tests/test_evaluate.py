@@ -1107,6 +1107,18 @@ def test_sealed_tools_are_drawn_from_the_checkpoint():
     assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools} | {t["seed"] for t in round1})
 
 
+def test_fidelity_of_needs_a_run_and_existing_checkpoints(tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit):
+        _run_experiment("sealed_eval.py", ["--fidelity-of", "x.npz", "--out", str(tmp_path / "a")], monkeypatch)
+    assert "--fidelity-of applies to --reopen" in capsys.readouterr().err
+    run = tmp_path / "run.json"
+    run.write_text(json.dumps({"schema": "itup.sealed/1", "per_tool": [], "config": {"n": 4}}))
+    with pytest.raises(SystemExit, match="no checkpoint at"):
+        _run_experiment("sealed_eval.py", ["--reopen", str(run), "--fidelity-of", str(tmp_path / "none.npz"), "--out",
+                                           str(tmp_path / "b")], monkeypatch)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
 def test_a_sealed_round_without_sealed_families_is_refused(tmp_path, monkeypatch, capsys):
     from itup_jax.tools import families
 
@@ -1154,3 +1166,14 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
             assert 1 <= h["held"] <= r["candidates"] and h["oracle"]["valid"] >= 1
             assert all(k is None or 1 <= k <= r["candidates"] for k in h["rank_of_picks"].values())
     assert set(re["reopened"]["headroom"]["summary"]) <= {"hammer"}
+    # --fidelity-of: the run's fidelity draw again, ranked by another checkpoint (here the shipped one
+    # under a label): the run's own figure comes back, and the label ranks as the shipped network does
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--fidelity-of",
+                                       f"same={DEFAULT_MODEL}", "--out", str(tmp_path / "fo")], monkeypatch)
+    fo = json.loads((tmp_path / "fo" / "fidelity_of.json").read_text())
+    assert len(fo["per_tool"]) == len(doc["per_tool"]) and fo["models"] == {"same": DEFAULT_MODEL}
+    for r in fo["per_tool"]:
+        assert r["rho"]["sdgnet"] == pytest.approx(r["run_sdgnet"]) and r["rho"]["same"] == r["rho"]["sdgnet"]
+    assert set(fo["summary"]) == {"hammer", "reach"}
