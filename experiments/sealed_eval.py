@@ -226,19 +226,25 @@ def rebuild_tool(row: dict):
     return families.draw(row["family"], int(row["seed"]))
 
 
-def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, was_guard_verify: int,
-               verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
-    """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
+def rebuild_row(row: dict, n: int, what: str = "--reopen") -> tuple:
+    """A finished run's tool as the run had it: (tool, task, the same n candidates, scene); RuntimeError
+    when the rebuilt tool's name or candidate count is not the run's."""
     tool = rebuild_tool(row)
     if tool.name != row["tool"]:
-        raise RuntimeError(f"--reopen: rebuilt {tool.name!r}, the run has {row['tool']!r}")
+        raise RuntimeError(f"{what}: rebuilt {tool.name!r}, the run has {row['tool']!r}")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         task = make_task(row["task"], tool)
     g = sample_reachable(tool, task, n, seed=0).grasps
     if len(g) != row["candidates"]:
-        raise RuntimeError(f"--reopen: {tool.name} {row['task']}: {len(g)} candidates, the run had {row['candidates']}")
-    scene = build_scene(tool, task)
+        raise RuntimeError(f"{what}: {tool.name} {row['task']}: {len(g)} candidates, the run had {row['candidates']}")
+    return tool, task, g, build_scene(tool, task)
+
+
+def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, was_guard_verify: int,
+               verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
+    """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
+    tool, task, g, scene = rebuild_row(row, n)
     old, _ = planner_pick(tool, task, g, scene, verify=was_verify, weak_grip=was_weak_grip, guard_verify=was_guard_verify)
     if old != row["picks"][PLANNER]["index"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
@@ -260,12 +266,7 @@ def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: fl
 
 def headroom_row(row: dict, n: int, draws: int, repeats: int) -> dict:
     """--headroom: the oracle pick of a finished run's tool (module docstring)."""
-    tool = rebuild_tool(row)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        task = make_task(row["task"], tool)
-    g = sample_reachable(tool, task, n, seed=0).grasps
-    scene = build_scene(tool, task)
+    tool, task, g, scene = rebuild_row(row, n, "--headroom")
     tau, ok = np.zeros(len(g)), np.ones(len(g), bool)
     for r in range(repeats):
         L = itup.simulate(tool, task, g, scene=scene, seed=HEADROOM_SEED + r, randomize=Randomization()).labels
@@ -376,12 +377,7 @@ def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
     for row in run["per_tool"]:
         if not row.get("fidelity"):
             continue
-        tool = rebuild_tool(row)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            task = make_task(row["task"], tool)
-        g = sample_reachable(tool, task, run["config"]["n"], seed=0).grasps
-        scene = build_scene(tool, task)
+        tool, task, g, scene = rebuild_row(row, run["config"]["n"], "--fidelity-of")
         L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
         ok = np.asarray(L.valid)
         y = np.asarray(L.peak_torque_induced, float)[ok]
@@ -390,8 +386,11 @@ def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
         rows.append({k: row[k] for k in ("task", "tool", "kind", "family")} | {"valid": int(ok.sum()), "run_sdgnet": row["fidelity"]["sdgnet"],
                     "rho": {m: (None if not np.isfinite(v) else float(v)) for m, v in rho.items()}})
         print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {v:+.2f}" for m, v in rho.items()), flush=True)
-    summary = {k: {kind: {m: float(np.median([r["rho"][m] for r in rs if r["rho"][m] is not None]))
-                          for m in ["sdgnet", *named]}
+    def median(values):
+        v = [x for x in values if x is not None]
+        return float(np.median(v)) if v else None
+
+    summary = {k: {kind: {m: median([r["rho"][m] for r in rs]) for m in ["sdgnet", *named]}
                    for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]] if rs}
                for k in TASKS if any(r["task"] == k for r in rows)}
     res = {"schema": "itup.sealed_fidelity_of/1", "from": os.path.abspath(path), "models": named, "summary": summary,
@@ -400,7 +399,8 @@ def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
     os.makedirs(out_dir, exist_ok=True)
     atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
     for k, s in summary.items():
-        print(f"{k:7s} " + "  ".join(f"{kind}: " + " ".join(f"{m} {v:.2f}" for m, v in d.items()) for kind, d in s.items()))
+        print(f"{k:7s} " + "  ".join(f"{kind}: " + " ".join(f"{m} {v if v is None else round(v, 2)}" for m, v in d.items())
+                                     for kind, d in s.items()))
     return res
 
 

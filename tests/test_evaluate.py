@@ -1173,6 +1173,7 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--fidelity-of",
                                        f"same={DEFAULT_MODEL}", "--out", str(tmp_path / "fo")], monkeypatch)
     fo = json.loads((tmp_path / "fo" / "fidelity_of.json").read_text())
+    jsonschema.validate(fo, load_schema("sealed_fidelity_of"))
     assert len(fo["per_tool"]) == len(doc["per_tool"]) and fo["models"] == {"same": DEFAULT_MODEL}
     for r in fo["per_tool"]:
         assert r["rho"]["sdgnet"] == pytest.approx(r["run_sdgnet"]) and r["rho"]["same"] == r["rho"]["sdgnet"]
