@@ -1020,12 +1020,12 @@ def test_training_families_quick(tmp_path, monkeypatch):
     the seeds' spread; with --from-scratch the pair trained from scratch beside them."""
     from itup_jax.sdgnet.checkpoint import load_model
 
-    _run_experiment("training_families.py", ["--quick", "--from-scratch", "--judge-also", "t_hook", "--out",
+    _run_experiment("training_families.py", ["--quick", "--from-scratch", "--judge-also", "paddle", "--out",
                                              str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "training_families.json").read_text())
     assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0", "scratch_rehearsed_s0", "scratch_trained_s0"}
     # the family judged beside: in the table and the reading, outside the rule
-    assert doc["judged_also"] == ["t_hook/reach"] and "t_hook/reach" in doc["table"]["shipped"]
+    assert doc["judged_also"] == ["paddle/knock"] and "paddle/knock" in doc["table"]["shipped"]  # --quick: the knock
     assert len(doc["reading"]["scratch"]["scratch_trained"]["also_per_seed"]) == 1
     assert {"scratch_rehearsed", "scratch_trained"} <= set(doc["reading"]["scratch"])
     for name in ("scratch_rehearsed_s0", "scratch_trained_s0"):  # trained from scratch, not adapted
@@ -1037,7 +1037,7 @@ def test_training_families_quick(tmp_path, monkeypatch):
         assert (tmp_path / "models" / f"{name}.npz").exists()
         assert (tmp_path / "models" / f"{name}.reference.npz").exists()
     tools = {name: [(r["tool"], r["task"]) for r in rs] for name, rs in doc["rows"].items()}
-    assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["shipped"]) == 2
+    assert len({tuple(t) for t in tools.values()}) == 1 and len(tools["shipped"]) == 3  # held out, built-in, paddle
     # the trained model saw the training family's rows, the control did not: their weights differ
     a, b = (np.load(tmp_path / "models" / f"{n}.npz") for n in ("rehearsed_s0", "trained_s0"))
     weights = [k for k in a.files if a[k].dtype.kind == "f" and a[k].shape == b[k].shape]
