@@ -3,6 +3,7 @@
     python experiments/ood_guard.py --out results/ood_guard       # 4 draws per family and task, the calibration families
     python experiments/ood_guard.py --calibrate-on held_out --out results/ood_guard_held_out
     python experiments/ood_guard.py --quick --out results/ood_quick                 # three families, tiny (tests)
+    python experiments/ood_guard.py --model my.npz --out results/ood_my    # another checkpoint (its reference beside it)
 
 The shipped checkpoint was trained on the four built-in families (claw hammer, hand broom, mallet,
 L-stick; their part-wise and stretched variants) and the four training families of
@@ -59,15 +60,16 @@ from itup_jax.heldout import family_tools
 RHO_FAIL, CATCH = 0.5, 0.9
 
 
-def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
+def planner_row(tool, task, n: int, seed: int, draws: int, model: str | None = None,
+                guard_threshold: float | None = None) -> dict:
     """The planner end to end (`plan_grasp` with its defaults: n reachable candidates, 5 verified in
-    MuJoCo, the guard's shortlist when it fires), its pick then rolled out `draws` times under random
-    physics."""
+    MuJoCo, the guard's shortlist when it fires; `model` and its `guard_threshold` when given), its pick
+    then rolled out `draws` times under random physics."""
     from itup_jax.planning import plan_grasp
     from itup_jax.sim.physics import Randomization
     from itup_jax.sim.rollout import simulate
 
-    plan = plan_grasp(tool, task, n=n, seed=seed)
+    plan = plan_grasp(tool, task, n=n, seed=seed, model=model, guard_threshold=guard_threshold)
     out = {"status": plan.status, "guard_fired": bool(plan.guard is not None and plan.guard.fired),
            "verified": plan.verified is not None, "drawn": plan.sampling.get("drawn"), "ok_draws": None}
     if plan.pick is not None:
@@ -76,8 +78,8 @@ def planner_row(tool, task, n: int, seed: int, draws: int) -> dict:
     return out
 
 
-def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
-    """One tool's measurements (module docstring)."""
+def tool_row(tool, kind: str, grasps: int, verify: int, seed: int, model: str | None = None) -> dict:
+    """One tool's measurements (module docstring), of `model` (None: the shipped checkpoint)."""
     import itup_jax as itup
     from itup_jax import ood
     from itup_jax.costs import CostParams, wrench_costs
@@ -92,8 +94,8 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int) -> dict:
         task = itup.make_task(kind, tool)
     r = sample_reachable(tool, task, grasps, seed=seed)
     g = r.grasps
-    s = itup.score(tool, task, g)
-    guard = ood.check(tool, task, g)
+    s = itup.score(tool, task, g, model=model)
+    guard = ood.check(tool, task, g, model=model)
     L = itup.simulate(tool, task, g, seed=seed, randomize=None).labels
     valid = np.asarray(L.valid)
     L2 = itup.simulate(tool, task, g, seed=seed + 1, randomize=Randomization()).labels
@@ -231,6 +233,10 @@ def main(argv=None) -> dict:
     ap.add_argument("--plan-n", type=int, default=1000, help="candidates of the planner's run on each test tool "
                     "(0: no planner run; default %(default)s)")
     ap.add_argument("--plan-draws", type=int, default=3, help="random-physics rollouts of the planner's pick")
+    ap.add_argument("--model", default=None, metavar="CHECKPOINT",
+                    help="another SDG-Net checkpoint, its guard reference beside it (<stem>.reference.npz): "
+                    "calibrated and judged instead of the shipped one; its planner runs use the threshold "
+                    "calibrated here")
     ap.add_argument("--quick", action="store_true", help="two families, 1 draw each, 12 candidates (for the tests)")
     ap.add_argument("--out", default="results/ood_guard")
     args = ap.parse_args(argv)
@@ -242,32 +248,43 @@ def main(argv=None) -> dict:
     if args.tools < 1 or args.grasps < 3 or args.verify < 1:
         print("ood_guard: --tools >= 1, --grasps >= 3 and --verify >= 1 are needed", file=sys.stderr)
         raise SystemExit(2)
+    if args.model is not None:
+        from itup_jax.ood import reference_path_of
+
+        ref = reference_path_of(args.model)
+        if not (os.path.isfile(args.model) and ref and os.path.isfile(ref)):
+            print(f"ood_guard: --model {args.model}: needs the checkpoint and its guard reference beside it",
+                  file=sys.stderr)
+            raise SystemExit(2)
     others = () if args.calibrate_on == "held_out" else families.with_role(args.calibrate_on)
     set_names = family_sets(names, args.calibrate_on, ("paddle",) if args.quick and others else others)
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
-    sets = {"calibration": [], "test": []}
-    for name in set_names:
-        fam = families.get(name)
-        for kind in fam.tasks:
-            for set_name in set_names[name]:
-                for tool, s in family_tools(name, set_name, args.tools):
-                    row = tool_row(tool, kind, args.grasps, args.verify, seed=s)
-                    row.update(family=name, builtin=fam.builtin)
-                    if set_name == "test" and args.plan_n > 0:
-                        with warnings.catch_warnings():
-                            warnings.simplefilter("ignore")
-                            task = itup.make_task(kind, tool)
-                        row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws)
-                    sets[set_name].append(row)
-                    print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} (analytic "
-                          f"{row['rho_induced_analytic']:+.2f}, random draw {row['rho_induced_random_draw']:+.2f}) guard "
-                          f"{row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "
-                          f"{row['verified']['ok']} any ok {row['any_ok']}", flush=True)
-    cal = calibrate(sets["calibration"])
+    sets, cal = {"calibration": [], "test": []}, None
+    for wanted in ("calibration", "test"):  # the calibration first: --model's planner runs use its threshold
+        if wanted == "test":
+            cal = calibrate(sets["calibration"])
+        for name in set_names:
+            fam = families.get(name)
+            for kind in fam.tasks:
+                for set_name in [x for x in set_names[name] if x == wanted]:
+                    for tool, s in family_tools(name, set_name, args.tools):
+                        row = tool_row(tool, kind, args.grasps, args.verify, seed=s, model=args.model)
+                        row.update(family=name, builtin=fam.builtin)
+                        if set_name == "test" and args.plan_n > 0:
+                            with warnings.catch_warnings():
+                                warnings.simplefilter("ignore")
+                                task = itup.make_task(kind, tool)
+                            row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws, model=args.model,
+                                                      guard_threshold=cal["threshold"] if args.model else None)
+                        sets[set_name].append(row)
+                        print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} (analytic "
+                              f"{row['rho_induced_analytic']:+.2f}, random draw {row['rho_induced_random_draw']:+.2f}) "
+                              f"guard {row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "
+                              f"{row['verified']['ok']} any ok {row['any_ok']}", flush=True)
     from itup_jax.ood import GUARD_THRESHOLD
 
-    doc = {"schema": "itup.ood_guard/1", "grasps": args.grasps, "threshold_in_use": GUARD_THRESHOLD, "tools": args.tools, "verify": args.verify,
+    doc = {"schema": "itup.ood_guard/1", "model": args.model and os.path.abspath(args.model), "grasps": args.grasps, "threshold_in_use": GUARD_THRESHOLD, "tools": args.tools, "verify": args.verify,
            "families": list(set_names), "calibrate_on": args.calibrate_on, "rho_fail": RHO_FAIL, "catch": CATCH, "calibration": cal,
            "judged": {k: judge(v, cal["threshold"]) for k, v in sets.items()},
            "judged_in_use": {k: judge(v, GUARD_THRESHOLD) for k, v in sets.items()},

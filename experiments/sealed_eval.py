@@ -41,6 +41,7 @@ family and seed, the same 256 candidates), first as the run's planner did (its `
 alone), checked to give the recorded pick, then as `itup plan` does now (or with --planner-verify K,
 0: verified only where the guard fires, and --planner-weak-grip N, 0: at the default grip alone); a
 pick that changed is measured on the run's draws (the same seeds), every other pick is the run's.
+--model CHECKPOINT (and --guard-threshold T, its guard's own) re-plans with another network.
 Writes sealed.json of the same schema, with `reopened` naming the run and the planner, and
 prints the summary beside the run's. With --headroom R (and --tasks), the tools of those tasks are also
 asked what a perfect predictor would pick: every candidate rolled out R more times (their own draws),
@@ -71,6 +72,7 @@ from itup_jax.errors import InputError
 from itup_jax.evaluate import MEASURED
 from itup_jax.grasp_sampler import sample_reachable
 from itup_jax.heldout import oracle_index
+from itup_jax.ood import reference_path, reference_path_of
 from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K, default_pick
 from itup_jax.scoring import ScoreWeights
 from itup_jax.sdgnet.config import DEFAULT_MODEL
@@ -141,15 +143,17 @@ def sealed_tools(checkpoint: bytes, task: str, per_task: int = 16) -> list[dict]
 
 
 def planner_pick(tool, task, grasps, scene, verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP,
-                 guard_verify: int = GUARD_VERIFY_K) -> tuple[int | None, dict]:
+                 guard_verify: int = GUARD_VERIFY_K, model: str | None = None,
+                 guard_threshold: float | None = None) -> tuple[int | None, dict]:
     """`itup plan`'s default pick among `grasps` (`planning.default_pick`): SDG-Net's scores, the guard,
     `verify` grasps rolled out under nominal physics (max(verify, guard_verify) of the guard's shortlist
     where it fired), each again at
     `weak_grip` N per pad, the lowest measured total kept; None when none of them did the task and held
     (`itup plan` then recommends no grasp). verify 0 and weak_grip None: the planner of 0.25.0 (verified
-    only when the guard fired, at the default grip alone)."""
+    only when the guard fired, at the default grip alone). `model` and `guard_threshold`: another
+    checkpoint and its guard's threshold (None: the shipped ones)."""
     index, info = default_pick(tool, task, grasps, scene=scene, verify=verify, weak_grip=weak_grip,
-                               guard_verify=guard_verify)
+                               guard_verify=guard_verify, model=model, guard_threshold=guard_threshold)
     info.pop("shortlist", None)
     return index, info
 
@@ -242,14 +246,17 @@ def rebuild_row(row: dict, n: int, what: str = "--reopen") -> tuple:
 
 
 def replan_row(row: dict, n: int, draws: int, was_verify: int, was_weak_grip: float | None, was_guard_verify: int,
-               verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
-    """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen)."""
+               verify: int = DEFAULT_VERIFY, weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K,
+               model: str | None = None, guard_threshold: float | None = None) -> dict:
+    """A guard-fired row of a finished run with the planner of this code (module docstring, --reopen), with
+    `model` and `guard_threshold` when given (the run's own planner is replayed with the shipped ones)."""
     tool, task, g, scene = rebuild_row(row, n)
     old, _ = planner_pick(tool, task, g, scene, verify=was_verify, weak_grip=was_weak_grip, guard_verify=was_guard_verify)
     if old != row["picks"][PLANNER]["index"]:
         raise RuntimeError(f"--reopen: {tool.name} {row['task']}: the run's planner picked "
                            f"{row['picks'][PLANNER]['index']}, re-planned {old}")
-    new, info = planner_pick(tool, task, g, scene, verify=verify, weak_grip=weak_grip, guard_verify=guard_verify)
+    new, info = planner_pick(tool, task, g, scene, verify=verify, weak_grip=weak_grip, guard_verify=guard_verify,
+                             model=model, guard_threshold=guard_threshold)
     out = {**row, "planner": info, "picks": dict(row["picks"]), "replaced": None}
     if new != old:
         weak = "weak" in row["picks"][PLANNER]
@@ -303,7 +310,8 @@ def _oracle_summary(rows: list[dict]) -> dict:
 
 
 def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (), verify: int = DEFAULT_VERIFY,
-           weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K) -> dict:
+           weak_grip: float | None = WEAK_GRIP, guard_verify: int = GUARD_VERIFY_K, model: str | None = None,
+           guard_threshold: float | None = None) -> dict:
     """--reopen: the run at `path` with the planner of this code (module docstring)."""
     import json
 
@@ -321,7 +329,7 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
         if row["picks"] and (verify > 0 or was[0] > 0 or row.get("planner", {}).get("guard_fired")):
             t = time.perf_counter()
             rows.append(replan_row(row, cfg["n"], cfg["draws"], *was, verify=verify, weak_grip=weak_grip,
-                                   guard_verify=guard_verify))
+                                   guard_verify=guard_verify, model=model, guard_threshold=guard_threshold))
             r = rows[-1]
             was, now = r["replaced"] or r["picks"][PLANNER], r["picks"][PLANNER]
             print(f"{r['task']:7s} {r['tool']:28s} planner {was['index']} -> {now['index']}  torque "
@@ -344,7 +352,9 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
     res = {**run, "version": itup.__version__, "commit": _commit(), "summary": summarise(rows), "per_tool": rows,
            "wall_s": time.perf_counter() - t0, "machine": machine_info(),
            "reopened": {"from": os.path.abspath(path), "commit": run["commit"], "version": run["version"],
-                        "verify": verify, "weak_grip": weak_grip, "guard_verify": guard_verify, "replaced": sum(r["replaced"] is not None for r in rows),
+                        "verify": verify, "weak_grip": weak_grip, "guard_verify": guard_verify,
+                        "model": model and os.path.abspath(model), "guard_threshold": guard_threshold,
+                        "replaced": sum(r["replaced"] is not None for r in rows),
                         "headroom": {"repeats": headroom, "tasks": list(headroom_tasks),
                                      "summary": _oracle_summary(rows)} if headroom else None}}
     os.makedirs(out_dir, exist_ok=True)
@@ -518,7 +528,20 @@ def main(argv=None) -> dict:
     ap.add_argument("--fidelity-of", nargs="+", default=None, metavar="[LABEL=]CHECKPOINT",
                     help="with --reopen: only the run's fidelity draw again, ranked by these checkpoints beside "
                     "the shipped one (fidelity_of.json; no re-planning)")
+    ap.add_argument("--model", default=None, metavar="CHECKPOINT",
+                    help="with --reopen: re-plan with this SDG-Net checkpoint (its guard reference beside it, "
+                    "<stem>.reference.npz) instead of the shipped one")
+    ap.add_argument("--guard-threshold", type=float, default=None, metavar="T",
+                    help="with --reopen: the guard's threshold for the re-planning (default: ood.GUARD_THRESHOLD, "
+                    "the shipped checkpoint's; another checkpoint needs its own, experiments/ood_guard.py)")
     a = ap.parse_args(argv)
+    if (a.model or a.guard_threshold is not None) and (not a.reopen or a.fidelity_of):
+        ap.error("--model and --guard-threshold apply to --reopen's re-planning")
+    if a.model and not (os.path.isfile(a.model) and (reference_path_of(a.model) or "") and
+                        os.path.isfile(reference_path_of(a.model))):
+        ap.error(f"--model {a.model}: needs the checkpoint and its guard reference ({reference_path(a.model)})")
+    if a.guard_threshold is not None and not (np.isfinite(a.guard_threshold) and a.guard_threshold > 0):
+        ap.error(f"--guard-threshold must be a finite number > 0, got {a.guard_threshold}")
     if a.fidelity_of and not a.reopen:
         ap.error("--fidelity-of applies to --reopen")
     if a.fidelity_of:
@@ -533,7 +556,7 @@ def main(argv=None) -> dict:
                  f"{a.planner_guard_verify}")
     if a.reopen:
         return reopen(a.reopen, a.out, a.headroom, tuple(t for t in a.tasks.split(",") if t), a.planner_verify,
-                      a.planner_weak_grip or None, a.planner_guard_verify)
+                      a.planner_weak_grip or None, a.planner_guard_verify, a.model, a.guard_threshold)
     if a.quick:
         a.tools, a.n, a.draws, a.tasks = 2, 24, 2, "hammer,reach"
     tasks = tuple(t for t in a.tasks.split(",") if t)

@@ -960,6 +960,24 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
     assert all("plan" in r for r in doc["rows"]["test"]) and j["planner_runs"] == 1
     held = next(r for r in doc["rows"]["test"] if not r["builtin"])["plan"]
     assert held["verified"] == held["guard_fired"] and held["status"] in ("ok", "no_verified_success")
+    # --model: another checkpoint calibrated and judged (here the shipped one by path: the same
+    # measurements and threshold; its planner runs read the threshold calibrated here)
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    _run_experiment("ood_guard.py", ["--quick", "--model", DEFAULT_MODEL, "--plan-n", "0", "--out", str(tmp_path / "m")],
+                    monkeypatch)
+    m = json.loads((tmp_path / "m" / "ood_guard.json").read_text())
+    assert m["model"] == os.path.abspath(DEFAULT_MODEL) and m["calibration"] == doc["calibration"]
+    assert [r["rho_induced"] for r in m["rows"]["test"]] == [r["rho_induced"] for r in doc["rows"]["test"]]
+    assert [r["guard"]["score"] for r in m["rows"]["calibration"]] == [r["guard"]["score"] for r in doc["rows"]["calibration"]]
+
+
+def test_ood_guard_refuses_a_model_without_its_guard_reference(tmp_path, monkeypatch, capsys):
+    ck = tmp_path / "net.npz"
+    ck.write_bytes(b"not read")
+    with pytest.raises(SystemExit):
+        _run_experiment("ood_guard.py", ["--model", str(ck), "--out", str(tmp_path / "o")], monkeypatch)
+    assert "needs the checkpoint and its guard reference" in capsys.readouterr().err and not (tmp_path / "o").exists()
 
 
 def test_ood_guard_calibration_families():
@@ -1119,6 +1137,16 @@ def test_fidelity_of_needs_a_run_and_existing_checkpoints(tmp_path, monkeypatch,
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
+def test_reopen_with_another_model_needs_its_checkpoint_and_guard_reference(tmp_path, monkeypatch, capsys):
+    for argv, says in ((["--model", "x.npz"], "apply to --reopen"),
+                       (["--reopen", "run.json", "--model", str(tmp_path / "none.npz")], "needs the checkpoint"),
+                       (["--reopen", "run.json", "--guard-threshold", "-1"], "finite number > 0")):
+        with pytest.raises(SystemExit):
+            _run_experiment("sealed_eval.py", [*argv, "--out", str(tmp_path / "o")], monkeypatch)
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_sealed_round_without_sealed_families_is_refused(tmp_path, monkeypatch, capsys):
     from itup_jax.tools import families
 
@@ -1166,10 +1194,17 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
             assert 1 <= h["held"] <= r["candidates"] and h["oracle"]["valid"] >= 1
             assert all(k is None or 1 <= k <= r["candidates"] for k in h["rank_of_picks"].values())
     assert set(re["reopened"]["headroom"]["summary"]) <= {"hammer"}
-    # --fidelity-of: the run's fidelity draw again, ranked by another checkpoint (here the shipped one
-    # under a label): the run's own figure comes back, and the label ranks as the shipped network does
+    # --model: re-planned with a given checkpoint and threshold (here the shipped ones): nothing changes
+    from itup_jax.ood import GUARD_THRESHOLD
     from itup_jax.sdgnet.config import DEFAULT_MODEL
 
+    _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--model", DEFAULT_MODEL,
+                                       "--guard-threshold", str(GUARD_THRESHOLD), "--out", str(tmp_path / "m")], monkeypatch)
+    rm = json.loads((tmp_path / "m" / "sealed.json").read_text())
+    assert rm["reopened"]["replaced"] == 0 and rm["reopened"]["guard_threshold"] == GUARD_THRESHOLD
+    assert rm["reopened"]["model"] == os.path.abspath(DEFAULT_MODEL) and rm["summary"] == doc["summary"]
+    # --fidelity-of: the run's fidelity draw again, ranked by another checkpoint (here the shipped one
+    # under a label): the run's own figure comes back, and the label ranks as the shipped network does
     _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--fidelity-of",
                                        f"same={DEFAULT_MODEL}", "--out", str(tmp_path / "fo")], monkeypatch)
     fo = json.loads((tmp_path / "fo" / "fidelity_of.json").read_text())
