@@ -31,6 +31,12 @@ def _prism(radius: float, p0, p1, sections: int) -> tuple[trimesh.Trimesh, tuple
     return mesh, ("capsule", p0 + r * u, p1 - r * u, r)
 
 
+def short_of_end(start: float, end: float, from_end: float) -> float:
+    """Where a working part that runs from `start` to `end` (m, along one axis) takes its contact:
+    `from_end` short of its end, or halfway along a part shorter than twice that."""
+    return max(end - from_end, 0.5 * (start + end))
+
+
 # ---------------------------------------------------------------------------------------------------
 # The five held-out families (the defaults are each family's `load_tool(<family>)` tool)
 # ---------------------------------------------------------------------------------------------------
@@ -90,7 +96,7 @@ def pry_bar(*, length: float = 0.450, radius: float = 0.0095, hook_end: float = 
     circum = radius / math.cos(math.pi / sections)
     g = circum + 0.006
     hook = _prism(r, (circum, 0, length - r), (hook_end, 0, length - r), sections)
-    contact_x = max(0.5 * (circum + hook_end), hook_end - PRY_CONTACT_FROM_TIP)
+    contact_x = short_of_end(circum, hook_end, PRY_CONTACT_FROM_TIP)
     return assemble_tool(
         name=name, category="pry_bar",
         parts=[
@@ -246,7 +252,7 @@ def hook(*, length: float = 0.450, radius: float = 0.008, hook_end: float = 0.09
             ("hook", material, segment(np.array([r, 0.0, z1]), np.array([hook_end, 0.0, z1]))),
         ],
         # 30 mm from the hook's tip (halfway along a shorter hook): low on the block's face in the reach
-        contact_points=[(max(hook_end - 0.030, 0.5 * (r + hook_end)), 0.0, z1 - r)],
+        contact_points=[(short_of_end(r, hook_end, 0.030), 0.0, z1 - r)],
         contact_normal=(0.0, 0.0, -1.0),
         grasp_region=((-g, -g, 0.0), (g, g, min(grasp_fraction * length, z1 - 2 * r))),
     )
@@ -369,7 +375,7 @@ def t_hook(*, length: float = 0.450, radius: float = 0.007, bar_half: float = 0.
     over grasp_fraction of the length. Default: 0.45 m, ~0.22 kg."""
     return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-back, x1=front, half_y=bar_half, thickness=2 * bar_half,
-        contact_x=max(front - 0.030, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
+        contact_x=short_of_end(radius, front, 0.030), grasp_fraction=grasp_fraction,
         bar_material=material, plate_material=material, plate_name="crossbar")
 
 
@@ -437,7 +443,7 @@ def hoe(*, length: float = 0.450, radius: float = 0.007, blade_end: float = 0.08
     over grasp_fraction of the length. Default: 0.45 m, ~0.38 kg."""
     return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-radius, x1=blade_end, half_y=blade_half_width,
-        thickness=blade_thickness, contact_x=max(blade_end - 0.020, 0.5 * (radius + blade_end)),
+        thickness=blade_thickness, contact_x=short_of_end(radius, blade_end, 0.020),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=blade_material,
         plate_name="blade")
 
@@ -505,7 +511,7 @@ def club(*, length: float = 0.450, radius: float = 0.008, head_front: float = 0.
     the length. Default: 0.45 m, ~0.8 kg."""
     return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-head_back, x1=head_front, half_y=head_half_width,
-        thickness=head_thickness, contact_x=max(head_front - 0.015, 0.5 * (radius + head_front)),
+        thickness=head_thickness, contact_x=short_of_end(radius, head_front, 0.015),
         grasp_fraction=grasp_fraction, bar_material=bar_material, plate_material=head_material,
         plate_name="head")
 
@@ -570,7 +576,7 @@ def fork_hook(*, length: float = 0.450, radius: float = 0.006, spread: float = 0
     r = radius
     z1 = length - r
     g = r + 0.006
-    xc = max(hook_end - 0.030, 0.5 * (r + hook_end))
+    xc = short_of_end(r, hook_end, 0.030)
     return assemble_tool(
         name=name, category="l_stick",
         parts=[

@@ -14,8 +14,14 @@ import math
 import trimesh
 
 from itup_jax.tools.builtin import assemble_tool, box_part, cylinder_part
-from itup_jax.tools.family_shapes import bar_and_end_plate, head_on_handle, striking_head_on_handle
+from itup_jax.tools.family_shapes import bar_and_end_plate, head_on_handle, short_of_end, striking_head_on_handle
 from itup_jax.tools.tool import Tool
+
+
+def hull_part(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, tuple]:
+    """A convex solid part and its collision primitive, its own convex hull (for shapes that neither the
+    simulator's capsules nor its tool-frame-aligned boxes fit)."""
+    return mesh, ("hull", mesh.vertices.copy(), mesh.faces.copy())
 
 
 def disc_part(radius: float, centre, axis: int, thickness: float) -> tuple[trimesh.Trimesh, tuple]:
@@ -25,7 +31,7 @@ def disc_part(radius: float, centre, axis: int, thickness: float) -> tuple[trime
     lo[axis] -= thickness / 2
     hi[axis] += thickness / 2
     mesh, _ = cylinder_part(radius, lo, hi)
-    return mesh, ("hull", mesh.vertices.copy(), mesh.faces.copy())
+    return hull_part(mesh)
 
 
 def skillet(*, handle_length: float = 0.200, handle_radius: float = 0.013, pan_radius: float = 0.070,
@@ -71,7 +77,7 @@ def ladle(*, length: float = 0.450, radius: float = 0.007, bowl_radius: float = 
     bowl = disc_part(bowl_radius, (bowl_radius - radius, 0.0, length - bowl_thickness / 2), 2, bowl_thickness)
     return bar_and_end_plate(
         name=name, length=length, radius=radius, x0=-radius, x1=front, half_y=bowl_radius, thickness=bowl_thickness,
-        contact_x=max(front - 0.015, 0.5 * (radius + front)), grasp_fraction=grasp_fraction,
+        contact_x=short_of_end(radius, front, 0.015), grasp_fraction=grasp_fraction,
         bar_material=bar_material, plate_material=bowl_material, plate_name="bowl", plate=bowl)
 
 
@@ -81,8 +87,7 @@ def yawed_box_part(half_width: float, half_depth: float, height: float, yaw: flo
     simulator's boxes are the tool frame's axis-aligned ones)."""
     turn = trimesh.transformations.rotation_matrix(yaw, (0.0, 0.0, 1.0))
     turn[2, 3] = height / 2
-    mesh = trimesh.creation.box(extents=(2 * half_width, 2 * half_depth, height), transform=turn)
-    return mesh, ("hull", mesh.vertices.copy(), mesh.faces.copy())
+    return hull_part(trimesh.creation.box(extents=(2 * half_width, 2 * half_depth, height), transform=turn))
 
 
 def pommel_hammer(*, handle_length: float = 0.260, handle_radius: float = 0.013, head_radius: float = 0.014,
@@ -91,9 +96,9 @@ def pommel_hammer(*, handle_length: float = 0.260, handle_radius: float = 0.013,
                   name: str = "pommel_hammer") -> Tool:
     """A hammer with a heavy pommel: a round steel pommel (pommel_length along +z from the origin), the
     handle on it, and a round steel head across the handle's top along x, from -head_back to head_front,
-    so mass sits at both ends and the centre of mass lies near the handle's middle, not by the head. It strikes with the head's
-    +x end face at its centre (hammer's category: hammer, knock). The grasp region is the handle's lower
-    three quarters, clear of the pommel. Default: 0.32 m, ~0.8 kg."""
+    so mass sits at both ends and the centre of mass lies near the handle's middle, not by the head. It
+    strikes with the head's +x end face at its centre (hammer's category: hammer, knock). The grasp region
+    is the handle's lower three quarters, clear of the pommel. Default: 0.32 m, ~0.8 kg."""
     top = pommel_length + handle_length
     zc = top + head_radius
     g = handle_radius + 0.006
@@ -153,7 +158,7 @@ def cranked_hook(*, length: float = 0.450, half: float = 0.007, jog: float = 0.0
              ("hook", material, box_part((r, jog - r, length - 2 * r), (hook_end, jog + r, length)))]
     return assemble_tool(
         name=name, category="l_stick", parts=parts,
-        contact_points=[(max(hook_end - 0.030, 0.5 * (r + hook_end)), jog, length - 2 * r)],
+        contact_points=[(short_of_end(r, hook_end, 0.030), jog, length - 2 * r)],
         contact_normal=(0.0, 0.0, -1.0),
         grasp_region=((-g, -g, 0.0), (g, g, grasp_fraction * zj)),
     )
