@@ -251,8 +251,7 @@ def main(argv=None) -> dict:
     if args.model is not None:
         from itup_jax.ood import reference_path_of
 
-        ref = reference_path_of(args.model)
-        if not (os.path.isfile(args.model) and ref and os.path.isfile(ref)):
+        if not (os.path.isfile(args.model) and reference_path_of(args.model)):  # None: no reference on disk
             print(f"ood_guard: --model {args.model}: needs the checkpoint and its guard reference beside it",
                   file=sys.stderr)
             raise SystemExit(2)
@@ -261,27 +260,27 @@ def main(argv=None) -> dict:
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
     sets, cal = {"calibration": [], "test": []}, None
-    for wanted in ("calibration", "test"):  # the calibration first: --model's planner runs use its threshold
-        if wanted == "test":
+    # the calibration set first (in the families' order within each set): --model's planner runs use its threshold
+    jobs = sorted(((set_name, name, kind) for name in set_names for kind in families.get(name).tasks
+                   for set_name in set_names[name]), key=lambda job: job[0] != "calibration")
+    for set_name, name, kind in jobs:
+        if set_name == "test" and cal is None:
             cal = calibrate(sets["calibration"])
-        for name in set_names:
-            fam = families.get(name)
-            for kind in fam.tasks:
-                for set_name in [x for x in set_names[name] if x == wanted]:
-                    for tool, s in family_tools(name, set_name, args.tools):
-                        row = tool_row(tool, kind, args.grasps, args.verify, seed=s, model=args.model)
-                        row.update(family=name, builtin=fam.builtin)
-                        if set_name == "test" and args.plan_n > 0:
-                            with warnings.catch_warnings():
-                                warnings.simplefilter("ignore")
-                                task = itup.make_task(kind, tool)
-                            row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws, model=args.model,
-                                                      guard_threshold=cal["threshold"] if args.model else None)
-                        sets[set_name].append(row)
-                        print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} (analytic "
-                              f"{row['rho_induced_analytic']:+.2f}, random draw {row['rho_induced_random_draw']:+.2f}) "
-                              f"guard {row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "
-                              f"{row['verified']['ok']} any ok {row['any_ok']}", flush=True)
+        for tool, s in family_tools(name, set_name, args.tools):
+            row = tool_row(tool, kind, args.grasps, args.verify, seed=s, model=args.model)
+            row.update(family=name, builtin=families.get(name).builtin)
+            if set_name == "test" and args.plan_n > 0:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    task = itup.make_task(kind, tool)
+                row["plan"] = planner_row(tool, task, args.plan_n, s, args.plan_draws, model=args.model,
+                                          guard_threshold=cal["threshold"] if args.model else None)
+            sets[set_name].append(row)
+            print(f"{set_name:11s} {tool.name:16s} {kind:6s} rho {row['rho_induced']:+.2f} (analytic "
+                  f"{row['rho_induced_analytic']:+.2f}, random draw {row['rho_induced_random_draw']:+.2f}) guard "
+                  f"{row['guard']['score']:.2f} learned ok {row['learned']['ok']} verified ok "
+                  f"{row['verified']['ok']} any ok {row['any_ok']}", flush=True)
+    cal = cal or calibrate(sets["calibration"])
     from itup_jax.ood import GUARD_THRESHOLD
 
     doc = {"schema": "itup.ood_guard/1", "model": args.model and os.path.abspath(args.model), "grasps": args.grasps, "threshold_in_use": GUARD_THRESHOLD, "tools": args.tools, "verify": args.verify,

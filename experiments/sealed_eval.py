@@ -177,14 +177,16 @@ def weak_failures(tool, task, scene, g, i: int, draws: int) -> dict:
     return {"rollouts": int(len(bad)), "failed": int(bad.sum())}
 
 
-def fidelity(tool, task, scene, g) -> dict:
-    """Spearman over the candidates of each model's predicted torque with the measured full induced peak."""
+def fidelity(tool, task, scene, g, checkpoints: dict | None = None) -> dict:
+    """Spearman over the candidates of each model's predicted torque with the measured full induced peak
+    (the fidelity draw): SDG-Net, the analytic forms and the `checkpoints` {label: path} beside them."""
     L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
     ok = np.asarray(L.valid)
     y = np.asarray(L.peak_torque_induced, float)[ok]
     preds = {"sdgnet": itup.score(tool, task, g).tau,
              "analytic": itup.wrench_costs(tool, task, g, OBJECTIVES["paper"].analytic).tau,
              "analytic_wrench": itup.wrench_costs(tool, task, g, OBJECTIVES["wrench"].analytic).tau}
+    preds |= {label: itup.score(tool, task, g, model=p).tau for label, p in (checkpoints or {}).items()}
     out = {m: spearman(np.asarray(p, float)[ok], y) for m, p in preds.items()}
     return {"valid": int(ok.sum()), **{m: (None if not np.isfinite(v) else float(v)) for m, v in out.items()}}
 
@@ -388,14 +390,12 @@ def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
         if not row.get("fidelity"):
             continue
         tool, task, g, scene = rebuild_row(row, run["config"]["n"], "--fidelity-of")
-        L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
-        ok = np.asarray(L.valid)
-        y = np.asarray(L.peak_torque_induced, float)[ok]
-        rho = {"sdgnet": spearman(np.asarray(itup.score(tool, task, g).tau, float)[ok], y)}
-        rho |= {label: spearman(np.asarray(itup.score(tool, task, g, model=p).tau, float)[ok], y) for label, p in named.items()}
-        rows.append({k: row[k] for k in ("task", "tool", "kind", "family")} | {"valid": int(ok.sum()), "run_sdgnet": row["fidelity"]["sdgnet"],
-                    "rho": {m: (None if not np.isfinite(v) else float(v)) for m, v in rho.items()}})
-        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {v:+.2f}" for m, v in rho.items()), flush=True)
+        f = fidelity(tool, task, scene, g, checkpoints=named)
+        rho = {m: f[m] for m in ["sdgnet", *named]}
+        rows.append({k: row[k] for k in ("task", "tool", "kind", "family")}
+                    | {"valid": f["valid"], "run_sdgnet": row["fidelity"]["sdgnet"], "rho": rho})
+        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {v if v is None else round(v, 2)}"
+                                                                  for m, v in rho.items()), flush=True)
     def median(values):
         v = [x for x in values if x is not None]
         return float(np.median(v)) if v else None
@@ -537,8 +537,7 @@ def main(argv=None) -> dict:
     a = ap.parse_args(argv)
     if (a.model or a.guard_threshold is not None) and (not a.reopen or a.fidelity_of):
         ap.error("--model and --guard-threshold apply to --reopen's re-planning")
-    if a.model and not (os.path.isfile(a.model) and (reference_path_of(a.model) or "") and
-                        os.path.isfile(reference_path_of(a.model))):
+    if a.model and not (os.path.isfile(a.model) and reference_path_of(a.model)):  # None: no reference on disk
         ap.error(f"--model {a.model}: needs the checkpoint and its guard reference ({reference_path(a.model)})")
     if a.guard_threshold is not None and not (np.isfinite(a.guard_threshold) and a.guard_threshold > 0):
         ap.error(f"--guard-threshold must be a finite number > 0, got {a.guard_threshold}")

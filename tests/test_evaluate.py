@@ -974,10 +974,14 @@ def test_ood_guard_quick(tmp_path, monkeypatch):
 
 def test_ood_guard_refuses_a_model_without_its_guard_reference(tmp_path, monkeypatch, capsys):
     ck = tmp_path / "net.npz"
-    ck.write_bytes(b"not read")
+    ck.write_bytes(b"not a checkpoint")
     with pytest.raises(SystemExit):
         _run_experiment("ood_guard.py", ["--model", str(ck), "--out", str(tmp_path / "o")], monkeypatch)
     assert "needs the checkpoint and its guard reference" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    # with a reference beside it, the checkpoint given is the one the measurements read
+    (tmp_path / "net.reference.npz").write_bytes(b"beside it")
+    with pytest.raises(itup.InputError, match="not a checkpoint"):
+        _run_experiment("ood_guard.py", ["--quick", "--model", str(ck), "--out", str(tmp_path / "o")], monkeypatch)
 
 
 def test_ood_guard_calibration_families():
@@ -1203,6 +1207,18 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     rm = json.loads((tmp_path / "m" / "sealed.json").read_text())
     assert rm["reopened"]["replaced"] == 0 and rm["reopened"]["guard_threshold"] == GUARD_THRESHOLD
     assert rm["reopened"]["model"] == os.path.abspath(DEFAULT_MODEL) and rm["summary"] == doc["summary"]
+    # the threshold and the checkpoint given are the ones the re-planning reads: below every tool's score
+    # the guard fires everywhere; a checkpoint that cannot be read stops it
+    _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--guard-threshold", "1e-6",
+                                       "--out", str(tmp_path / "t")], monkeypatch)
+    rt = json.loads((tmp_path / "t" / "sealed.json").read_text())
+    assert all(r["planner"]["guard_fired"] for r in rt["per_tool"] if r["picks"])
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a checkpoint")
+    (tmp_path / "bad.reference.npz").write_bytes((tmp_path / "bad.npz").read_bytes())
+    with pytest.raises(itup.InputError, match="not a checkpoint"):
+        _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--model", str(bad),
+                                           "--out", str(tmp_path / "b")], monkeypatch)
     # --fidelity-of: the run's fidelity draw again, ranked by another checkpoint (here the shipped one
     # under a label): the run's own figure comes back, and the label ranks as the shipped network does
     _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--fidelity-of",
