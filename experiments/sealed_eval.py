@@ -102,6 +102,8 @@ ROUND = 6
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: --reopen --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.
 HEADROOM_SEED = 100
+#: --fidelity-of --redraws R: redraw r of the fidelity draw uses seed RETEST_SEED + r.
+RETEST_SEED = 200
 #: Grasps the planners up to itup-jax 0.28.0 verified where the guard fired (max(verify, 5); their runs
 #: record no `guard_verify`), for --reopen to replay them
 EARLIER_GUARD_VERIFY = 5
@@ -177,9 +179,14 @@ def weak_failures(tool, task, scene, g, i: int, draws: int) -> dict:
     return {"rollouts": int(len(bad)), "failed": int(bad.sum())}
 
 
-def fidelity(tool, task, scene, g, checkpoints: dict | None = None) -> dict:
+def fidelity(tool, task, scene, g, checkpoints: dict | None = None, redraws: int = 0) -> dict:
     """Spearman over the candidates of each model's predicted torque with the measured full induced peak
-    (the fidelity draw): SDG-Net, the analytic forms and the `checkpoints` {label: path} beside them."""
+    (the fidelity draw): SDG-Net, the analytic forms and the `checkpoints` {label: path} beside them.
+    With `redraws` R >= 1 every candidate is rolled out R more times (seeds RETEST_SEED + r), which adds
+    `retest`, the Spearman of the fidelity draw with the first redraw over the candidates valid in both;
+    `ceiling`, its square root, about what a scorer of the expected torque, blind to the physics draw, can
+    reach against one draw (`itup_jax.fidelity`); and `rho_mean`, each model against the mean of the
+    R + 1 draws over the candidates valid in all."""
     L = itup.simulate(tool, task, g, scene=scene, seed=FIDELITY_SEED, randomize=Randomization()).labels
     ok = np.asarray(L.valid)
     y = np.asarray(L.peak_torque_induced, float)[ok]
@@ -187,8 +194,25 @@ def fidelity(tool, task, scene, g, checkpoints: dict | None = None) -> dict:
              "analytic": itup.wrench_costs(tool, task, g, OBJECTIVES["paper"].analytic).tau,
              "analytic_wrench": itup.wrench_costs(tool, task, g, OBJECTIVES["wrench"].analytic).tau}
     preds |= {label: itup.score(tool, task, g, model=p).tau for label, p in (checkpoints or {}).items()}
-    out = {m: spearman(np.asarray(p, float)[ok], y) for m, p in preds.items()}
-    return {"valid": int(ok.sum()), **{m: (None if not np.isfinite(v) else float(v)) for m, v in out.items()}}
+    preds = {m: np.asarray(p, float) for m, p in preds.items()}
+
+    def rho(a, b):
+        v = spearman(a, b)
+        return None if not np.isfinite(v) else float(v)
+
+    out = {"valid": int(ok.sum()), **{m: rho(p[ok], y) for m, p in preds.items()}}
+    if redraws:
+        draws = [np.where(ok, np.asarray(L.peak_torque_induced, float), np.nan)]
+        for r in range(1, redraws + 1):
+            Lr = itup.simulate(tool, task, g, scene=scene, seed=RETEST_SEED + r, randomize=Randomization()).labels
+            draws.append(np.where(np.asarray(Lr.valid), np.asarray(Lr.peak_torque_induced, float), np.nan))
+        d = np.stack(draws)
+        both, every = np.isfinite(d[:2]).all(0), np.isfinite(d).all(0)
+        out["retest"] = rho(d[0, both], d[1, both])
+        out["ceiling"] = float(np.sqrt(out["retest"])) if out["retest"] is not None and out["retest"] > 0 else None
+        out["valid_all"] = int(every.sum())
+        out["rho_mean"] = {m: rho(p[every], d[:, every].mean(0)) for m, p in preds.items()}
+    return out
 
 
 def evaluate_tool(entry: dict, task_kind: str, n: int, draws: int, weak: bool, with_fidelity: bool) -> dict:
@@ -369,10 +393,12 @@ def reopen(path: str, out_dir: str, headroom: int = 0, headroom_tasks: tuple = (
     return res
 
 
-def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
+def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) -> dict:
     """--fidelity-of: a finished run's fidelity draw of every tool rolled out again (the same candidates and
-    seed) and ranked by each checkpoint in `models` ("label=path" or a path) beside the run's SDG-Net;
-    per task the median Spearman on the built-in and the other families' tools. Writes fidelity_of.json."""
+    seed) and ranked by each checkpoint in `models` ("label=path" or a path) beside the run's SDG-Net and
+    the analytic forms; per task the median Spearman on the built-in and the other families' tools. With
+    `redraws` R >= 1, the R more draws of `fidelity`: per task and kind the median retest, ceiling and
+    Spearman against the draws' mean (`retest`). Writes fidelity_of.json."""
     import json
 
     from itup_jax.bench import machine_info
@@ -385,33 +411,48 @@ def fidelity_of(path: str, out_dir: str, models: list[str]) -> dict:
     missing = [p for p in named.values() if not os.path.isfile(p)]
     if missing:
         raise SystemExit(f"--fidelity-of: no checkpoint at {', '.join(missing)}")
-    t0, rows = time.perf_counter(), []
+    t0, rows, scorers = time.perf_counter(), [], ["sdgnet", "analytic", "analytic_wrench", *named]
     for row in run["per_tool"]:
         if not row.get("fidelity"):
             continue
         tool, task, g, scene = rebuild_row(row, run["config"]["n"], "--fidelity-of")
-        f = fidelity(tool, task, scene, g, checkpoints=named)
-        rho = {m: f[m] for m in ["sdgnet", *named]}
+        f = fidelity(tool, task, scene, g, checkpoints=named, redraws=redraws)
         rows.append({k: row[k] for k in ("task", "tool", "kind", "family")}
-                    | {"valid": f["valid"], "run_sdgnet": row["fidelity"]["sdgnet"], "rho": rho})
-        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {v if v is None else round(v, 2)}"
-                                                                  for m, v in rho.items()), flush=True)
+                    | {"valid": f["valid"], "run_sdgnet": row["fidelity"]["sdgnet"], "rho": {m: f[m] for m in scorers}}
+                    | {k: f[k] for k in ("retest", "ceiling", "valid_all", "rho_mean") if k in f})
+        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {_r2(v)}" for m, v in rows[-1]["rho"].items())
+              + (f"  retest {_r2(f['retest'])}" if redraws else ""), flush=True)
+
     def median(values):
         v = [x for x in values if x is not None]
         return float(np.median(v)) if v else None
 
-    summary = {k: {kind: {m: median([r["rho"][m] for r in rs]) for m in ["sdgnet", *named]}
-                   for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]] if rs}
-               for k in TASKS if any(r["task"] == k for r in rows)}
+    groups = {k: {kind: rs for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]] if rs}
+              for k in TASKS if any(r["task"] == k for r in rows)}
+    summary = {k: {kind: {m: median([r["rho"][m] for r in rs]) for m in scorers} for kind, rs in g.items()}
+               for k, g in groups.items()}
     res = {"schema": "itup.sealed_fidelity_of/1", "from": os.path.abspath(path), "models": named, "summary": summary,
            "per_tool": rows, "version": itup.__version__, "commit": _commit(), "wall_s": time.perf_counter() - t0,
            "machine": machine_info()}
+    if redraws:
+        res["redraws"] = redraws
+        res["retest"] = {k: {kind: {"tools": len(rs), "retest": median([r["retest"] for r in rs]),
+                                    "ceiling": median([r["ceiling"] for r in rs]),
+                                    "rho_mean": {m: median([r["rho_mean"][m] for r in rs]) for m in scorers}}
+                             for kind, rs in g.items()} for k, g in groups.items()}
     os.makedirs(out_dir, exist_ok=True)
     atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
     for k, s in summary.items():
-        print(f"{k:7s} " + "  ".join(f"{kind}: " + " ".join(f"{m} {v if v is None else round(v, 2)}" for m, v in d.items())
-                                     for kind, d in s.items()))
+        for kind, d in s.items():
+            print(f"{k:7s} {kind:7s} " + " ".join(f"{m} {_r2(v)}" for m, v in d.items())
+                  + ("" if not redraws else "  | retest {retest} ceiling {ceiling}  vs the mean: ".format(
+                      **{q: _r2(res["retest"][k][kind][q]) for q in ("retest", "ceiling")})
+                     + " ".join(f"{m} {_r2(v)}" for m, v in res["retest"][k][kind]["rho_mean"].items())))
     return res
+
+
+def _r2(x):
+    return x if x is None else round(x, 2)
 
 
 def _print_summary(summary: dict, before: dict | None = None) -> None:
@@ -525,9 +566,12 @@ def main(argv=None) -> dict:
                     "%(default)s, `itup plan`'s)")
     ap.add_argument("--headroom", type=int, default=0, metavar="R",
                     help="with --reopen: the oracle pick of the --tasks' tools from R rollouts of every candidate")
-    ap.add_argument("--fidelity-of", nargs="+", default=None, metavar="[LABEL=]CHECKPOINT",
-                    help="with --reopen: only the run's fidelity draw again, ranked by these checkpoints beside "
-                    "the shipped one (fidelity_of.json; no re-planning)")
+    ap.add_argument("--fidelity-of", nargs="*", default=None, metavar="[LABEL=]CHECKPOINT",
+                    help="with --reopen: only the run's fidelity draw again, ranked by these checkpoints (none: "
+                    "only) beside the shipped one and the analytic forms (fidelity_of.json; no re-planning)")
+    ap.add_argument("--redraws", type=int, default=0, metavar="R",
+                    help="with --fidelity-of: every candidate rolled out R more times, for the retest ceiling and "
+                    "the ranking against the draws' mean (default %(default)s)")
     ap.add_argument("--model", default=None, metavar="CHECKPOINT",
                     help="with --reopen: re-plan with this SDG-Net checkpoint (its guard reference beside it, "
                     "<stem>.reference.npz) instead of the shipped one")
@@ -535,16 +579,18 @@ def main(argv=None) -> dict:
                     help="with --reopen: the guard's threshold for the re-planning (default: ood.GUARD_THRESHOLD, "
                     "the shipped checkpoint's; another checkpoint needs its own, experiments/ood_guard.py)")
     a = ap.parse_args(argv)
-    if (a.model or a.guard_threshold is not None) and (not a.reopen or a.fidelity_of):
+    if (a.model or a.guard_threshold is not None) and (not a.reopen or a.fidelity_of is not None):
         ap.error("--model and --guard-threshold apply to --reopen's re-planning")
     if a.model and not (os.path.isfile(a.model) and reference_path_of(a.model)):  # None: no reference on disk
         ap.error(f"--model {a.model}: needs the checkpoint and its guard reference ({reference_path(a.model)})")
     if a.guard_threshold is not None and not (np.isfinite(a.guard_threshold) and a.guard_threshold > 0):
         ap.error(f"--guard-threshold must be a finite number > 0, got {a.guard_threshold}")
-    if a.fidelity_of and not a.reopen:
+    if a.fidelity_of is not None and not a.reopen:
         ap.error("--fidelity-of applies to --reopen")
-    if a.fidelity_of:
-        return fidelity_of(a.reopen, a.out, a.fidelity_of)
+    if a.redraws < 0 or (a.redraws and a.fidelity_of is None):
+        ap.error(f"--redraws R >= 0 applies to --fidelity-of, got {a.redraws}")
+    if a.fidelity_of is not None:
+        return fidelity_of(a.reopen, a.out, a.fidelity_of, a.redraws)
     if (a.headroom or a.planner_verify != DEFAULT_VERIFY or a.planner_weak_grip != WEAK_GRIP
             or a.planner_guard_verify != GUARD_VERIFY_K) and not a.reopen:
         ap.error("--headroom, --planner-verify, --planner-weak-grip and --planner-guard-verify apply to --reopen")
