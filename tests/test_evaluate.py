@@ -276,6 +276,7 @@ def test_objective_selection_quick(tmp_path, monkeypatch):
 
     _run_experiment("objective_selection.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "objective.json").read_text())
+    jsonschema.validate(doc, load_schema("objective"))
     assert doc["per_tool"] and all(set(t["picks"]) == set(doc["methods"]) for t in doc["per_tool"])
     assert {"force_closure", "geometric", "analytic/paper", "analytic/wrench"} <= set(doc["methods"])
     assert any(m.startswith("sdgnet/shipped/") for m in doc["methods"])
@@ -1024,6 +1025,7 @@ def test_leave_family_out_quick(tmp_path, monkeypatch):
     the same rollouts of each family's tools, each adapted checkpoint written with its guard reference."""
     _run_experiment("leave_family_out.py", ["--quick", "--out", str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "lofo.json").read_text())
+    jsonschema.validate(doc, load_schema("lofo"))
     assert set(doc["held_out"]) == {"screwdriver", "squeegee"}
     assert set(doc["rows"]) == {"shipped", "all", "without_screwdriver", "without_squeegee"}
     for name in ("all", "without_screwdriver", "without_squeegee"):
@@ -1045,6 +1047,7 @@ def test_training_families_quick(tmp_path, monkeypatch):
     _run_experiment("training_families.py", ["--quick", "--from-scratch", "--judge-also", "paddle", "--out",
                                              str(tmp_path)], monkeypatch)
     doc = json.loads((tmp_path / "training_families.json").read_text())
+    jsonschema.validate(doc, load_schema("training_families"))
     assert set(doc["rows"]) == {"shipped", "rehearsed_s0", "trained_s0", "scratch_rehearsed_s0", "scratch_trained_s0"}
     # the family judged beside: in the table and the reading, outside the rule
     assert doc["judged_also"] == ["paddle/knock"] and "paddle/knock" in doc["table"]["shipped"]  # --quick: the knock
@@ -1229,3 +1232,25 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     for r in fo["per_tool"]:
         assert r["rho"]["sdgnet"] == pytest.approx(r["run_sdgnet"]) and r["rho"]["same"] == r["rho"]["sdgnet"]
     assert set(fo["summary"]) == {"hammer", "reach"}
+    from itup_jax.sim.physics import Randomization
+    from itup_jax.stats import spearman
+
+    # --fidelity-of --redraws 1 (no checkpoint: the shipped network and the analytic forms): the retest is
+    # the Spearman of the fidelity draw with one more draw of the same candidates (seed RETEST_SEED + 1),
+    # and the ranking against the draws' mean is over the candidates valid in both
+    _run_experiment("sealed_eval.py", ["--reopen", str(tmp_path / "sealed.json"), "--fidelity-of", "--redraws", "1",
+                                       "--out", str(tmp_path / "rt")], monkeypatch)
+    rt = json.loads((tmp_path / "rt" / "fidelity_of.json").read_text())
+    jsonschema.validate(rt, load_schema("sealed_fidelity_of"))
+    assert rt["models"] == {} and rt["redraws"] == 1 and set(rt["retest"]) == {"hammer", "reach"}
+    row = next(r for r in doc["per_tool"] if r.get("fidelity"))
+    tool, task, g, scene = se.rebuild_row(row, doc["config"]["n"])
+    d0, d1 = (itup.simulate(tool, task, g, scene=scene, seed=s, randomize=Randomization()).labels
+              for s in (se.FIDELITY_SEED, se.RETEST_SEED + 1))
+    both = np.asarray(d0.valid) & np.asarray(d1.valid)
+    y0, y1 = (np.asarray(d.peak_torque_induced, float)[both] for d in (d0, d1))
+    got = next(r for r in rt["per_tool"] if r["tool"] == row["tool"] and r["task"] == row["task"])
+    assert got["valid_all"] == both.sum() and got["retest"] == pytest.approx(spearman(y0, y1))
+    tau = np.asarray(itup.score(tool, task, g).tau, float)[both]
+    assert got["rho_mean"]["sdgnet"] == pytest.approx(spearman(tau, (y0 + y1) / 2))
+    assert got["rho"]["sdgnet"] == pytest.approx(row["fidelity"]["sdgnet"])

@@ -7,6 +7,7 @@ import json
 import math
 import os
 
+import jsonschema
 import mujoco
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from conftest import load_experiment
 import itup_jax as itup
 from itup_jax import grounding, ood, pickup, pipeline, planning, regrasp, robot, tabletop
 from itup_jax.errors import InputError
+from itup_jax.schemas import load_schema
 from itup_jax.tools import families, parts
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
@@ -558,6 +560,7 @@ def test_the_lift_torque_calibration_runs_quick(tmp_path):
     ns = load_experiment("lift_torque")
     assert ns.main(["--quick", "--out", str(tmp_path)]) == 0
     j = json.loads((tmp_path / "lift_torque.json").read_text())
+    jsonschema.validate(j, load_schema("lift_torque"))
     assert len(j["rows"]) == 4 and {"share", "share_weight", "lifted", "held"} <= set(j["rows"][0])
     assert sum(b["picks"] for b in j["summary"]["all"]["bands_share"]) == 4
     assert ns.auc(np.array([0.1, 0.9, 0.5]), np.array([False, True, False])) == 1.0
