@@ -104,6 +104,9 @@ PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 HEADROOM_SEED = 100
 #: --fidelity-of --redraws R: redraw r of the fidelity draw uses seed RETEST_SEED + r.
 RETEST_SEED = 200
+#: Issue #60's fidelity goals for a scorer's median per-tool Spearman per task: on the built-in families'
+#: variants and on the other families' tools.
+FIDELITY_GOAL = {"builtin": 0.85, "other": 0.7}
 #: Grasps the planners up to itup-jax 0.28.0 verified where the guard fired (max(verify, 5); their runs
 #: record no `guard_verify`), for --reopen to replay them
 EARLIER_GUARD_VERIFY = 5
@@ -423,23 +426,13 @@ def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) ->
         print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {_r2(v)}" for m, v in rows[-1]["rho"].items())
               + (f"  retest {_r2(f['retest'])}" if redraws else ""), flush=True)
 
-    def median(values):
-        v = [x for x in values if x is not None]
-        return float(np.median(v)) if v else None
-
-    groups = {k: {kind: rs for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]] if rs}
-              for k in TASKS if any(r["task"] == k for r in rows)}
-    summary = {k: {kind: {m: median([r["rho"][m] for r in rs]) for m in scorers} for kind, rs in g.items()}
-               for k, g in groups.items()}
+    summary = {k: {kind: {m: _median([r["rho"][m] for r in rs]) for m in scorers} for kind, rs in g.items()}
+               for k, g in _by_task_and_kind(rows).items()}
     res = {"schema": "itup.sealed_fidelity_of/1", "from": os.path.abspath(path), "models": named, "summary": summary,
            "per_tool": rows, "version": itup.__version__, "commit": _commit(), "wall_s": time.perf_counter() - t0,
            "machine": machine_info()}
     if redraws:
-        res["redraws"] = redraws
-        res["retest"] = {k: {kind: {"tools": len(rs), "retest": median([r["retest"] for r in rs]),
-                                    "ceiling": median([r["ceiling"] for r in rs]),
-                                    "rho_mean": {m: median([r["rho_mean"][m] for r in rs]) for m in scorers}}
-                             for kind, rs in g.items()} for k, g in groups.items()}
+        res["redraws"], res["retest"] = redraws, retest_summary(rows)
     os.makedirs(out_dir, exist_ok=True)
     atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
     for k, s in summary.items():
@@ -453,6 +446,36 @@ def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) ->
 
 def _r2(x):
     return x if x is None else round(x, 2)
+
+
+def _median(values) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.median(v)) if v else None
+
+
+def _by_task_and_kind(rows: list[dict]) -> dict:
+    """{task: {"builtin" | "other": its rows}}, in TASKS order, kinds without rows left out."""
+    return {k: {kind: rs for kind in ("builtin", "other") for rs in [[r for r in rows if r["task"] == k and r["kind"] == kind]]
+                if rs} for k in TASKS if any(r["task"] == k for r in rows)}
+
+
+def retest_summary(rows: list[dict]) -> dict:
+    """Per task and kind, over fidelity_of.json's rows with redraws: the median retest, ceiling and each
+    scorer's Spearman against the draws' mean; the fidelity goal (`FIDELITY_GOAL`), how many tools' own
+    ceiling lies below it, and per scorer the median share of its tool's ceiling it reaches (rho / ceiling)."""
+    out = {}
+    for k, g in _by_task_and_kind(rows).items():
+        out[k] = {}
+        for kind, rs in g.items():
+            scorers = list(rs[0]["rho"])
+            goal = FIDELITY_GOAL[kind]
+            out[k][kind] = {"tools": len(rs), "retest": _median([r["retest"] for r in rs]),
+                            "ceiling": _median([r["ceiling"] for r in rs]), "goal": goal,
+                            "ceiling_below_goal": sum(r["ceiling"] is not None and r["ceiling"] < goal for r in rs),
+                            "rho_mean": {m: _median([r["rho_mean"][m] for r in rs]) for m in scorers},
+                            "share_of_ceiling": {m: _median([r["rho"][m] / r["ceiling"] for r in rs if r["rho"][m] is not None
+                                                             and r["ceiling"]]) for m in scorers}}
+    return out
 
 
 def _print_summary(summary: dict, before: dict | None = None) -> None:

@@ -1132,6 +1132,29 @@ def test_sealed_tools_are_drawn_from_the_checkpoint():
     assert {t["seed"] for t in quick}.isdisjoint({t["seed"] for t in tools} | {t["seed"] for t in round1})
 
 
+def test_retest_summary_reads_each_tool_against_its_own_ceiling():
+    """Per task and kind: medians of the retest and the ceiling, the tools whose ceiling lies below the
+    kind's goal, and each scorer's median share of its tool's ceiling (rho / ceiling)."""
+    se = load_experiment("sealed_eval")
+
+    def row(kind, retest, rho, task="hammer"):
+        c = float(np.sqrt(retest))
+        return {"task": task, "kind": kind, "retest": retest, "ceiling": c, "rho": {"sdgnet": rho, "analytic": None},
+                "rho_mean": {"sdgnet": rho + 0.01, "analytic": None}}
+
+    rows = [row("builtin", 0.81, 0.72), row("builtin", 0.64, 0.4), row("other", 0.36, 0.3), row("other", 0.64, 0.6),
+            row("other", 0.81, 0.45), row("builtin", 0.9, 0.9, task="reach")]
+    s = se.retest_summary(rows)
+    b, o = s["hammer"]["builtin"], s["hammer"]["other"]
+    assert b["tools"] == 2 and b["goal"] == 0.85 and o["goal"] == 0.7
+    assert b["retest"] == pytest.approx(0.725) and b["ceiling"] == pytest.approx(0.85)
+    assert b["ceiling_below_goal"] == 1 and o["ceiling_below_goal"] == 1  # 0.8 < 0.85; 0.6 < 0.7 (0.8, 0.9 not)
+    assert b["share_of_ceiling"]["sdgnet"] == pytest.approx(np.median([0.72 / 0.9, 0.4 / 0.8]))
+    assert o["share_of_ceiling"]["sdgnet"] == pytest.approx(np.median([0.3 / 0.6, 0.6 / 0.8, 0.45 / 0.9]))
+    assert b["rho_mean"]["sdgnet"] == pytest.approx(np.median([0.73, 0.41])) and b["share_of_ceiling"]["analytic"] is None
+    assert set(s) == {"hammer", "reach"} and set(s["reach"]) == {"builtin"}
+
+
 def test_fidelity_of_needs_a_run_and_existing_checkpoints(tmp_path, monkeypatch, capsys):
     with pytest.raises(SystemExit):
         _run_experiment("sealed_eval.py", ["--fidelity-of", "x.npz", "--out", str(tmp_path / "a")], monkeypatch)
