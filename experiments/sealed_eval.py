@@ -50,8 +50,11 @@ and held in all R, measured on the run's draws like every pick (so its luck in t
 flatter it); per tool its torque and the rank among the R-draw means of the planner's and the
 baselines' picks; per task its reduction against the better baseline (`reopened.headroom.summary`).
 With --fidelity-of [LABEL=]CHECKPOINT ..., nothing is planned: every tool's fidelity draw is rolled out
-again (the same candidates and seed) and ranked by those checkpoints beside the shipped one, per task
-the median Spearman on the built-in and the other families' tools (fidelity_of.json).
+again (the same candidates and seed) and ranked by those checkpoints (none: only) beside the shipped one
+and the analytic forms, per task the median Spearman on the built-in and the other families' tools
+(fidelity_of.json). With --redraws R every candidate is rolled out R more times: per tool the retest
+correlation of two draws, the ceiling it sets for a scorer blind to the physics draw, and each scorer
+against the draws' mean; per task and kind against issue #60's goals (`retest_summary`).
 """
 
 from __future__ import annotations
