@@ -54,7 +54,7 @@ again (the same candidates and seed) and ranked by those checkpoints (none: only
 and the analytic forms, per task the median Spearman on the built-in and the other families' tools
 (fidelity_of.json). With --redraws R every candidate is rolled out R more times: per tool the retest
 correlation of two draws, the ceiling it sets for a scorer blind to the physics draw, and each scorer
-against the draws' mean; per task and kind against issue #60's goals (`retest_summary`).
+against the draws' mean; per task and kind against the fidelity goals (`FIDELITY_GOAL`, `retest_summary`).
 """
 
 from __future__ import annotations
@@ -107,8 +107,8 @@ PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 HEADROOM_SEED = 100
 #: --fidelity-of --redraws R: redraw r of the fidelity draw uses seed RETEST_SEED + r.
 RETEST_SEED = 200
-#: Issue #60's fidelity goals for a scorer's median per-tool Spearman per task: on the built-in families'
-#: variants and on the other families' tools.
+#: The fidelity goals for SDG-Net's median per-tool Spearman per task (docs/results.md, "The sealed
+#: evaluation"): on the built-in families' variants and on the other families' tools.
 FIDELITY_GOAL = {"builtin": 0.85, "other": 0.7}
 #: Grasps the planners up to itup-jax 0.28.0 verified where the guard fired (max(verify, 5); their runs
 #: record no `guard_verify`), for --reopen to replay them
