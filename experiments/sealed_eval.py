@@ -107,8 +107,8 @@ PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 HEADROOM_SEED = 100
 #: --fidelity-of --redraws R: redraw r of the fidelity draw uses seed RETEST_SEED + r.
 RETEST_SEED = 200
-#: The fidelity goals for SDG-Net's median per-tool Spearman per task (docs/results.md, "The sealed
-#: evaluation"): on the built-in families' variants and on the other families' tools.
+#: The fidelity goals for SDG-Net's median per-tool Spearman per task (docs/results.md, "The fidelity
+#: goals and the noise of one rollout"): on the built-in families' variants and on the other families' tools.
 FIDELITY_GOAL = {"builtin": 0.85, "other": 0.7}
 #: Grasps the planners up to itup-jax 0.28.0 verified where the guard fired (max(verify, 5); their runs
 #: record no `guard_verify`), for --reopen to replay them
