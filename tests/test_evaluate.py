@@ -1165,6 +1165,11 @@ def test_fidelity_of_needs_a_run_and_existing_checkpoints(tmp_path, monkeypatch,
         _run_experiment("sealed_eval.py", ["--reopen", str(run), "--fidelity-of", str(tmp_path / "none.npz"), "--out",
                                            str(tmp_path / "b")], monkeypatch)
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    for argv in (["--reopen", str(run), "--redraws", "1"], ["--reopen", str(run), "--fidelity-of", "--redraws", "-1"]):
+        with pytest.raises(SystemExit):
+            _run_experiment("sealed_eval.py", [*argv, "--out", str(tmp_path / "c")], monkeypatch)
+        assert "--redraws R >= 0 applies to --fidelity-of" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
 
 
 def test_reopen_with_another_model_needs_its_checkpoint_and_guard_reference(tmp_path, monkeypatch, capsys):
