@@ -440,10 +440,12 @@ def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) ->
     atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
     for k, s in summary.items():
         for kind, d in s.items():
-            print(f"{k:7s} {kind:7s} " + " ".join(f"{m} {_r2(v)}" for m, v in d.items())
-                  + ("" if not redraws else "  | retest {retest} ceiling {ceiling}  vs the mean: ".format(
-                      **{q: _r2(res["retest"][k][kind][q]) for q in ("retest", "ceiling")})
-                     + " ".join(f"{m} {_r2(v)}" for m, v in res["retest"][k][kind]["rho_mean"].items())))
+            line = f"{k:7s} {kind:7s} " + " ".join(f"{m} {_r2(v)}" for m, v in d.items())
+            if redraws:
+                t = res["retest"][k][kind]
+                line += (f"  | retest {_r2(t['retest'])} ceiling {_r2(t['ceiling'])}  vs the mean: "
+                         + " ".join(f"{m} {_r2(v)}" for m, v in t["rho_mean"].items()))
+            print(line)
     return res
 
 
@@ -546,12 +548,10 @@ def summarise(rows: list[dict]) -> dict:
                                                  "failed": sum(p["weak"]["failed"] for p in bb)}
         fid = [r["fidelity"] for r in rs if r.get("fidelity")]
         if fid:
-            s["fidelity_median"] = {m: (None if not [f[m] for f in fid if f[m] is not None] else
-                                        float(np.median([f[m] for f in fid if f[m] is not None])))
-                                    for m in ("sdgnet", "analytic", "analytic_wrench")}
-            s["fidelity_median_other_families"] = {m: (None if not v else float(np.median(v))) for m, v in (
-                (m, [r["fidelity"][m] for r in rs if r.get("fidelity") and r["kind"] == "other"
-                     and r["fidelity"][m] is not None]) for m in ("sdgnet", "analytic", "analytic_wrench"))}
+            models = ("sdgnet", "analytic", "analytic_wrench")
+            s["fidelity_median"] = {m: _median([f[m] for f in fid]) for m in models}
+            s["fidelity_median_other_families"] = {m: _median([r["fidelity"][m] for r in rs if r.get("fidelity")
+                                                               and r["kind"] == "other"]) for m in models}
         out[k] = s
     return out
 
