@@ -32,8 +32,11 @@ out once in native MuJoCo under the priors' nominal physics, scored by SDG-Net, 
 
 Calibration rule (fixed before the test set is read): the guard's threshold is the largest tool score t
 such that, on the calibration tools of the calibration families, at least 90 % of the tools with
-rho < 0.5 score above t; with no such tool, the 95th percentile of the built-in families' calibration
-scores. The calibration families are the calibration families (`--calibrate-on calibration`, the
+rho < 0.5 score above t, and never below the floor, the 95th percentile of the built-in families'
+calibration scores (with no such tool, the floor alone): the guard is to fire on few of the network's
+own families' tools, whose ranking it does not need checked, even where the calibration families hold
+too few badly ranked tools to place the threshold (a network that ranks them well: one low score then
+sets it, and the guard fires on the built-in tools that score above it). The calibration families are the calibration families (`--calibrate-on calibration`, the
 default: no training set holds them, and the threshold is then judged on held-out families it was not
 calibrated on), the held-out ones themselves (their calibration draws; `--calibrate-on held_out`), or the
 training families (`--calibrate-on training`, for a checkpoint that never trained on them). The test set (the built-in and the held-out families) then reports how many of its
@@ -125,19 +128,30 @@ def tool_row(tool, kind: str, grasps: int, verify: int, seed: int, model: str | 
 
 def calibrate(rows: list[dict]) -> dict:
     """The threshold by the module's rule, from calibration rows (the rows not of a built-in family are
-    the calibration families')."""
+    the calibration families'): {"threshold", "rule" (which bound set it), "catch_t" (the largest t that
+    catches CATCH of the calibration-family tools with rho < RHO_FAIL; None without such a tool),
+    "floor" (the built-in rows' 95th percentile score; None without built-in rows)}."""
     held = [r for r in rows if not r["builtin"]]
     scores = np.array([r["guard"]["score"] for r in held])
-    bad = np.array([r["rho_induced"] < RHO_FAIL for r in held])  # NaN compares False: not a failure
+    bad = np.array([r["rho_induced"] < RHO_FAIL for r in held], bool)  # NaN compares False: not a failure
+    base = [r["guard"]["score"] for r in rows if r["builtin"]]
+    floor = float(np.percentile(base, 95)) if base else None
+    catch_t = None
     if bad.any():
-        cands = np.sort(scores)[::-1]
-        ok = [t for t in np.r_[cands, 0.0] if np.mean(scores[bad] > t) >= CATCH]
-        threshold = float(ok[0]) if ok else 0.0
-        rule = f"largest t catching >= {CATCH:.0%} of the {int(bad.sum())} calibration-family tools with rho < {RHO_FAIL}"
+        ok = [t for t in np.r_[np.sort(scores)[::-1], 0.0] if np.mean(scores[bad] > t) >= CATCH]
+        catch_t = float(ok[0]) if ok else 0.0
+    if catch_t is None and floor is None:
+        raise ValueError("calibration needs a built-in row or a calibration-family tool with rho < "
+                         f"{RHO_FAIL}; got {len(rows)} rows")
+    caught = f"the largest t catching >= {CATCH:.0%} of the {int(bad.sum())} calibration-family tools with rho < {RHO_FAIL}"
+    if catch_t is None:
+        threshold, rule = floor, f"no calibration-family tool with rho < {RHO_FAIL}: the floor, 95th percentile of the built-ins"
+    elif floor is None or catch_t >= floor:
+        threshold, rule = catch_t, caught
     else:
-        base = np.array([r["guard"]["score"] for r in rows if r["builtin"]])
-        threshold, rule = float(np.percentile(base, 95)), "no calibration-family tool with rho < 0.5: 95th percentile of the built-ins"
-    return {"threshold": round(threshold, 3), "rule": rule}
+        threshold, rule = floor, f"the floor, 95th percentile of the built-ins, above {caught} ({catch_t:.3f})"
+    return {"threshold": round(threshold, 3), "rule": rule, "catch_t": None if catch_t is None else round(catch_t, 3),
+            "floor": None if floor is None else round(floor, 3)}
 
 
 def _median(rows: list[dict], key: str) -> float:

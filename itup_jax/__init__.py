@@ -28,7 +28,7 @@ so the command line starts fast and a notebook pays only for what it touches.
 
 import importlib
 
-__version__ = "0.31.0"
+__version__ = "0.32.0"
 
 #: Public name -> the module that defines it.
 _PUBLIC = {
