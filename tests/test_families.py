@@ -84,8 +84,8 @@ def test_family_tool_loads_through_the_spec_path(tmp_path, name):
 
 
 def test_held_out_training_calibration_and_sealed_families():
-    """The five held-out families, the four training ones, the four calibration ones, the twelve of the
-    five sealed evaluations that have run (validation; none sealed until a next round adds its own),
+    """The five held-out families, the four training ones, the four calibration ones, the fifteen of the
+    five sealed evaluations that have run (validation) and the three of the next round (sealed),
     disjoint; every one but the held-out families' tools takes a built-in category (its priors and tool
     frame), so its labels teach (or its draws calibrate on) that category's network; each round's
     sealed-test families did every task between them."""
@@ -95,7 +95,7 @@ def test_held_out_training_calibration_and_sealed_families():
     assert families.validation() == ("rolling_pin", "rake", "hoe", "pick", "offset_pusher", "club", "offset_hammer",
                                      "leaning_broom", "fork_hook", "skillet", "deck_brush", "ladle",
                                      "pommel_hammer", "angle_broom", "cranked_hook")
-    assert families.sealed() == ()  # the next round's families are added before its draw
+    assert families.sealed() == ("cranked_hammer", "ballast_broom", "tapered_hook")  # round 6's, before its draw
     builtin = {f for f in families.names() if families.get(f).builtin}
     for name in families.training() + families.calibration() + families.validation() + families.sealed():
         fam = families.get(name)
@@ -104,7 +104,8 @@ def test_held_out_training_calibration_and_sealed_families():
         assert families.draw(name, 7).category == fam.tool_category
     for round_families in (("rolling_pin", "rake", "hoe"), ("pick", "offset_pusher", "club"),
                            ("offset_hammer", "leaning_broom", "fork_hook"), ("skillet", "deck_brush", "ladle"),
-                           ("pommel_hammer", "angle_broom", "cranked_hook")):
+                           ("pommel_hammer", "angle_broom", "cranked_hook"),
+                           ("cranked_hammer", "ballast_broom", "tapered_hook")):
         assert {k for f in round_families for k in families.get(f).tasks} == {"hammer", "sweep", "knock", "reach"}
     assert families.with_role("builtin") == ("hammer", "broom", "mallet", "l_stick")
     assert sorted(f for r in families.ROLES for f in families.with_role(r)) == sorted(families.names())
@@ -157,6 +158,31 @@ def test_round_5_shapes_put_their_mass_and_contacts_where_they_say():
 def _span(name, measure, n=24):
     values = [measure(families.draw(name, s)) for s in range(n)]
     return min(values), max(values)
+
+
+def test_round_6_shapes_put_their_mass_and_contacts_where_they_say():
+    """`sealed_shapes`: the cranked hammer's head and blow lie `jog` ahead of or behind its grasp region's
+    axis, which ends below the crank; the ballast broom's centre of mass lies on the ballast's side, its
+    three contacts on the leading face; the tapered hook's butt holds most of its pole's mass and a steel
+    hook moves the centre of mass out toward it."""
+    from itup_jax.tools.sealed_shapes import ballast_broom, cranked_hammer, tapered_hook
+
+    def com(tool):
+        return np.asarray(tool.params.com)
+
+    for jog in (-0.03, 0.05):
+        ham = cranked_hammer(jog=jog, head_front=0.04, length=0.28, crank_at=0.5)
+        assert ham.contact_point[0] == pytest.approx(jog + 0.04) and ham.contact_point[1] == 0
+        lo, hi = ham.grasp_region.lo, ham.grasp_region.hi
+        assert hi[2] < 0.5 * 0.28 and abs(lo[0] + hi[0]) < 1e-12  # the lower shaft, about x = 0
+    broom = ballast_broom(ballast_from=0.03, ballast_length=0.06)
+    assert com(broom)[0] > 0.01  # the steel on +x pulls the centre of mass off the handle's line
+    np.testing.assert_allclose([p[1] for p in broom.contact_points], 0.02)  # the leading face, y = head_depth / 2
+    assert ballast_broom(half_width=0.07, ballast_from=0.05, ballast_length=0.08).mesh.bounds[1][0] == pytest.approx(0.07)
+    light, heavy = tapered_hook(), tapered_hook(hook_material="steel")
+    parts = {name: mass for name, _, mass in light.parts}
+    assert parts["butt"] > parts["middle"] + parts["tip"]
+    assert com(heavy)[2] > com(light)[2] + 0.02 and heavy.mass > light.mass
 
 
 def test_training_families_span_mass_distribution_size_and_reach():

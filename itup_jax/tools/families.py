@@ -56,7 +56,7 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The last fifteen were the sealed-test families of the sealed evaluation's rounds 1 to 5
+The next fifteen were the sealed-test families of the sealed evaluation's rounds 1 to 5
 (`experiments/sealed_eval.py`); all five have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
@@ -107,6 +107,18 @@ Round 5 (0.30.0; builders in `tools.sealed_shapes`):
   cranked_hook a square bar jogged sideways partway up, its hook beside the grasped part's line; pulls
                with the hook's underside (L-stick's category; reach).
 
+The last three are the sealed-test families of round 6 (0.32.0; builders in `tools.sealed_shapes`),
+never rolled out before it (`sealed()`; validation families once it has run):
+
+  cranked_hammer  a round head on a metal shaft cranked forward or back partway up, so the head and the
+               blow's line lie ahead of or behind the grasped part's axis in the swing's plane; strikes
+               with the head's end face (hammer's category; hammer, knock).
+  ballast_broom  a box head with a steel ballast on one side of its top, its mass off the handle's line
+               across the push; pushes with the head (broom's category; sweep).
+  tapered_hook a pole tapering in three sections from a thick butt to a thin tip and a square hook,
+               aluminium or hickory, the hook aluminium or steel; pulls with the hook's underside
+               (L-stick's category; reach).
+
 Every family keeps its category's tool frame (`priors.CATEGORY_CONTACT_NORMAL`): the handle along +z
 from its butt at the origin (the leaning broom's leans from +z), the contact normal along the category's
 direction. The ranges are typical
@@ -151,7 +163,17 @@ from itup_jax.tools.family_shapes import (
     squeegee,
     t_hook,
 )
-from itup_jax.tools.sealed_shapes import angle_broom, cranked_hook, deck_brush, ladle, pommel_hammer, skillet
+from itup_jax.tools.sealed_shapes import (
+    angle_broom,
+    ballast_broom,
+    cranked_hammer,
+    cranked_hook,
+    deck_brush,
+    ladle,
+    pommel_hammer,
+    skillet,
+    tapered_hook,
+)
 from itup_jax.tools.tool import Tool
 from itup_jax.tools.variants import part_variant
 
@@ -448,6 +470,28 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         MappingProxyType({"material": ("aluminium", "steel", "hickory")}),
         summary="validation (sealed test, round 5): square bar jogged sideways, its hook beside the grasped part's line; pulls with the hook",
         role="validation", category="l_stick"),
+    "cranked_hammer": Family(
+        "cranked_hammer", cranked_hammer, ("hammer", "knock"),
+        _ranges(length=(0.220, 0.320), radius=(0.008, 0.011), crank_at=(0.45, 0.65), jog=(-0.040, 0.060),
+                head_radius=(0.011, 0.017), head_front=(0.030, 0.055), head_back=(0.020, 0.045)),
+        MappingProxyType({"shaft_material": ("aluminium", "steel")}),
+        summary="sealed test, round 6: round head on a shaft cranked forward or back in the swing's plane; strikes with the head's end face",
+        role="sealed", category="hammer"),
+    "ballast_broom": Family(
+        "ballast_broom", ballast_broom, ("sweep",),
+        _ranges(half_width=(0.070, 0.150), head_depth=(0.025, 0.050), head_height=(0.030, 0.055),
+                ballast_from=(0.015, 0.050), ballast_length=(0.030, 0.080), ballast_height=(0.008, 0.020),
+                handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
+        MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
+        summary="sealed test, round 6: box head with a steel ballast on one side of its top; pushes with its leading face",
+        role="sealed", category="broom"),
+    "tapered_hook": Family(
+        "tapered_hook", tapered_hook, ("reach",),
+        _ranges(length=(0.300, 0.550), butt_radius=(0.010, 0.015), tip_radius=(0.005, 0.008), butt_fraction=(0.3, 0.5),
+                hook_end=(0.050, 0.100), grasp_fraction=(0.5, 0.9)),
+        MappingProxyType({"material": ("aluminium", "hickory"), "hook_material": ("aluminium", "steel")}),
+        summary="sealed test, round 6: pole tapering from a thick butt to a square hook; pulls with the hook's underside",
+        role="sealed", category="l_stick"),
 })
 
 

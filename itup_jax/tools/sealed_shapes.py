@@ -1,5 +1,5 @@
-"""The builders of the sealed-test families of the sealed evaluation's rounds 4 and 5 (`tools.families` registers
-them; validation families since the rounds have run). Each is a shape of a built-in category that no
+"""The builders of the sealed-test families of the sealed evaluation's rounds 4 to 6 (`tools.families` registers
+them; rounds 4 and 5's are validation families since those rounds have run, round 6's are sealed until it runs). Each is a shape of a built-in category that no
 earlier family has, built from primitive parts as `tools.family_shapes` builds the others, whose shared
 part builders they use. Lengths in metres; every builder's defaults are its family's default tool.
 
@@ -161,4 +161,87 @@ def cranked_hook(*, length: float = 0.450, half: float = 0.007, jog: float = 0.0
         contact_points=[(short_of_end(r, hook_end, 0.030), jog, length - 2 * r)],
         contact_normal=(0.0, 0.0, -1.0),
         grasp_region=((-g, -g, 0.0), (g, g, grasp_fraction * zj)),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
+# Sealed-test families of sealed evaluation round 6: never rolled out before it
+# ---------------------------------------------------------------------------------------------------
+def cranked_hammer(*, length: float = 0.280, radius: float = 0.009, crank_at: float = 0.55, jog: float = 0.040,
+                   head_radius: float = 0.014, head_front: float = 0.045, head_back: float = 0.035,
+                   shaft_material: str = "aluminium", name: str = "cranked_hammer") -> Tool:
+    """A hammer on a cranked metal shaft: a round shaft along +z from the origin to crank_at of `length`,
+    a crank block from there along x by `jog` (forward, +x, or back, -x), the shaft on up from there to
+    `length`, and a round steel head across its top along x (from -head_back to head_front about the upper
+    shaft's line), so the head and the blow's line lie `jog` ahead of or behind the grasped part's axis in
+    the plane of the swing. It strikes with the head's +x end face (hammer's category: hammer, knock). The
+    grasp region is the lower shaft, clear of the crank. Default: 0.31 m, ~0.6 kg."""
+    r = radius
+    z1 = crank_at * length
+    zc = length + head_radius
+    g = r + 0.006
+    lo, hi = min(0.0, jog) - r, max(0.0, jog) + r
+    return assemble_tool(
+        name=name, category="hammer",
+        parts=[("lower", shaft_material, cylinder_part(r, (0, 0, 0), (0, 0, z1))),
+               ("crank", shaft_material, box_part((lo, -r, z1), (hi, r, z1 + 2 * r))),
+               ("upper", shaft_material, cylinder_part(r, (jog, 0, z1 + 2 * r), (jog, 0, length))),
+               ("head", "steel", cylinder_part(head_radius, (jog - head_back, 0, zc), (jog + head_front, 0, zc)))],
+        contact_points=[(jog + head_front, 0.0, zc)],
+        contact_normal=(1.0, 0.0, 0.0),
+        grasp_region=((-g, -g, 0.0), (g, g, z1 - 0.010)),
+    )
+
+
+def ballast_broom(*, half_width: float = 0.110, head_depth: float = 0.040, head_height: float = 0.040,
+                  ballast_from: float = 0.030, ballast_length: float = 0.060, ballast_height: float = 0.015,
+                  handle_radius: float = 0.011, handle_length: float = 0.400, grasp_fraction: float = 0.5,
+                  head_material: str = "beech", handle_material: str = "hickory", name: str = "ballast_broom") -> Tool:
+    """A broom with a steel ballast on one side of its head: a box head (2 half_width wide along x,
+    head_depth deep along y about the handle's axis, head_height tall, its bottom at z = 0), a handle
+    along +z from its top centre, and a steel block on the head's top from x = ballast_from to
+    ballast_from + ballast_length (+x side only, the head's full depth, ballast_height tall), so the head's
+    mass sits off the handle's line across the push. It pushes along +y with the leading face 5 mm above
+    its bottom edge, at its centre and +-0.75 half_width along it (broom's category: sweep). The grasp
+    region is the handle's top grasp_fraction. Default: 0.44 m tall, 0.22 m wide, ~0.6 kg."""
+    top = head_height + handle_length
+    g = handle_radius + 0.009
+    d = head_depth / 2
+    x1 = min(ballast_from + ballast_length, half_width)
+    return assemble_tool(
+        name=name, category="broom",
+        parts=[("head", head_material, box_part((-half_width, -d, 0.0), (half_width, d, head_height))),
+               ("ballast", "steel", box_part((ballast_from, -d, head_height), (x1, d, head_height + ballast_height))),
+               ("handle", handle_material, cylinder_part(handle_radius, (0, 0, head_height), (0, 0, top)))],
+        contact_points=[(u, d, 0.005) for u in (0.0, -0.75 * half_width, 0.75 * half_width)],
+        contact_normal=(0.0, 1.0, 0.0),
+        grasp_region=((-g, -g, top - grasp_fraction * handle_length), (g, g, top)),
+    )
+
+
+def tapered_hook(*, length: float = 0.450, butt_radius: float = 0.012, tip_radius: float = 0.006,
+                 butt_fraction: float = 0.4, hook_end: float = 0.080, grasp_fraction: float = 0.8,
+                 material: str = "aluminium", hook_material: str = "aluminium", name: str = "tapered_hook") -> Tool:
+    """A tapered pole with a hook: a round pole along +z in three coaxial sections, a thick butt
+    (butt_radius) over butt_fraction of the length, a middle section halfway between the two radii, and a
+    thin tip section (tip_radius) up to the hook, a square bar bent at a right angle along +x at the far
+    end (tip_radius to its flats) up to hook_end, so most of the pole's own mass lies in the butt and the
+    hook's material (a steel hook on a light pole) sets how much lies at the far end. It pulls with the
+    hook's underside (-z) 30 mm from its tip (halfway along a shorter hook), as the L-stick's category
+    (reach). The grasp region is the butt's lower grasp_fraction. Default: 0.45 m, ~0.4 kg."""
+    r0, r2 = butt_radius, tip_radius
+    r1 = 0.5 * (r0 + r2)
+    z0 = butt_fraction * length
+    z1 = z0 + 0.5 * (length - 2 * r2 - z0)
+    z2 = length - 2 * r2
+    g = r0 + 0.006
+    return assemble_tool(
+        name=name, category="l_stick",
+        parts=[("butt", material, cylinder_part(r0, (0, 0, 0), (0, 0, z0))),
+               ("middle", material, cylinder_part(r1, (0, 0, z0), (0, 0, z1))),
+               ("tip", material, cylinder_part(r2, (0, 0, z1), (0, 0, z2))),
+               ("hook", hook_material, box_part((-r2, -r2, z2), (hook_end, r2, length)))],
+        contact_points=[(short_of_end(r2, hook_end, 0.030), 0.0, z2)],
+        contact_normal=(0.0, 0.0, -1.0),
+        grasp_region=((-g, -g, 0.0), (g, g, grasp_fraction * z0)),
     )
