@@ -56,8 +56,8 @@ PAPER = {"gqcnn": {"hammer": 17.6, "sweep": 17.5, "knock": 11.6, "reach": 20.8},
 QUICK_SALT = b"/quick"
 #: The round of the sealed evaluation this code runs: round 1 (0.25.0) drew its tools from the
 #: checkpoint's bytes alone; round r > 1 appends `round_salt(r)`, so that an unchanged checkpoint draws
-#: tools no one has seen. Rounds 1 to 5 have run; round 6 draws with the families `families.sealed()` holds.
-ROUND = 6
+#: tools no one has seen. Rounds 1 to 6 have run; round 7 draws once new sealed-test families exist.
+ROUND = 7
 #: Seeds of the rollouts: the pick draws, the weak-grip draws, the fidelity draw.
 PICK_SEED, GRIP_SEED, FIDELITY_SEED = 11, 12, 13
 #: sealed_reopen.py --headroom R: draw r of every candidate uses seed HEADROOM_SEED + r.

@@ -56,8 +56,8 @@ families stay the set the guard and the network are judged on:
   t_hook       a round bar with a square crossbar across its end, long or short on either side; pulls
                with the crossbar's underside (L-stick's category; reach).
 
-The next fifteen were the sealed-test families of the sealed evaluation's rounds 1 to 5
-(`experiments/sealed_eval.py`); all five have run, so they are validation families (`validation()`), looked
+The last eighteen were the sealed-test families of the sealed evaluation's rounds 1 to 6
+(`experiments/sealed_eval.py`); all six have run, so they are validation families (`validation()`), looked
 at since like the held-out ones and drawn by no later round. Round 1 (the checkpoint shipped with
 0.25.0):
 
@@ -107,8 +107,7 @@ Round 5 (0.30.0; builders in `tools.sealed_shapes`):
   cranked_hook a square bar jogged sideways partway up, its hook beside the grasped part's line; pulls
                with the hook's underside (L-stick's category; reach).
 
-The last three are the sealed-test families of round 6 (0.32.0; builders in `tools.sealed_shapes`),
-never rolled out before it (`sealed()`; validation families once it has run):
+Round 6 (0.32.0; builders in `tools.sealed_shapes`):
 
   cranked_hammer  a round head on a metal shaft cranked forward or back partway up, so the head and the
                blow's line lie ahead of or behind the grasped part's axis in the swing's plane; strikes
@@ -475,23 +474,23 @@ FAMILIES: Mapping[str, Family] = MappingProxyType({
         _ranges(length=(0.220, 0.320), radius=(0.008, 0.011), crank_at=(0.45, 0.65), jog=(-0.040, 0.060),
                 head_radius=(0.011, 0.017), head_front=(0.030, 0.055), head_back=(0.020, 0.045)),
         MappingProxyType({"shaft_material": ("aluminium", "steel")}),
-        summary="sealed test, round 6: round head on a shaft cranked forward or back in the swing's plane; strikes with the head's end face",
-        role="sealed", category="hammer"),
+        summary="validation (sealed test, round 6): round head on a shaft cranked forward or back in the swing's plane; strikes with the head's end face",
+        role="validation", category="hammer"),
     "ballast_broom": Family(
         "ballast_broom", ballast_broom, ("sweep",),
         _ranges(half_width=(0.070, 0.150), head_depth=(0.025, 0.050), head_height=(0.030, 0.055),
                 ballast_from=(0.015, 0.050), ballast_length=(0.030, 0.080), ballast_height=(0.008, 0.020),
                 handle_radius=(0.009, 0.014), handle_length=(0.250, 0.550), grasp_fraction=(0.3, 0.8)),
         MappingProxyType({"head_material": ("beech", "polypropylene", "nylon"), "handle_material": HANDLE_MATERIALS}),
-        summary="sealed test, round 6: box head with a steel ballast on one side of its top; pushes with its leading face",
-        role="sealed", category="broom"),
+        summary="validation (sealed test, round 6): box head with a steel ballast on one side of its top; pushes with its leading face",
+        role="validation", category="broom"),
     "tapered_hook": Family(
         "tapered_hook", tapered_hook, ("reach",),
         _ranges(length=(0.300, 0.550), butt_radius=(0.010, 0.015), tip_radius=(0.005, 0.008), butt_fraction=(0.3, 0.5),
                 hook_end=(0.050, 0.100), grasp_fraction=(0.5, 0.9)),
         MappingProxyType({"material": ("aluminium", "hickory"), "hook_material": ("aluminium", "steel")}),
-        summary="sealed test, round 6: pole tapering from a thick butt to a square hook; pulls with the hook's underside",
-        role="sealed", category="l_stick"),
+        summary="validation (sealed test, round 6): pole tapering from a thick butt to a square hook; pulls with the hook's underside",
+        role="validation", category="l_stick"),
 })
 
 

@@ -1,5 +1,5 @@
 """The builders of the sealed-test families of the sealed evaluation's rounds 4 to 6 (`tools.families` registers
-them; rounds 4 and 5's are validation families since those rounds have run, round 6's are sealed until it runs). Each is a shape of a built-in category that no
+them; validation families since the rounds have run). Each is a shape of a built-in category that no
 earlier family has, built from primitive parts as `tools.family_shapes` builds the others, whose shared
 part builders they use. Lengths in metres; every builder's defaults are its family's default tool.
 
@@ -165,7 +165,7 @@ def cranked_hook(*, length: float = 0.450, half: float = 0.007, jog: float = 0.0
 
 
 # ---------------------------------------------------------------------------------------------------
-# Sealed-test families of sealed evaluation round 6: never rolled out before it
+# Sealed-test families of sealed evaluation round 6
 # ---------------------------------------------------------------------------------------------------
 def cranked_hammer(*, length: float = 0.280, radius: float = 0.009, crank_at: float = 0.55, jog: float = 0.040,
                    head_radius: float = 0.014, head_front: float = 0.045, head_back: float = 0.035,
