@@ -48,6 +48,7 @@ from itup_jax.evaluate import MEASURED
 from itup_jax.heldout import oracle_index
 from itup_jax.ood import reference_path, reference_path_of
 from itup_jax.planning import DEFAULT_VERIFY, GUARD_VERIFY_K
+from itup_jax.sdgnet.checkpoint import load_model
 from itup_jax.sealed import (
     BASELINES,
     EARLIER_GUARD_VERIFY,
@@ -286,6 +287,8 @@ def main(argv=None) -> dict:
     tasks = tuple(t for t in a.tasks.split(",") if t)
     if any(t not in TASKS for t in tasks):
         ap.error(f"--tasks among {','.join(TASKS)}, got {a.tasks!r}")
+    if a.model:
+        load_model(a.model)  # a checkpoint that cannot be read stops here, before any rollout
     if a.fidelity_of is not None:
         return fidelity_of(a.run, a.out, a.fidelity_of, a.redraws)
     return reopen(a.run, a.out, a.headroom, tasks, a.planner_verify, a.planner_weak_grip or None,

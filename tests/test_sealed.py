@@ -133,13 +133,19 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     assert s["vs_force_closure"]["median_pct"] == pytest.approx(np.median(red))
     assert s["vs_force_closure"]["tools_lower"] == sum(x > 0 for x in red)
     assert s["weak_grip"]["planner"]["rollouts"] == 2 * doc["config"]["draws"]
-    # --reopen: the run's tools planned again (each checked to give the recorded pick), with the oracle
-    # of the hammer's tools from one more rollout of every candidate
-    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--headroom", "1", "--tasks", "hammer",
-                                       "--out", str(tmp_path / "re")], monkeypatch)
+    # reopened: the run's tools planned again (each checked to give the recorded pick) with a given
+    # checkpoint and threshold (here the shipped ones: nothing changes), and the oracle of the hammer's
+    # tools from one more rollout of every candidate
+    from itup_jax.ood import GUARD_THRESHOLD
+    from itup_jax.sdgnet.config import DEFAULT_MODEL
+
+    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--model", DEFAULT_MODEL, "--guard-threshold",
+                           str(GUARD_THRESHOLD), "--headroom", "1", "--tasks", "hammer", "--out", str(tmp_path / "re")],
+         monkeypatch)
     re = json.loads((tmp_path / "re" / "sealed.json").read_text())
     jsonschema.validate(re, load_schema("sealed"))
     assert re["reopened"]["replaced"] == 0 and re["summary"] == doc["summary"]  # the same planner: nothing changes
+    assert re["reopened"]["guard_threshold"] == GUARD_THRESHOLD and re["reopened"]["model"] == os.path.abspath(DEFAULT_MODEL)
     for r in re["per_tool"]:
         h = r.get("headroom")
         assert (h is not None) == (r["task"] == "hammer")
@@ -147,48 +153,36 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
             assert 1 <= h["held"] <= r["candidates"] and h["oracle"]["valid"] >= 1
             assert all(k is None or 1 <= k <= r["candidates"] for k in h["rank_of_picks"].values())
     assert set(re["reopened"]["headroom"]["summary"]) <= {"hammer"}
-    # --model: re-planned with a given checkpoint and threshold (here the shipped ones): nothing changes
-    from itup_jax.ood import GUARD_THRESHOLD
-    from itup_jax.sdgnet.config import DEFAULT_MODEL
-
-    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--model", DEFAULT_MODEL,
-                                       "--guard-threshold", str(GUARD_THRESHOLD), "--out", str(tmp_path / "m")], monkeypatch)
-    rm = json.loads((tmp_path / "m" / "sealed.json").read_text())
-    assert rm["reopened"]["replaced"] == 0 and rm["reopened"]["guard_threshold"] == GUARD_THRESHOLD
-    assert rm["reopened"]["model"] == os.path.abspath(DEFAULT_MODEL) and rm["summary"] == doc["summary"]
-    # the threshold and the checkpoint given are the ones the re-planning reads: below every tool's score
-    # the guard fires everywhere; a checkpoint that cannot be read stops it
-    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--guard-threshold", "1e-6",
-                                       "--out", str(tmp_path / "t")], monkeypatch)
+    # the threshold given is the one the re-planning reads: below every tool's score the guard fires
+    # everywhere (checking 1 grasp where it fires, max(5, 1) = the default 5); a checkpoint that cannot be
+    # read stops it
+    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--guard-threshold", "1e-6", "--planner-guard-verify", "1",
+                           "--out", str(tmp_path / "t")], monkeypatch)
     rt = json.loads((tmp_path / "t" / "sealed.json").read_text())
     assert all(r["planner"]["guard_fired"] for r in rt["per_tool"] if r["picks"])
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"not a checkpoint")
     (tmp_path / "bad.reference.npz").write_bytes((tmp_path / "bad.npz").read_bytes())
-    with pytest.raises(itup.InputError, match="not a checkpoint"):
-        _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--model", str(bad),
-                                           "--out", str(tmp_path / "b")], monkeypatch)
-    # --fidelity-of: the run's fidelity draw again, ranked by another checkpoint (here the shipped one
-    # under a label): the run's own figure comes back, and the label ranks as the shipped network does
-    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--fidelity-of",
-                                       f"same={DEFAULT_MODEL}", "--out", str(tmp_path / "fo")], monkeypatch)
-    fo = json.loads((tmp_path / "fo" / "fidelity_of.json").read_text())
-    jsonschema.validate(fo, load_schema("sealed_fidelity_of"))
-    assert len(fo["per_tool"]) == len(doc["per_tool"]) and fo["models"] == {"same": DEFAULT_MODEL}
-    for r in fo["per_tool"]:
-        assert r["rho"]["sdgnet"] == pytest.approx(r["run_sdgnet"]) and r["rho"]["same"] == r["rho"]["sdgnet"]
-    assert set(fo["summary"]) == {"hammer", "reach"}
+    with pytest.raises(itup.InputError, match="not a checkpoint"):  # before any rollout, nothing written
+        _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--model", str(bad), "--out", str(tmp_path / "b")],
+             monkeypatch)
+    assert not (tmp_path / "b").exists()
+    # --fidelity-of --redraws 1: the run's fidelity draw again, ranked by another checkpoint (here the
+    # shipped one under a label: the run's own figure comes back, and the label ranks as the shipped
+    # network does), and one more draw of the same candidates (seed RETEST_SEED + 1): the retest is the
+    # Spearman of the two draws, and the ranking against their mean is over the candidates valid in both
     from itup_jax.sim.physics import Randomization
     from itup_jax.stats import spearman
 
-    # --fidelity-of --redraws 1 (no checkpoint: the shipped network and the analytic forms): the retest is
-    # the Spearman of the fidelity draw with one more draw of the same candidates (seed RETEST_SEED + 1),
-    # and the ranking against the draws' mean is over the candidates valid in both
-    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--fidelity-of", "--redraws", "1",
-                                       "--out", str(tmp_path / "rt")], monkeypatch)
+    _run("sealed_reopen", [str(tmp_path / "sealed.json"), "--fidelity-of", f"same={DEFAULT_MODEL}", "--redraws", "1",
+                           "--out", str(tmp_path / "rt")], monkeypatch)
     rt = json.loads((tmp_path / "rt" / "fidelity_of.json").read_text())
     jsonschema.validate(rt, load_schema("sealed_fidelity_of"))
-    assert rt["models"] == {} and rt["redraws"] == 1 and set(rt["retest"]) == {"hammer", "reach"}
+    assert len(rt["per_tool"]) == len(doc["per_tool"]) and rt["models"] == {"same": DEFAULT_MODEL}
+    for r in rt["per_tool"]:
+        assert r["rho"]["sdgnet"] == pytest.approx(r["run_sdgnet"]) and r["rho"]["same"] == r["rho"]["sdgnet"]
+    assert set(rt["summary"]) == {"hammer", "reach"}
+    assert rt["redraws"] == 1 and set(rt["retest"]) == {"hammer", "reach"}
     row = next(r for r in doc["per_tool"] if r.get("fidelity"))
     tool, task, g, scene = se.rebuild_row(row, doc["config"]["n"])
     d0, d1 = (itup.simulate(tool, task, g, scene=scene, seed=s, randomize=Randomization()).labels
@@ -202,4 +196,4 @@ def test_sealed_eval_quick(tmp_path, monkeypatch):
     assert got["rho"]["sdgnet"] == pytest.approx(row["fidelity"]["sdgnet"])
     # the run's own redraw is the same draw (seed RETEST_SEED + 1 of the same candidates): the same retest
     assert got["retest"] == pytest.approx(row["fidelity"]["retest"])
-    assert got["rho_mean"] == pytest.approx(row["fidelity"]["rho_mean"])
+    assert {m: got["rho_mean"][m] for m in row["fidelity"]["rho_mean"]} == pytest.approx(row["fidelity"]["rho_mean"])
