@@ -58,12 +58,14 @@ from itup_jax.sealed import (
     bootstrap_median,
     code_commit,
     fidelity,
+    fidelity_row,
     fidelity_summary,
     measure,
     planner_pick,
     print_summary,
     rebuild_row,
     retest_summary,
+    round2,
     summarise,
     weak_failures,
 )
@@ -209,11 +211,9 @@ def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) ->
             continue
         tool, task, g, scene = rebuild_row(row, run["config"]["n"], "--fidelity-of")
         f = fidelity(tool, task, scene, g, checkpoints=named, redraws=redraws)
-        rows.append({k: row[k] for k in ("task", "tool", "kind", "family")}
-                    | {"valid": f["valid"], "run_sdgnet": row["fidelity"]["sdgnet"], "rho": {m: f[m] for m in scorers}}
-                    | {k: f[k] for k in ("retest", "ceiling", "valid_all", "rho_mean") if k in f})
-        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {_r2(v)}" for m, v in rows[-1]["rho"].items())
-              + (f"  retest {_r2(f['retest'])}" if redraws else ""), flush=True)
+        rows.append(fidelity_row(row, f) | {"run_sdgnet": row["fidelity"]["sdgnet"]})
+        print(f"{row['task']:7s} {row['tool']:34s} " + "  ".join(f"{m} {round2(v)}" for m, v in rows[-1]["rho"].items())
+              + (f"  retest {round2(f['retest'])}" if redraws else ""), flush=True)
 
     summary = fidelity_summary(rows, scorers)
     res = {"schema": "itup.sealed_fidelity_of/1", "from": os.path.abspath(path), "models": named, "summary": summary,
@@ -225,19 +225,15 @@ def fidelity_of(path: str, out_dir: str, models: list[str], redraws: int = 0) ->
     atomic_write_json(os.path.join(out_dir, "fidelity_of.json"), res, indent=1)
     for k, s in summary.items():
         for kind, d in s.items():
-            line = f"{k:7s} {kind:7s} " + " ".join(f"{m} {_r2(v)}" for m, v in d.items())
+            line = f"{k:7s} {kind:7s} " + " ".join(f"{m} {round2(v)}" for m, v in d.items())
             if redraws:
                 t = res["retest"][k][kind]
-                line += (f"  | retest {_r2(t['retest'])} ceiling {_r2(t['ceiling'])}  vs the mean: "
-                         + " ".join(f"{m} {_r2(v)}" for m, v in t["rho_mean"].items()))
+                line += (f"  | retest {round2(t['retest'])} ceiling {round2(t['ceiling'])}  vs the mean: "
+                         + " ".join(f"{m} {round2(v)}" for m, v in t["rho_mean"].items()))
             print(line)
     return res
 
 
-
-
-def _r2(x):
-    return x if x is None else round(x, 2)
 
 
 def main(argv=None) -> dict:

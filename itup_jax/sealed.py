@@ -244,7 +244,8 @@ def rebuild_row(row: dict, n: int, what: str = "reopen") -> tuple:
     return tool, task, g, build_scene(tool, task)
 
 
-def _r2(x):
+def round2(x: float | None) -> float | None:
+    """`x` rounded to 2 decimals for a printout; None stays None."""
     return x if x is None else round(x, 2)
 
 
@@ -264,17 +265,17 @@ def by_task_and_kind(rows: list[dict]) -> dict:
 FIDELITY_FIELDS = ("valid", "retest", "ceiling", "valid_all", "rho_mean")
 
 
+def fidelity_row(row: dict, f: dict) -> dict:
+    """A tool's `fidelity` result `f` as a row of fidelity_of.json: {task, tool, kind, family} of sealed.json's
+    `row`, rho: {scorer: Spearman}, valid and, where it redrew, retest, ceiling, valid_all and rho_mean."""
+    return ({k: row[k] for k in ("task", "tool", "kind", "family")}
+            | {"rho": {m: v for m, v in f.items() if m not in FIDELITY_FIELDS}}
+            | {k: f[k] for k in FIDELITY_FIELDS if k in f})
+
+
 def fidelity_rows(rows: list[dict]) -> list[dict]:
-    """sealed.json's rows with a fidelity, as fidelity_of.json's rows: {task, tool, kind, family, valid,
-    rho: {scorer: Spearman}} and, where the run redrew, retest, ceiling, valid_all and rho_mean."""
-    out = []
-    for r in rows:
-        f = r.get("fidelity")
-        if f:
-            out.append({k: r[k] for k in ("task", "tool", "kind", "family")}
-                       | {"rho": {m: v for m, v in f.items() if m not in FIDELITY_FIELDS}}
-                       | {k: f[k] for k in FIDELITY_FIELDS if k in f})
-    return out
+    """sealed.json's rows with a fidelity, as fidelity_of.json's rows (`fidelity_row`)."""
+    return [fidelity_row(r, r["fidelity"]) for r in rows if r.get("fidelity")]
 
 
 def retest_summary(rows: list[dict]) -> dict:
@@ -317,11 +318,11 @@ def print_summary(summary: dict, before: dict | None = None) -> None:
             print("        25 N failures: " + "  ".join(f"{m} {w['failed']}/{w['rollouts']}" for m, w in s["weak_grip"].items())
                   + (f"  (planner before: {before[k]['weak_grip'][PLANNER]['failed']})" if before and k in before else ""))
         if "fidelity_median" in s:
-            print("        fidelity (median Spearman): " + "  ".join(f"{m} {x if x is None else round(x, 2)}"
+            print("        fidelity (median Spearman): " + "  ".join(f"{m} {round2(x)}"
                                                                     for m, x in s["fidelity_median"].items()))
         for kind, f in s.get("fidelity_retest", {}).items():
-            print(f"        {kind}: retest {_r2(f['retest'])} ceiling {_r2(f['ceiling'])} (goal {f['goal']}); against "
-                  "the draws' mean " + "  ".join(f"{m} {_r2(x)}" for m, x in f["rho_mean"].items()))
+            print(f"        {kind}: retest {round2(f['retest'])} ceiling {round2(f['ceiling'])} (goal {f['goal']}); against "
+                  "the draws' mean " + "  ".join(f"{m} {round2(x)}" for m, x in f["rho_mean"].items()))
 
 
 def bootstrap_median(x: np.ndarray, level: float = 0.9, n: int = 2000, seed: int = 0) -> list[float] | None:
